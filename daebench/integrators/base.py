@@ -1,0 +1,304 @@
+"""The integrator plugin contract, its counters and the registry.
+
+Implementer's contract (rule by rule, in the spirit of ``scipy.integrate.OdeSolver``):
+
+1. Subclass :class:`Integrator`; set the class attributes ``name`` (unique, lower
+   case), ``description`` (one line), ``capabilities`` (a :class:`Capabilities`)
+   and ``settings_spec`` (a tuple of :class:`Setting`). Settings are validated by
+   the base class and stored in ``self.settings`` (a dict).
+2. Implement ``_start(self)``: called by :meth:`Integrator.start` after
+   ``self.problem``, ``self.state`` (a consistent :class:`~daebench.system.State`)
+   and ``self.h`` (the step size of this phase) are set. Reset any history here:
+   the driver restarts the integrator after every event.
+3. Implement ``_step_impl(self, t_stop) -> State``: advance one *accepted* step,
+   never past ``t_stop``, and return the new state (with ``a`` and ``lam``).
+   Adaptive methods reject and retry internally, counting ``self.counters.rejected``.
+   Raise :class:`StepFailure` (with a reason) when no step can be taken; the
+   driver turns it into a verdict, never a crash.
+4. Count your own linear algebra: ``self.counters.lu_factorizations`` and
+   ``self.counters.newton_iterations``. Residual and Jacobian evaluations made
+   through the problem are counted automatically; steps are counted by the base.
+5. Optionally override :meth:`dense` (the default is a cubic Hermite interpolant
+   of q and v between the last two states, linear in λ).
+
+Built-ins register under the entry-point group ``daebench.integrators``; a third-
+party package does the same in its own ``pyproject.toml``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from importlib.metadata import entry_points
+from typing import Any, ClassVar
+
+import numpy as np
+
+from daebench.params import Param, ParamError, did_you_mean
+from daebench.system import Problem, State
+
+ENTRY_POINT_GROUP = "daebench.integrators"
+
+
+class StepFailure(RuntimeError):
+    """An integrator could not take a step (Newton failure, step size underflow …)."""
+
+
+class IntegratorError(ParamError):
+    """Bad integrator name, settings, or a capability mismatch — raised before any step."""
+
+
+Setting = Param  # an integrator setting is a declared parameter
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What an integrator declares about itself; the harness reads only this.
+
+    Attributes
+    ----------
+    order : int
+        Classical order of accuracy on smooth problems.
+    fixed_step, adaptive : bool
+        Step-size modes it supports (the ``adaptive`` setting selects).
+    constraints : bool
+        Whether it integrates problems with active constraints (m > 0).
+    index : int or None
+        The constraint formulation it accepts: 3 (position level, C = 0 enforced),
+        1 (acceleration level, possibly stabilized); None for ODE-only methods.
+    dense_output : bool
+        Whether :meth:`Integrator.dense` is better than the default Hermite cubic.
+    """
+
+    order: int
+    fixed_step: bool = True
+    adaptive: bool = False
+    constraints: bool = False
+    index: int | None = None
+    dense_output: bool = False
+
+
+# Settings every stepping integrator shares: the paper's protocol and adaptivity.
+STEP_SETTINGS = (
+    Setting("h", float, 1e-4, "fixed step size outside contact [s]", low=1e-12, high=1.0),
+    Setting("h_contact", float, 0.0, "fixed step size while a contact is closed or penetrating [s]; 0 = same as h",
+            low=0.0, high=1.0),
+)
+ADAPTIVE_SETTINGS = (
+    Setting("adaptive", bool, False, "choose the step size from a local error estimate"),
+    Setting("rtol", float, 1e-6, "relative tolerance of the local error (adaptive mode)", low=1e-14, high=1.0),
+    Setting("atol", float, 1e-8, "absolute tolerance of the local error (adaptive mode)", low=1e-16, high=1.0),
+)
+
+
+@dataclass
+class Counters:
+    """Work counters kept identically for every integrator."""
+
+    steps: int = 0
+    rejected: int = 0
+    residual_evals: int = 0
+    jacobian_evals: int = 0
+    lu_factorizations: int = 0
+    newton_iterations: int = 0
+
+    def as_dict(self) -> dict[str, int]:
+        return asdict(self)
+
+    def add(self, other: "Counters") -> None:
+        for f in fields(self):
+            setattr(self, f.name, getattr(self, f.name) + getattr(other, f.name))
+
+
+class Integrator:
+    """Base class of every time integrator (see the module docstring for the contract)."""
+
+    name: ClassVar[str] = ""
+    description: ClassVar[str] = ""
+    capabilities: ClassVar[Capabilities] = Capabilities(order=1)
+    settings_spec: ClassVar[tuple[Setting, ...]] = ()
+
+    def __init__(self, **settings: Any) -> None:
+        spec = {s.name: s for s in self.settings_spec}
+        unknown = [k for k in settings if k not in spec]
+        if unknown:
+            k = unknown[0]
+            raise IntegratorError(
+                f"integrator '{self.name}' has no setting '{k}'{did_you_mean(k, spec)} "
+                f"(settings: {', '.join(spec) or 'none'})"
+            )
+        try:
+            self.settings: dict[str, Any] = {
+                name: s.validate(settings.get(name, s.default), f"integrator '{self.name}' setting")
+                for name, s in spec.items()
+            }
+        except IntegratorError:
+            raise
+        except ParamError as exc:
+            raise IntegratorError(str(exc)) from None
+        self._check_settings()
+        self.counters = Counters()
+        self.problem: Problem | None = None
+        self.state: State | None = None
+        self.prev: State | None = None
+        self.h = 0.0
+        self._eval_base = (0, 0)
+
+    # -- configuration ------------------------------------------------------
+    def _check_settings(self) -> None:
+        """Cross-setting validation hook (raise IntegratorError)."""
+
+    def to_config(self) -> dict[str, Any]:
+        return {"integrator": self.name, **self.settings}
+
+    @classmethod
+    def from_config(cls, config: dict[str, Any]) -> "Integrator":
+        cfg = dict(config)
+        name = cfg.pop("integrator", cls.name)
+        if name != cls.name:
+            raise IntegratorError(f"config is for '{name}', not '{cls.name}'")
+        return cls(**cfg)
+
+    @property
+    def adaptive(self) -> bool:
+        return bool(self.settings.get("adaptive", False))
+
+    def step_size(self, in_contact: bool) -> float:
+        """The fixed step of the paper's protocol for the current phase."""
+        h = float(self.settings.get("h", 1e-4))
+        hc = float(self.settings.get("h_contact", 0.0) or 0.0)
+        return hc if (in_contact and hc > 0.0) else h
+
+    # -- stepping -------------------------------------------------------------
+    def start(self, problem: Problem, state: State, h: float) -> None:
+        """(Re)start on ``problem`` from the consistent ``state`` with step ``h``."""
+        self._sync_eval_counters()
+        self.problem = problem
+        self._eval_base = (problem.counters.residual_evals, problem.counters.jacobian_evals)
+        self.state = state.copy()
+        self.prev = None
+        self.h = float(h)
+        self._start()
+
+    def step(self, t_stop: float) -> State:
+        """Advance one accepted step, not past ``t_stop``; return the new state."""
+        if self.problem is None or self.state is None:
+            raise RuntimeError("call start() before step()")
+        if t_stop <= self.state.t:
+            raise ValueError(f"t_stop = {t_stop} is not after t = {self.state.t}")
+        prev = self.state
+        new = self._step_impl(t_stop)
+        self.prev = prev
+        self.state = new
+        self.counters.steps += 1
+        return new
+
+    def dense(self, t: float) -> State:
+        """State at t within the last step: cubic Hermite in q (using v) and in v
+        (using a), linear in λ."""
+        s0, s1 = self.prev, self.state
+        if s0 is None:
+            return s1.copy()
+        return hermite_state(s0, s1, t)
+
+    def counters_snapshot(self) -> dict[str, int]:
+        self._sync_eval_counters()
+        return self.counters.as_dict()
+
+    def _sync_eval_counters(self) -> None:
+        if self.problem is not None:
+            c = self.problem.counters
+            self.counters.residual_evals += c.residual_evals - self._eval_base[0]
+            self.counters.jacobian_evals += c.jacobian_evals - self._eval_base[1]
+            self._eval_base = (c.residual_evals, c.jacobian_evals)
+
+    # -- for subclasses ---------------------------------------------------------
+    def _start(self) -> None:
+        raise NotImplementedError
+
+    def _step_impl(self, t_stop: float) -> State:
+        raise NotImplementedError
+
+
+def hermite_state(s0: State, s1: State, t: float) -> State:
+    """Cubic Hermite interpolation between two states (q with v, v with a)."""
+    h = s1.t - s0.t
+    if h <= 0.0:
+        return s1.copy()
+    th = (t - s0.t) / h
+    h00 = 2 * th**3 - 3 * th**2 + 1
+    h10 = th**3 - 2 * th**2 + th
+    h01 = -2 * th**3 + 3 * th**2
+    h11 = th**3 - th**2
+    q = h00 * s0.q + h10 * h * s0.v + h01 * s1.q + h11 * h * s1.v
+    # derivative of the q-interpolant is a consistent velocity; use the v-Hermite when a is known
+    if s0.a.size == s0.q.size and s1.a.size == s1.q.size:
+        v = h00 * s0.v + h10 * h * s0.a + h01 * s1.v + h11 * h * s1.a
+    else:
+        d00 = (6 * th**2 - 6 * th) / h
+        d10 = 3 * th**2 - 4 * th + 1
+        d01 = (-6 * th**2 + 6 * th) / h
+        d11 = 3 * th**2 - 2 * th
+        v = d00 * s0.q + d10 * s0.v + d01 * s1.q + d11 * s1.v
+    a = (1 - th) * s0.a + th * s1.a if s0.a.size == s1.a.size else s1.a.copy()
+    lam = (1 - th) * s0.lam + th * s1.lam if s0.lam.size == s1.lam.size else s1.lam.copy()
+    return State(float(t), q, v, a, lam)
+
+
+# -- registry -------------------------------------------------------------------
+@dataclass(frozen=True)
+class Registered:
+    name: str
+    cls: type[Integrator]
+    distribution: str
+
+
+def registry() -> dict[str, Registered]:
+    """All integrators from the ``daebench.integrators`` entry points, loaded lazily
+    each call. A plugin may not shadow a built-in (one provided by daebench)."""
+    found: dict[str, Registered] = {}
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        dist = ep.dist.name if ep.dist is not None else "?"
+        if ep.name in found:
+            if found[ep.name].distribution == "daebench":
+                continue  # a plugin may not shadow a built-in
+            if dist != "daebench":
+                raise IntegratorError(f"two plugins register integrator '{ep.name}'")
+        cls = ep.load()
+        if not (isinstance(cls, type) and issubclass(cls, Integrator)):
+            raise IntegratorError(
+                f"entry point '{ep.name}' of {dist} is not an Integrator subclass: {cls!r}"
+            )
+        found[ep.name] = Registered(ep.name, cls, dist)
+    return dict(sorted(found.items()))
+
+
+def get_integrator(name: str) -> type[Integrator]:
+    reg = registry()
+    if name not in reg:
+        raise IntegratorError(
+            f"unknown integrator '{name}'{did_you_mean(name, reg)} Available: {', '.join(reg)} "
+            f"(see `daebench list`)."
+        )
+    return reg[name].cls
+
+
+def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
+                       adaptive: bool = False, what: str = "this case") -> None:
+    """Refuse a mismatch before the first step, with a message that says what to do."""
+    cap = cls.capabilities
+    if problem_needs_constraints and not cap.constraints:
+        raise IntegratorError(
+            f"integrator '{cls.name}' integrates ODEs only, but {what} has constraints "
+            f"(bilateral joints or contact law 'constraint'). Use an integrator that "
+            f"handles constraints (hht, baumgarte, newmark, ida), or for contact choose "
+            f"`--set contact.law=hertz` or `penalty`."
+        )
+    if adaptive and not cap.adaptive:
+        raise IntegratorError(
+            f"integrator '{cls.name}' has no adaptive step-size control; "
+            f"drop `--opt adaptive=true` and give a fixed step with `--opt h=...`."
+        )
+
+
+def norm_rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x * x))) if x.size else 0.0

@@ -1,0 +1,203 @@
+"""Scene files (TOML) → a validated :class:`Scene`.
+
+A scene names a model, its discretization, which physical effects are on, their
+parameters, the start state, end time, output times and observables. Every key is
+declared (:class:`~daebench.params.Param`) by the common schema below or by the
+model's ``SCHEMA``; an unknown key is an error that names the closest valid key, a
+bad value names the allowed type or range. Command-line overrides
+(``--set dotted.key=value``) go through the same validation.
+
+Keys are flat dotted names (``contact.law``); TOML tables are flattened to them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable
+
+from daebench.params import Param, ParamError, did_you_mean
+
+
+class SceneError(ParamError):
+    """A scene file or override that cannot be used; the message says how to fix it."""
+
+
+COMMON_SCHEMA: dict[str, Param] = {
+    p.name: p
+    for p in (
+        Param("name", str, "", "scene name"),
+        Param("description", str, "", "one-line description"),
+        Param("model", str, "", "model the scene runs"),
+        Param("t_end", float, 1.0, "end time", low=1e-9, high=1e5, unit="s"),
+        Param("output.dt", float, 1e-3, "spacing of the output times", low=1e-9, high=1e5, unit="s"),
+        Param("output.observables", list, [], "observables written and scored"),
+        Param("output.format", str, "csv", "history file format", choices=("csv", "parquet")),
+    )
+}
+
+
+def cases_dir() -> Path:
+    """Where named scenes live: $DAEBENCH_CASES, the installed copy, or the repo's cases/."""
+    env = os.environ.get("DAEBENCH_CASES")
+    if env:
+        return Path(env)
+    here = Path(__file__).resolve().parent
+    for cand in (here / "_cases", here.parent / "cases"):
+        if cand.is_dir():
+            return cand
+    raise SceneError("cannot find the cases/ folder; set DAEBENCH_CASES to it")
+
+
+def list_scenes() -> list[tuple[str, str]]:
+    """(name, description) of every scene file in :func:`cases_dir`."""
+    out = []
+    for p in sorted(cases_dir().glob("*.toml")):
+        with open(p, "rb") as fh:
+            raw = tomllib.load(fh)
+        out.append((p.stem, str(raw.get("description", ""))))
+    return out
+
+
+def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+@dataclass
+class Scene:
+    """A validated scene: every declared key with its value (defaults filled in)."""
+
+    name: str
+    model: str
+    values: dict[str, Any]
+    schema: dict[str, Param] = field(repr=False)
+    source: str = ""
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self.values:
+            raise SceneError(f"scene '{self.name}' has no key '{key}'{did_you_mean(key, self.values)}")
+        return self.values[key]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self.values.get(key, default)
+
+    @property
+    def t_end(self) -> float:
+        return float(self.values["t_end"])
+
+    @property
+    def description(self) -> str:
+        return str(self.values.get("description", ""))
+
+    @property
+    def hash(self) -> str:
+        """Content hash of the resolved physics (name and description excluded)."""
+        body = {k: v for k, v in sorted(self.values.items()) if k not in ("name", "description")}
+        return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+    def with_overrides(self, overrides: Iterable[str] | dict[str, Any]) -> "Scene":
+        """A copy with ``key=value`` overrides applied and validated."""
+        pairs = parse_overrides(overrides) if not isinstance(overrides, dict) else dict(overrides)
+        values = dict(self.values)
+        for key, raw in pairs.items():
+            values[key] = validate_key(key, raw, self.schema, "--set")
+        return checked(Scene(self.name, self.model, values, self.schema, self.source))
+
+    def effects(self) -> dict[str, bool]:
+        return {k.split(".", 1)[1]: bool(v) for k, v in self.values.items() if k.startswith("effects.")}
+
+
+def parse_overrides(items: Iterable[str]) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for item in items:
+        if "=" not in item:
+            raise SceneError(f"override '{item}' must look like key=value, e.g. contact.restitution=0.3")
+        k, v = item.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out
+
+
+def validate_key(key: str, raw: Any, schema: dict[str, Param], where: str) -> Any:
+    if key not in schema:
+        raise SceneError(
+            f"unknown scene key '{key}' ({where}){did_you_mean(key, schema)} "
+            f"Valid keys are listed by `daebench show SCENE --keys`."
+        )
+    try:
+        return schema[key].validate(raw, "scene key")
+    except ParamError as exc:
+        raise SceneError(str(exc)) from None
+
+
+def model_schema(model: str) -> dict[str, Param]:
+    from daebench.models import get_model
+
+    return {**COMMON_SCHEMA, **get_model(model).SCHEMA}
+
+
+def resolve_path(name_or_path: str | os.PathLike) -> Path:
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.exists():
+            raise SceneError(f"scene file '{p}' does not exist")
+        return p
+    cand = cases_dir() / f"{p.name}.toml"
+    if cand.exists():
+        return cand
+    names = [n for n, _ in list_scenes()]
+    raise SceneError(
+        f"unknown scene '{name_or_path}'{did_you_mean(str(name_or_path), names)} "
+        f"Known scenes: {', '.join(names)} (see `daebench list`)."
+    )
+
+
+def load_scene(name_or_path: str | os.PathLike, overrides: Iterable[str] | dict[str, Any] = ()) -> Scene:
+    """Load, validate and apply overrides. Raises :class:`SceneError` on any problem."""
+    path = resolve_path(name_or_path)
+    try:
+        with open(path, "rb") as fh:
+            raw = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    return scene_from_dict(raw, name=path.stem, source=str(path)).with_overrides(overrides)
+
+
+def scene_from_dict(raw: dict[str, Any], name: str = "scene", source: str = "") -> Scene:
+    from daebench.models import MODELS
+
+    flat = flatten(raw)
+    model = flat.get("model")
+    if model is None:
+        raise SceneError(f"{source or name}: the scene must name its model, e.g. model = \"hub-beam\"")
+    if model not in MODELS:
+        raise SceneError(
+            f"{source or name}: unknown model '{model}'{did_you_mean(str(model), MODELS)} "
+            f"Models: {', '.join(MODELS)}."
+        )
+    schema = model_schema(model)
+    values = {k: p.default for k, p in schema.items()}
+    for key, v in flat.items():
+        values[key] = validate_key(key, v, schema, source or name)
+    values["name"] = values.get("name") or name
+    return checked(Scene(values["name"], model, values, schema, source))
+
+
+def checked(scene: Scene) -> Scene:
+    """Run the model's cross-key checks (e.g. a contact law needs effects.contact)."""
+    from daebench.models import get_model
+
+    check = getattr(get_model(scene.model), "check_scene", None)
+    if check is not None:
+        check(scene)
+    return scene
