@@ -49,6 +49,10 @@ class ContactLaw:
         self.restitution = float(restitution)
         # approach speed v0 > 0 of the current contact episode, set by the driver
         self.approach_speed = np.full(n_contacts, np.nan)
+        # contacts whose continuous force acts in the current phase. The driver engages a
+        # contact when its gap closes and releases it when it separates, so that a phase
+        # never contains the switch (default: all engaged, for use without the driver)
+        self.engaged = np.ones(n_contacts, dtype=bool)
 
     def force(self, g: np.ndarray, gdot: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
         raise NotImplementedError
@@ -87,10 +91,12 @@ class HertzLaw(ContactLaw):
         return chi
 
     def force(self, g: np.ndarray, gdot: np.ndarray) -> np.ndarray:
-        delta = np.maximum(-g, 0.0)
         ddot = -gdot
-        elastic = self.stiffness * delta**self.exponent
+        elastic = self._elastic(g)
         return np.maximum(elastic * (1.0 + self._chi() * ddot), 0.0)
+
+    def _elastic(self, g: np.ndarray) -> np.ndarray:
+        return np.where(self.engaged, self.stiffness * np.maximum(-g, 0.0) ** self.exponent, 0.0)
 
     def potential(self, g: np.ndarray) -> float:
         delta = np.maximum(-g, 0.0)
@@ -98,10 +104,8 @@ class HertzLaw(ContactLaw):
         return float(np.sum(self.stiffness * delta ** (n + 1.0) / (n + 1.0)))
 
     def dissipation_power(self, g: np.ndarray, gdot: np.ndarray) -> float:
-        delta = np.maximum(-g, 0.0)
-        elastic = self.stiffness * delta**self.exponent
         # power into the system is F ġ; its conservative part is elastic·ġ
-        return float(np.sum((self.force(g, gdot) - elastic) * gdot))
+        return float(np.sum((self.force(g, gdot) - self._elastic(g)) * gdot))
 
 
 class PenaltyLaw(ContactLaw):
@@ -116,15 +120,15 @@ class PenaltyLaw(ContactLaw):
     def force(self, g: np.ndarray, gdot: np.ndarray) -> np.ndarray:
         delta = np.maximum(-g, 0.0)
         F = self.stiffness * delta + self.damping_coefficient * (-gdot)
-        return np.where(delta > 0.0, np.maximum(F, 0.0), 0.0)
+        return np.where(self.engaged & (delta > 0.0), np.maximum(F, 0.0), 0.0)
 
     def potential(self, g: np.ndarray) -> float:
         delta = np.maximum(-g, 0.0)
         return float(np.sum(0.5 * self.stiffness * delta**2))
 
     def dissipation_power(self, g: np.ndarray, gdot: np.ndarray) -> float:
-        delta = np.maximum(-g, 0.0)
-        return float(np.sum((self.force(g, gdot) - self.stiffness * delta) * gdot))
+        elastic = np.where(self.engaged, self.stiffness * np.maximum(-g, 0.0), 0.0)
+        return float(np.sum((self.force(g, gdot) - elastic) * gdot))
 
 
 def make_contact_law(law: str, restitution: float, n_contacts: int = 1, *, hertz_stiffness: float = 0.0,

@@ -94,3 +94,14 @@ class Param:
             hi = "inf" if self.high is None else f"{self.high:g}"
             rng = f"[{lo}, {hi}]"
         return f"{self.type.__name__} {rng}".strip()
+
+
+def parse_pairs(items: Iterable[str], flag: str, example: str) -> dict[str, str]:
+    """``["k=v", ...]`` → ``{k: v}``; a malformed item names the flag and an example."""
+    out: dict[str, str] = {}
+    for item in items:
+        if "=" not in item:
+            raise ParamError(f"{flag} '{item}' must look like key=value, e.g. {flag} {example}")
+        k, v = item.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
-from daebench.params import Param, ParamError, did_you_mean
+from daebench.params import Param, ParamError, did_you_mean, parse_pairs
 
 
 class SceneError(ParamError):
@@ -119,13 +119,10 @@ class Scene:
 
 
 def parse_overrides(items: Iterable[str]) -> dict[str, str]:
-    out: dict[str, str] = {}
-    for item in items:
-        if "=" not in item:
-            raise SceneError(f"override '{item}' must look like key=value, e.g. contact.restitution=0.3")
-        k, v = item.split("=", 1)
-        out[k.strip()] = v.strip()
-    return out
+    try:
+        return parse_pairs(items, "--set", "contact.restitution=0.3")
+    except ParamError as exc:
+        raise SceneError(str(exc)) from None
 
 
 def validate_key(key: str, raw: Any, schema: dict[str, Param], where: str) -> Any:

@@ -1,0 +1,361 @@
+"""The event-driven driver every integrator shares.
+
+A run is a sequence of smooth phases with a fixed active set. Within a phase the
+integrator steps freely; after each accepted step the driver looks for events in the
+step just taken, on the integrator's dense output:
+
+* a contact gap closing (g: + → −) — with the ``constraint`` law an *impact*: the
+  Newton impact map with restitution e is applied, and the contact is closed
+  (e = 0, or a rebound too slow to resolve) or left open with ġ⁺ = −e ġ⁻;
+  with a continuous law (Hertz, penalty) the approach speed v₀ is recorded and the
+  step size switches to ``h_contact``;
+* a closed contact's force λ turning tensile (λ: + → −): the contact opens;
+* a penetrating contact separating (continuous laws: g: − → +).
+
+The earliest event is located to ``EVENT_TOL`` seconds by Brent's method on the dense
+output; the run is cut there, the event applied, and the integrator restarted on the
+new phase (multistep methods rebuild their history).
+
+Bookkeeping for honest metrics, on every step: the work of non-conservative effects
+(trapezoidal rule over the integrator's own steps), the energy lost at impacts
+(exact), and while contacts are closed the constraint residuals C, Ċ, C̈.
+The energy-balance residual is  E(t) − E(0) − W_nc(t) + D_impacts(t).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import brentq
+
+from daebench.contact import impact_map
+from daebench.integrators.base import Integrator, StepFailure, check_capabilities
+from daebench.system import MechanicalSystem, Problem, State
+
+EVENT_TOL = 1e-13        # event times located to this (seconds)
+REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
+REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes it (Zeno)
+DIVERGENCE_ENERGY = 1e3  # energy residual beyond this × energy scale means the run diverged
+
+
+@dataclass
+class Impact:
+    t: float
+    contact: int
+    vn_minus: float          # normal velocity ġ before (negative: approaching)
+    vn_plus: float           # after the impact (constraint law) or at separation (continuous laws)
+    energy_loss: float       # kinetic energy lost (constraint law) or dissipated in the episode
+    closed: bool = False     # the contact stayed closed after the impact
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class RunResult:
+    """Everything one run produced."""
+
+    status: str                       # completed | diverged | failed
+    message: str
+    t_final: float
+    wall_s: float
+    counters: dict[str, int]
+    history: pd.DataFrame
+    impacts: list[Impact] = field(default_factory=list)
+    constraint_max: dict[str, float] = field(default_factory=lambda: {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0})
+    energy_residual: float = math.nan
+    final: State | None = None
+    phases: int = 0
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "completed"
+
+
+class _Diverged(Exception):
+    pass
+
+
+class Driver:
+    """Runs one integrator on one system from t = 0 to ``t_end``."""
+
+    def __init__(self, system: MechanicalSystem, integrator: Integrator, t_end: float,
+                 output_dt: float, observables: list[str] | None = None):
+        if t_end <= 0:
+            raise ValueError(f"t_end must be positive, got {t_end}")
+        if output_dt <= 0:
+            raise ValueError(f"output dt must be positive, got {output_dt}")
+        self.system = system
+        self.integ = integrator
+        self.t_end = float(t_end)
+        n_out = int(round(t_end / output_dt))
+        self.t_out = np.linspace(0.0, t_end, n_out + 1) if abs(n_out * output_dt - t_end) < 1e-9 * t_end \
+            else np.append(np.arange(0.0, t_end, output_dt), t_end)
+        self.observables = observables
+        law = system.contact_law
+        self.constraint_contacts = law is not None and not law.continuous and system.n_contacts > 0
+        self.continuous_contacts = law is not None and law.continuous and system.n_contacts > 0
+        needs = system.n_bilateral > 0 or self.constraint_contacts
+        check_capabilities(type(integrator), needs, integrator.adaptive)
+
+    # -- public -----------------------------------------------------------------
+    def run(self) -> RunResult:
+        wall0 = time.perf_counter()
+        sys_ = self.system
+        q, v = sys_.initial_state()
+        q = np.asarray(q, float)
+        v = np.asarray(v, float)
+        self.active: list[int] = []
+        self.penetrating: set[int] = set()
+        if self.continuous_contacts:
+            self.penetrating = {int(i) for i in np.flatnonzero(sys_.gap(q) < 0.0)}
+        self.impacts: list[Impact] = []
+        self.rows: list[dict[str, float]] = []
+        self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
+        self.work: dict[str, float] = {}
+        self.d_impacts = 0.0
+        self.E0 = sys_.total_energy(q, v)
+        self.energy_scale = max(abs(self.E0), 1e-12)
+        self.out_i = 0
+        self.last_impact_t = np.full(max(sys_.n_contacts, 1), -np.inf)
+        self.episode_start_W: dict[int, float] = {}  # contact work at first touch
+        status, message = "completed", ""
+        state = State(0.0, q, v)
+        phases = 0
+        try:
+            while state.t < self.t_end - 1e-15 * max(1.0, self.t_end):
+                phases += 1
+                state = self._phase(state)
+        except _Diverged as exc:
+            status, message = "diverged", str(exc)
+        except StepFailure as exc:
+            msg = str(exc)
+            status = "diverged" if msg.lower().startswith("diverged") else "failed"
+            message = f"t = {self._t_last:.6g} s: {msg}"
+        except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+            status, message = "failed", f"t = {self._t_last:.6g} s: {type(exc).__name__}: {exc}"
+        hist = pd.DataFrame(self.rows)
+        res = float(np.nanmax(np.abs(hist["energy_residual"]))) if len(hist) else math.nan
+        return RunResult(status, message, self._t_last, time.perf_counter() - wall0,
+                         self.integ.counters_snapshot(), hist, self.impacts, dict(self.cmax), res,
+                         self._last_state, phases)
+
+    _t_last = 0.0
+    _last_state: State | None = None
+
+    # -- one smooth phase ----------------------------------------------------------
+    def _phase(self, state: State) -> State:
+        sys_ = self.system
+        problem = Problem(sys_, tuple(self.active))
+        a, lam = problem.acceleration(state.t, state.q, state.v)
+        state = State(state.t, state.q, state.v, a, lam)
+        if self.constraint_contacts and self.active:
+            # a closed contact that would pull (λ < 0) opens before the phase starts
+            k = sys_.n_bilateral
+            tensile = [c for j, c in enumerate(self.active) if lam[k + j] < 0.0]
+            if tensile:
+                self.active = [c for c in self.active if c not in tensile]
+                return state
+        if self.continuous_contacts:
+            law = sys_.contact_law
+            law.engaged[:] = False
+            law.engaged[list(self.penetrating)] = True
+        in_contact = bool(self.active) or bool(self.penetrating)
+        h = self.integ.step_size(in_contact)
+        self.integ.start(problem, state, h)
+        if self.out_i == 0 and state.t == 0.0:
+            self._record_until(state, state, problem, 0.0)
+        powers0 = self._power(state)
+        while True:
+            prev = self.integ.state
+            new = self.integ.step(self.t_end)
+            self._t_last = new.t
+            self._last_state = new
+            self._check_finite(new)
+            event = self._find_event(prev, new, problem)
+            end = new if event is None else self.integ.dense(event[0])
+            if event is not None:
+                end = State(event[0], end.q, end.v, end.a, end.lam)
+            powers1 = self._power(end)
+            self._accumulate_work(prev, end, powers0, powers1, problem)
+            self._track_constraints(end, problem)
+            self._check_divergence(end)
+            powers0 = powers1
+            if event is not None:
+                return self._apply_event(event, end, problem)
+            if new.t >= self.t_end - 1e-15 * max(1.0, self.t_end):
+                return new
+
+    # -- events ------------------------------------------------------------------------
+    def _find_event(self, prev: State, new: State, problem: Problem):
+        """Earliest event in (prev.t, new.t]: (t, kind, contact) or None."""
+        sys_ = self.system
+        cands = []
+        if self.constraint_contacts or self.continuous_contacts:
+            g0 = sys_.gap(prev.q)
+            g1 = sys_.gap(new.q)
+            for i in range(sys_.n_contacts):
+                if i in self.active:
+                    continue
+                if self.continuous_contacts and i in self.penetrating:
+                    if g1[i] > 0.0:
+                        cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i], prev, new),
+                                      "separate", i))
+                elif g1[i] < 0.0 and g0[i] >= 0.0:
+                    cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i], prev, new),
+                                  "close", i))
+                elif g1[i] < 0.0 and self.constraint_contacts:
+                    # started the step already (numerically) closed: impact at its start
+                    cands.append((prev.t, "close", i))
+        if self.constraint_contacts and self.active:
+            k = sys_.n_bilateral
+            for j, c in enumerate(self.active):
+                if new.lam[k + j] < 0.0 <= prev.lam[k + j]:
+                    cands.append((self._root(lambda t: self.integ.dense(t).lam[k + j], prev, new),
+                                  "open", c))
+        return min(cands, key=lambda c: c[0]) if cands else None
+
+    def _root(self, f, prev: State, new: State) -> float:
+        fa, fb = f(prev.t), f(new.t)
+        if fa == 0.0:
+            return prev.t
+        if np.sign(fa) == np.sign(fb):
+            # the dense output disagrees with the step endpoints in sign: take the step end
+            return new.t
+        return brentq(f, prev.t, new.t, xtol=EVENT_TOL, rtol=4 * np.finfo(float).eps)
+
+    def _apply_event(self, event, state: State, problem: Problem) -> State:
+        t, kind, i = event
+        sys_ = self.system
+        q, v = state.q, state.v
+        if kind == "close" and self.constraint_contacts:
+            M = sys_.mass(q)
+            Gq = sys_.gap_jacobian(q)
+            bil = [sys_.constraint_jacobian(t, q).reshape(-1, sys_.n)]
+            bil += [Gq[[c]] for c in self.active]
+            e = sys_.contact_law.restitution
+            # a re-impact within REIMPACT_MIN_DT (Zeno chatter) or a contact found already
+            # penetrating with a separating velocity closes plastically
+            zeno = t - self.last_impact_t[i] < REIMPACT_MIN_DT or float(Gq[i] @ v) >= 0.0
+            res = impact_map(M, Gq[[i]], v, 0.0 if zeno else e, np.vstack(bil))
+            closed = zeno or e == 0.0 or res.vn_plus[0] < REBOUND_MIN
+            if closed and not (zeno or e == 0.0):
+                res = impact_map(M, Gq[[i]], v, 0.0, np.vstack(bil))
+            self.last_impact_t[i] = t
+            self.d_impacts += res.energy_loss
+            self.impacts.append(Impact(t, i, float(res.vn_minus[0]), float(res.vn_plus[0]),
+                                       res.energy_loss, closed))
+            if closed:
+                self.active.append(i)
+            v = res.v_plus
+        elif kind == "open":
+            self.active.remove(i)
+        elif kind == "close":  # continuous law: first touch
+            vn = float(sys_.gap_jacobian(q)[i] @ v)
+            sys_.contact_law.approach_speed[i] = max(-vn, 1e-12)
+            self.penetrating.add(i)
+            self.episode_start_W[i] = self.work.get("contact", 0.0)
+            self.impacts.append(Impact(t, i, vn, math.nan, math.nan))
+        elif kind == "separate":
+            self.penetrating.discard(i)
+            vn = float(sys_.gap_jacobian(q)[i] @ v)
+            for imp in reversed(self.impacts):
+                if imp.contact == i and math.isnan(imp.vn_plus):
+                    imp.vn_plus = vn
+                    imp.energy_loss = self.episode_start_W.pop(i, math.nan) - self.work.get("contact", 0.0)
+                    break
+        return State(t, q, v)
+
+    # -- bookkeeping -------------------------------------------------------------------
+    def _power(self, s: State) -> dict[str, float]:
+        return self.system.power(s.t, s.q, s.v)
+
+    def _accumulate_work(self, prev: State, end: State, p0: dict, p1: dict, problem: Problem) -> None:
+        dt = end.t - prev.t
+        base = dict(self.work)
+        for k in set(p0) | set(p1):
+            self.work[k] = base.get(k, 0.0) + 0.5 * dt * (p0.get(k, 0.0) + p1.get(k, 0.0))
+        self._record_until(prev, end, problem, dt, base, p0, p1)
+
+    def _record_until(self, prev: State, end: State, problem: Problem, dt: float,
+                      base: dict | None = None, p0: dict | None = None, p1: dict | None = None) -> None:
+        """Write history rows for the output times in (prev.t, end.t] (t = 0 included once)."""
+        sys_ = self.system
+        while self.out_i < len(self.t_out) and self.t_out[self.out_i] <= end.t + 1e-12 * max(1.0, self.t_end):
+            to = float(self.t_out[self.out_i])
+            if to >= end.t or dt == 0.0:
+                s = end
+            elif to <= prev.t:
+                s = prev
+            else:
+                s = self.integ.dense(to)
+            if base is None:
+                work = dict(self.work)
+            else:
+                th = 0.0 if dt == 0.0 else (to - prev.t) / dt
+                work = dict(base)
+                for k in set(p0) | set(p1):
+                    pk = p0.get(k, 0.0) + th * (p1.get(k, 0.0) - p0.get(k, 0.0))
+                    work[k] = base.get(k, 0.0) + 0.5 * (to - prev.t) * (p0.get(k, 0.0) + pk)
+            row: dict[str, float] = {"t": to}
+            obs = sys_.observables(to, s.q, s.v)
+            row.update(obs if self.observables is None else {k: obs[k] for k in self.observables if k in obs})
+            terms = sys_.energy(s.q, s.v)
+            E = float(sum(terms.values()))
+            row.update({f"E_{k}": float(x) for k, x in terms.items()})
+            row["E"] = E
+            for k, w in work.items():
+                row[f"W_{k}"] = w
+            row["D_impacts"] = self.d_impacts
+            row["energy_residual"] = E - self.E0 - sum(work.values()) + self.d_impacts
+            if self.constraint_contacts or self.continuous_contacts:
+                row["n_active"] = len(self.active) + len(self.penetrating)
+            if problem.m and self.active:
+                C, Cd, Cdd = self._residuals(s, problem)
+                row.update({"C": C, "Cdot": Cd, "Cddot": Cdd})
+                k = sys_.n_bilateral
+                for j, c in enumerate(self.active):
+                    row[f"lambda_{c}"] = float(s.lam[k + j]) if s.lam.size > k + j else math.nan
+            self.rows.append(row)
+            self.out_i += 1
+
+    def _residuals(self, s: State, problem: Problem) -> tuple[float, float, float]:
+        C = problem.constraint(s.t, s.q)
+        Cq = problem.constraint_jacobian(s.t, s.q)
+        Cd = Cq @ s.v + problem.constraint_t(s.t, s.q)
+        Cdd = Cq @ s.a - problem.constraint_gamma(s.t, s.q, s.v) if s.a.size == s.q.size else np.full(1, np.nan)
+        return float(np.max(np.abs(C))), float(np.max(np.abs(Cd))), float(np.max(np.abs(Cdd)))
+
+    def _track_constraints(self, s: State, problem: Problem) -> None:
+        if problem.m == 0:
+            return
+        C, Cd, Cdd = self._residuals(s, problem)
+        self.cmax["C"] = max(self.cmax["C"], C)
+        self.cmax["Cdot"] = max(self.cmax["Cdot"], Cd)
+        if np.isfinite(Cdd):
+            self.cmax["Cddot"] = max(self.cmax["Cddot"], Cdd)
+
+    def _check_finite(self, s: State) -> None:
+        if not (np.all(np.isfinite(s.q)) and np.all(np.isfinite(s.v))):
+            raise _Diverged(f"t = {s.t:.6g} s: the state became non-finite")
+
+    def _check_divergence(self, s: State) -> None:
+        terms = self.system.energy(s.q, s.v)
+        E = float(sum(terms.values()))
+        resid = E - self.E0 - sum(self.work.values()) + self.d_impacts
+        scale = (self.energy_scale + sum(abs(x) for x in terms.values())
+                 + sum(abs(w) for w in self.work.values()) + self.d_impacts)
+        if not math.isfinite(resid) or abs(resid) > DIVERGENCE_ENERGY * scale:
+            raise _Diverged(f"t = {s.t:.6g} s: energy residual {resid:.3g} J exceeds "
+                            f"{DIVERGENCE_ENERGY:g} × the energy scale {scale:.3g} J")
+
+
+def simulate(system: MechanicalSystem, integrator: Integrator, t_end: float, output_dt: float,
+             observables: list[str] | None = None) -> RunResult:
+    """Run ``integrator`` on ``system`` over [0, t_end] with events; see :class:`Driver`."""
+    return Driver(system, integrator, t_end, output_dt, observables).run()
