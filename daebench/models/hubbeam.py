@@ -1,0 +1,376 @@
+"""Flexible hub–beam: an Euler–Bernoulli beam clamped to a turning hub, with optional
+gravity, foreshortening, drive torque, structural damping and contact with a plane.
+
+Model (our derivation of /work/shared/MODEL.md)
+-----------------------------------------------
+A beam of length L, density ρ, area S, second moment I, modulus E is clamped at
+radius a on a hub (inertia J_h) that turns by θ about the fixed hinge O. In the frame
+turning with the hub, material point x ∈ [0, L] sits at
+
+    p(x, q) = [a + x + w1 + wc, w2],   w1 = Φx·A,  w2 = Φy·B,  wc = −½ BᵀH(x)B,
+
+with H(x) = ∫₀ˣ Φy′ᵀΦy′ dξ: wc is the foreshortening, the axial pull-in of a bent
+beam (second order in B; dropping it, H ≡ 0, gives the zero-order model that misses
+geometric stiffening). q = (θ, A, B); A is absent when axial stretch is off
+(inextensible beam, foreshortening kept). The inertial position is r = R(θ)p.
+
+Differentiating, ṙ = R G q̇ with the field Jacobian G = [E p, ∂p/∂(A,B)] (2 × n),
+E = [[0, −1], [1, 0]], ∂p/∂(A,B) = [[Φx, −(HB)ᵀ], [0, Φy]]; and r̈ = R(G q̈ + c) with
+
+    c = −θ̇² p + 2θ̇ E ṗ + [−ḂᵀHḂ, 0]ᵀ     (centripetal, Coriolis, foreshortening rate).
+
+Virtual work of the inertia forces, ∫ρS δrᵀr̈ dx, gives M q̈ − Q_v with
+
+    M(q) = J_h e₁e₁ᵀ + ∫ρS GᵀG dx      (independent of θ),
+    Q_v  = −∫ρS Gᵀ c dx.
+
+Potential energies: U = ½AᵀK1A + ½BᵀK2B with K1 = ∫ES Φx′ᵀΦx′, K2 = ∫EI Φy″ᵀΦy″;
+V_g = g ∫ρS e_Yᵀ r dx = g (sinθ ∫ρS p₁ + cosθ ∫ρS p₂), so Q_g = −∇V_g is computed
+from the integrated tables ∫ρS Φx, ∫ρS Φy, ∫ρS H (no per-point work). Drive torque
+Q_τ = τ(t) e₁, τ = τ0 sin(2πt/T) for t ≤ T and 0 after. Stiffness-proportional
+structural damping Q_d = −β [0, K1 Ȧ, K2 Ḃ].
+
+Contact with the plane Y = −h0 at material point x_P: g = e_Yᵀ R p(x_P) + h0,
+g_q = e_Yᵀ R G(x_P), and since g̈ = g_q q̈ + e_Yᵀ R c(x_P), γ_g = −e_Yᵀ R c(x_P).
+
+Energy: T = ½ q̇ᵀMq̇, U, V_g, and the continuous contact potential; with gravity alone
+dE/dt = 0 along the motion (tests/test_hubbeam.py checks this numerically).
+
+Discretizations (tables from :mod:`daebench.models.shapes`): clamped–free cantilever
+modes (N per direction, normalized ∫Φy_iΦy_j dx = L δ_ij, evaluated cancellation-free)
+with axial modes sin((2i−1)πx/2L); or Hermite-cubic/linear finite elements.
+The per-evaluation work is in :mod:`daebench.models._hubbeam_kernels` (numba).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from daebench.contact import DAMPING_LAWS, make_contact_law
+from daebench.models import _hubbeam_kernels as kern
+from daebench.models.shapes import BUILDERS, MAX_ELEMENTS, MAX_MODES, ShapeTables, tabulate
+from daebench.params import Param
+from daebench.scene import Scene, SceneError
+from daebench.system import MechanicalSystem, central_difference
+
+DESCRIPTION = "flexible beam on a turning hub (modes or FEM), gravity, torque, damping, contact with a plane"
+
+# Dense H tables cost nq·nB² doubles; refuse scenes that would need more than this.
+MAX_TABLE_BYTES = 512 * 2**20
+
+SCHEMA: dict[str, Param] = {
+    p.name: p
+    for p in (
+        Param("discretization.kind", str, "modes", "shape functions of the beam",
+              choices=("modes", "fem", "meshfree")),
+        Param("discretization.n", int, 5,
+              "modes per direction (modes: 1..12) or number of elements (fem: 1..200)", low=1, high=MAX_ELEMENTS),
+        Param("effects.gravity", bool, True, "gravity along −Y"),
+        Param("effects.axial", bool, True, "axial stretch (off: inextensible beam, foreshortening kept)"),
+        Param("effects.foreshortening", bool, True, "first-order coupling (off: zero-order model, H ≡ 0)"),
+        Param("effects.torque", bool, False, "drive torque τ(t) on the hub"),
+        Param("effects.damping", bool, False, "stiffness-proportional structural damping"),
+        Param("effects.contact", bool, False, "contact of one beam point with the plane Y = −h0"),
+        Param("beam.length", float, 1.0, "beam length L", low=1e-3, high=1e3, unit="m"),
+        Param("beam.area", float, 3.14e-4, "cross-section area S", low=1e-10, high=10.0, unit="m^2"),
+        Param("beam.inertia", float, 7.85e-9, "second moment of area I", low=1e-20, high=10.0, unit="m^4"),
+        Param("beam.density", float, 2.7667e3, "density ρ", low=1.0, high=1e5, unit="kg/m^3"),
+        Param("beam.modulus", float, 6.8952e10, "Young's modulus E", low=1e3, high=1e13, unit="Pa"),
+        Param("beam.poisson", float, 0.33, "Poisson ratio ν (Hertz stiffness)", low=0.0, high=0.5),
+        Param("hub.radius", float, 0.0, "hub radius a (beam root at radius a)", low=0.0, high=1e3, unit="m"),
+        Param("hub.inertia", float, 0.0, "hub moment of inertia J_h about the hinge", low=0.0, high=1e9,
+              unit="kg m^2"),
+        Param("gravity.g", float, 9.81, "gravitational acceleration", low=0.0, high=1e3, unit="m/s^2"),
+        Param("torque.tau0", float, 0.0, "torque amplitude τ0 in τ = τ0 sin(2πt/T), t ≤ T", low=-1e9, high=1e9,
+              unit="N m"),
+        Param("torque.period", float, 2.0, "torque duration T (one sine period, 0 after)", low=1e-9, high=1e6,
+              unit="s"),
+        Param("damping.beta", float, 0.0, "structural damping β in Q_d = −β K v_elastic", low=0.0, high=10.0,
+              unit="s"),
+        Param("contact.law", str, "constraint", "contact model", choices=("constraint", "hertz", "penalty")),
+        Param("contact.restitution", float, 0.0, "coefficient of restitution e", low=0.0, high=1.0),
+        Param("contact.plane_height", float, 0.0, "the plane is Y = −h0 (0: through the hinge)", low=-1e3,
+              high=1e3, unit="m"),
+        Param("contact.point", float, 1.0, "contact point x_P as a fraction of L (1 = tip)", low=1e-6, high=1.0),
+        Param("contact.hertz_stiffness", float, 0.0, "Hertz K (0: (4/3) E/(1−ν²) √r)", low=0.0, high=1e16,
+              unit="N/m^1.5"),
+        Param("contact.hertz_radius", float, 0.01, "radius r of the tip sphere for the default Hertz K",
+              low=1e-9, high=1e3, unit="m"),
+        Param("contact.hertz_damping", str, "lankarani-nikravesh", "Hertz hysteresis damping law",
+              choices=DAMPING_LAWS),
+        Param("contact.penalty_stiffness", float, 0.0, "penalty stiffness k", low=0.0, high=1e16, unit="N/m"),
+        Param("contact.penalty_damping", float, 0.0, "penalty damping c", low=0.0, high=1e12, unit="N s/m"),
+        Param("start.theta_deg", float, 0.0, "initial hub angle θ from +X", low=-3600.0, high=3600.0, unit="deg"),
+        Param("start.omega", float, 0.0, "initial angular velocity θ̇", low=-1e4, high=1e4, unit="rad/s"),
+    )
+}
+
+
+def hertz_default_stiffness(modulus: float, poisson: float, radius: float) -> float:
+    """K = (4/3) E/(1 − ν²) √r: a sphere of radius r on a rigid plane."""
+    return 4.0 / 3.0 * modulus / (1.0 - poisson**2) * math.sqrt(radius)
+
+
+def check_scene(scene: Scene) -> None:
+    """Cross-key checks; raise :class:`SceneError` naming the key and the fix."""
+    kind = scene["discretization.kind"]
+    n = scene["discretization.n"]
+    if kind == "meshfree":
+        raise SceneError("scene key 'discretization.kind' = 'meshfree' is not yet available; "
+                         "use 'modes' or 'fem'")
+    if kind == "modes" and not 1 <= n <= MAX_MODES:
+        raise SceneError(f"scene key 'discretization.n' = {n} is out of range [1, {MAX_MODES}] for "
+                         f"discretization.kind = 'modes' (number of cantilever modes)")
+    if kind == "fem" and not 1 <= n <= MAX_ELEMENTS:
+        raise SceneError(f"scene key 'discretization.n' = {n} is out of range [1, {MAX_ELEMENTS}] for "
+                         f"discretization.kind = 'fem' (number of elements)")
+    if scene["effects.foreshortening"]:
+        nB = n if kind == "modes" else 2 * n
+        from daebench.models.shapes import FEM_POINTS_PER_ELEMENT, MODE_PANELS, MODE_POINTS_PER_PANEL
+        nq = MODE_PANELS * MODE_POINTS_PER_PANEL if kind == "modes" else FEM_POINTS_PER_ELEMENT * n
+        if 8 * nq * nB * nB > MAX_TABLE_BYTES:
+            raise SceneError(f"scene key 'discretization.n' = {n}: foreshortening tables would need "
+                             f"{8 * nq * nB * nB / 2**20:.0f} MiB; use fewer elements or "
+                             f"effects.foreshortening = false")
+    if scene["effects.contact"]:
+        law = scene["contact.law"]
+        if law == "penalty" and scene["contact.penalty_stiffness"] <= 0.0:
+            raise SceneError("scene key 'contact.penalty_stiffness' must be > 0 for contact.law = 'penalty'")
+        if law == "hertz" and scene["contact.hertz_damping"] == "flores" and scene["contact.restitution"] <= 0.0:
+            raise SceneError("scene key 'contact.restitution' must be > 0 with contact.hertz_damping = 'flores'")
+    if scene["effects.torque"] and scene["torque.period"] <= 0.0:
+        raise SceneError("scene key 'torque.period' must be > 0")
+
+
+def build(scene: Scene) -> "HubBeam":
+    """The hub–beam system a scene describes (only switched-on effects are assembled)."""
+    check_scene(scene)
+    return HubBeam(scene)
+
+
+class HubBeam(MechanicalSystem):
+    """Hub–beam :class:`~daebench.system.MechanicalSystem`; see the module docstring.
+
+    Besides the protocol it exposes ``mass_and_force(t, q, v)`` (one kernel pass)
+    and ``kernel_args`` for compiled callers of :mod:`daebench.models._hubbeam_kernels`.
+    """
+
+    def __init__(self, scene: Scene):
+        s = scene
+        self.scene = s
+        self.kind = s["discretization.kind"]
+        self.effects = {k: bool(s[f"effects.{k}"]) for k in
+                        ("gravity", "axial", "foreshortening", "torque", "damping", "contact")}
+        L = self.length = s["beam.length"]
+        rho, S, EI = s["beam.density"], s["beam.area"], s["beam.modulus"] * s["beam.inertia"]
+        ES = s["beam.modulus"] * S
+        rhoS = rho * S
+        a = s["hub.radius"]
+        fore = self.effects["foreshortening"]
+        basis = BUILDERS[self.kind](L, s["discretization.n"], self.effects["axial"])
+        self.x_contact = s["contact.point"] * L
+        # extra material points: 0 = tip, 1 = contact point
+        tab: ShapeTables = tabulate(basis, np.array([L, self.x_contact]), foreshortening=fore)
+        self.tables = tab
+        self.basis = basis
+        nA, nB = basis.n_axial, basis.n_transverse
+        self.nA, self.nB = nA, nB
+        self.n = 1 + nA + nB
+        self.n_contacts = 1 if self.effects["contact"] else 0
+        self.coordinate_names = ("theta",) + tuple(basis.axial_names) + tuple(basis.transverse_names)
+        self.iA = slice(1, 1 + nA)
+        self.iB = slice(1 + nA, 1 + nA + nB)
+
+        at, w = tab.at, tab.w
+        wm = rhoS * w
+        self.K1 = np.ascontiguousarray((at.dphx * (ES * w)[:, None]).T @ at.dphx)
+        self.K2 = np.ascontiguousarray((at.ddphy * (EI * w)[:, None]).T @ at.ddphy)
+        self.K1 = 0.5 * (self.K1 + self.K1.T)
+        self.K2 = 0.5 * (self.K2 + self.K2.T)
+        Mc = np.zeros((self.n, self.n))
+        Mc[0, 0] = s["hub.inertia"]
+        Mc[self.iA, self.iA] = (at.phx * wm[:, None]).T @ at.phx
+        Mc[self.iB, self.iB] = (at.phy * wm[:, None]).T @ at.phy
+        self.Mc = 0.5 * (Mc + Mc.T)
+        H = tab.H if fore else np.zeros((1, 1, 1))
+        Hbar = np.einsum("k,kij->ij", wm, tab.H) if fore else np.zeros((nB, nB))
+        Hp = tab.H_points if fore else np.zeros((2, nB, nB))
+        self.Hp = np.ascontiguousarray(Hp)
+
+        prm = np.zeros(kern.N_PRM)
+        prm[kern.P_A] = a
+        prm[kern.P_JH] = s["hub.inertia"]
+        prm[kern.P_G] = s["gravity.g"] if self.effects["gravity"] else 0.0
+        prm[kern.P_TAU0] = s["torque.tau0"]
+        prm[kern.P_T] = s["torque.period"]
+        prm[kern.P_TORQUE] = 1.0 if self.effects["torque"] else 0.0
+        prm[kern.P_BETA] = s["damping.beta"] if self.effects["damping"] else 0.0
+        prm[kern.P_H0] = s["contact.plane_height"]
+        prm[kern.P_M1] = float(np.sum(wm * (a + tab.x)))
+        self.prm = prm
+        self.fore = 1 if fore else 0
+        c = np.ascontiguousarray
+        self.kernel_args = (prm, self.fore, c(tab.x), c(wm), c(at.phx), c(at.phy), c(H), self.Mc,
+                            c(self.K1), c(self.K2), c(wm @ at.phx), c(wm @ at.phy), c(Hbar))
+        self._jac_args = self.kernel_args[:7] + self.kernel_args[8:]
+        self._hb = np.zeros(max(nB, 1))
+        self._G1 = np.zeros(self.n)
+        self._pt = [(float(tab.points[i]), c(tab.at_points.phx[i]), c(tab.at_points.phy[i]), c(self.Hp[i]))
+                    for i in range(2)]
+
+        if self.effects["contact"]:
+            K = s["contact.hertz_stiffness"] or hertz_default_stiffness(
+                s["beam.modulus"], s["beam.poisson"], s["contact.hertz_radius"])
+            self.hertz_stiffness = K
+            self.contact_law = make_contact_law(
+                s["contact.law"], s["contact.restitution"], 1, hertz_stiffness=K,
+                hertz_damping=s["contact.hertz_damping"], penalty_stiffness=s["contact.penalty_stiffness"],
+                penalty_damping=s["contact.penalty_damping"])
+        else:
+            self.contact_law = None
+
+    # -- dynamics --------------------------------------------------------------
+    def mass_and_force(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(M(q), applied force Q(t, q, v)) from one kernel pass (no contact force)."""
+        M = np.empty((self.n, self.n))
+        Q = np.empty(self.n)
+        kern.mass_force(float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), *self.kernel_args,
+                        True, M, Q, self._hb)
+        return M, Q
+
+    def mass(self, q: np.ndarray) -> np.ndarray:
+        M = np.empty((self.n, self.n))
+        Q = np.empty(self.n)
+        q = np.asarray(q, dtype=float)
+        kern.mass_force(0.0, q, np.zeros(self.n), *self.kernel_args, True, M, Q, self._hb)
+        return M
+
+    def applied_force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        Q = np.empty(self.n)
+        kern.mass_force(float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), *self.kernel_args,
+                        False, self.Mc, Q, self._hb)
+        return Q
+
+    def _contact_force(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """g_qᵀ F of a continuous contact law (zero when open)."""
+        g, gq, _ = self._gap_all(q, v)
+        if g >= 0.0:
+            return np.zeros(self.n)
+        F = self.contact_law.force(np.array([g]), np.array([gq @ v]))
+        return gq * F[0]
+
+    def force_jacobian(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(∂Q/∂q, ∂Q/∂v) of the total force: analytic for the applied force, central
+        differences of the contact force g_qᵀF only while a continuous contact is closed."""
+        q = np.asarray(q, dtype=float)
+        v = np.asarray(v, dtype=float)
+        Kq = np.empty((self.n, self.n))
+        Kv = np.empty((self.n, self.n))
+        kern.force_jacobian(float(t), q, v, *self._jac_args, Kq, Kv)
+        law = self.contact_law
+        if law is not None and law.continuous and self.gap(q)[0] < 0.0:
+            Kq += central_difference(lambda x: self._contact_force(x, v), q, self.n)
+            Kv += central_difference(lambda x: self._contact_force(q, x), v, self.n)
+        return Kq, Kv
+
+    def mass_jacobian_product(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
+        out = np.empty((self.n, self.n))
+        p = self.kernel_args
+        kern.mass_jacobian_product(np.asarray(q, dtype=float), np.asarray(a, dtype=float), p[0], p[1], p[2],
+                                   p[3], p[4], p[5], p[6], out)
+        return out
+
+    # -- contact ------------------------------------------------------------------
+    def _point(self, which: int, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray, float]:
+        gq = np.empty(self.n)
+        xp, phx, phy, Hp = self._pt[which]
+        g, gamma = kern.gap_kernel(np.asarray(q, dtype=float), np.asarray(v, dtype=float), self.prm, self.fore,
+                                   xp, phx, phy, Hp, gq, self._G1)
+        return g, gq, gamma
+
+    def _gap_all(self, q, v):
+        return self._point(1, q, v)
+
+    def gap(self, q: np.ndarray) -> np.ndarray:
+        if not self.n_contacts:
+            return np.zeros(0)
+        return np.array([self._point(1, q, np.zeros(self.n))[0]])
+
+    def gap_jacobian(self, q: np.ndarray) -> np.ndarray:
+        if not self.n_contacts:
+            return np.zeros((0, self.n))
+        return self._point(1, q, np.zeros(self.n))[1][None, :]
+
+    def gap_gamma(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        if not self.n_contacts:
+            return np.zeros(0)
+        return np.array([self._point(1, q, v)[2]])
+
+    # -- bookkeeping ----------------------------------------------------------------
+    def tip_position(self, q: np.ndarray) -> tuple[float, float]:
+        """Inertial tip position r(L) = R(θ) p(L)."""
+        G0 = np.empty(self.n)
+        xp, phx, phy, Hp = self._pt[0]
+        p1, p2, *_ = kern.point_kinematics(np.asarray(q, dtype=float), np.zeros(self.n), self.prm, self.fore,
+                                           xp, phx, phy, Hp, G0, self._G1)
+        c, s = math.cos(q[0]), math.sin(q[0])
+        return c * p1 - s * p2, s * p1 + c * p2
+
+    def energy(self, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
+        q = np.asarray(q, dtype=float)
+        v = np.asarray(v, dtype=float)
+        M = self.mass(q)
+        A, B = q[self.iA], q[self.iB]
+        out = {
+            "kinetic": 0.5 * float(v @ M @ v),
+            "elastic": 0.5 * float(A @ self.K1 @ A + B @ self.K2 @ B),
+            "gravity": 0.0,
+            "contact": self.contact_potential(q),
+        }
+        g = self.prm[kern.P_G]
+        if g != 0.0:
+            p = self.kernel_args
+            P1 = self.prm[kern.P_M1] + float(p[10] @ A)
+            if self.fore:
+                P1 -= 0.5 * float(B @ p[12] @ B)
+            P2 = float(p[11] @ B)
+            out["gravity"] = g * (math.sin(q[0]) * P1 + math.cos(q[0]) * P2)
+        return out
+
+    def power(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
+        out: dict[str, float] = {}
+        if self.effects["torque"]:
+            out["torque"] = kern.torque(float(t), self.prm) * float(v[0])
+        if self.effects["damping"]:
+            vA, vB = v[self.iA], v[self.iB]
+            out["damping"] = -self.prm[kern.P_BETA] * float(vA @ self.K1 @ vA + vB @ self.K2 @ vB)
+        out.update(super().power(t, q, v))
+        return out
+
+    def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
+        x, y = self.tip_position(q)
+        B = q[self.iB]
+        out = {
+            "theta_deg": math.degrees(q[0]),
+            "omega": float(v[0]),
+            "tip_x": x,
+            "tip_y": y,
+            "tip_w2": float(self._pt[0][2] @ B),
+        }
+        if self.n_contacts:
+            out["gap"] = float(self.gap(q)[0])
+        if self.kind == "modes":
+            part = self._pt[0][2] * B
+            total = float(np.sum(np.abs(part)))
+            for i, pi in enumerate(part):
+                out[f"W{i + 1}"] = float(pi / total) if total > 0.0 else 0.0
+        return out
+
+    def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
+        q0 = np.zeros(self.n)
+        v0 = np.zeros(self.n)
+        q0[0] = math.radians(self.scene["start.theta_deg"])
+        v0[0] = self.scene["start.omega"]
+        return q0, v0
