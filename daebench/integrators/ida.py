@@ -280,7 +280,8 @@ class IDA(Integrator):
             if t_new > st.t:
                 break
         else:
-            raise StepFailure(f"IDA made no progress from t = {st.t:.9g}")
+            raise StepFailure(f"IDA made no progress from t = {st.t:.9g} (step size below roundoff; "
+                              f"last status: {res.message})")
         y, yp = np.asarray(res.y).ravel(), np.asarray(res.yp).ravel()
         if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yp))):
             raise StepFailure(f"IDA produced non-finite values at t = {t_new:.9g}")
