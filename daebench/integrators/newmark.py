@@ -1,0 +1,72 @@
+"""Newmark-β for ODE models and index-3 constraints."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from daebench.integrators._newmark_family import NEWTON_SETTINGS, NewmarkFamily
+from daebench.integrators.base import (ADAPTIVE_SETTINGS, STEP_SETTINGS, Capabilities, IntegratorError,
+                                       Setting)
+
+
+class Newmark(NewmarkFamily):
+    r"""Newmark-β: the trapezoidal rule (β = ¼, γ = ½) by default.
+
+        q_{n+1} = q_n + h v_n + h² [(½ − β) a_n + β a_{n+1}],
+        v_{n+1} = v_n + h [(1 − γ) a_n + γ a_{n+1}],
+        M(q_{n+1}) a_{n+1} + C_qᵀ λ_{n+1} = Q(t_{n+1}, q_{n+1}, v_{n+1}),   C(t_{n+1}, q_{n+1}) = 0.
+
+    For m = 0 (e.g. a Hertz or penalty contact law) it is the classical implicit
+    Newmark scheme; with constraints the position constraint is enforced by the
+    multiplier at t_{n+1} (index 3, no velocity stabilization: C_q v drifts at
+    O(h²)). It is HHT-α with α = 0 and no GGL term and shares that code
+    (:mod:`daebench.integrators._newmark_family`), including the scaled Newton
+    iteration and the optional adaptive step control.
+
+    Settings
+    --------
+    beta : float in (0, ½], default ¼
+        β = 0 (explicit central differences) cannot enforce position constraints
+        and is refused.
+    gamma : float in [½, 1], default ½
+    h, h_contact, adaptive, rtol, atol, newton_tol, newton_maxiter, reuse_jacobian
+        As for :class:`~daebench.integrators.hht.HHT`.
+
+    Notes
+    -----
+    Order 2 if γ = ½, else order 1 (the declared order, 2, assumes γ = ½).
+    Linear stability: unconditionally stable for 2β ≥ γ ≥ ½; γ = ½ is
+    non-dissipative (ρ∞ = 1 for β = ¼, the average-acceleration / trapezoidal
+    rule, which conserves the energy of linear systems exactly); γ > ½ adds
+    first-order numerical damping. For 2β < γ it is only conditionally stable,
+    hω ≤ 1/√(γ/2 − β).
+
+    References
+    ----------
+    Newmark (1959), "A method of computation for structural dynamics",
+    J. Eng. Mech. Div. ASCE 85, 67–94.
+    Géradin & Cardona (2001), Flexible Multibody Dynamics: A Finite Element
+    Approach, Wiley, ch. 12.
+    """
+
+    name: ClassVar[str] = "newmark"
+    description: ClassVar[str] = "Newmark-β (default trapezoidal) for ODE models and index-3 constraints"
+    capabilities: ClassVar[Capabilities] = Capabilities(
+        order=2, fixed_step=True, adaptive=True, constraints=True, index=3)
+    settings_spec: ClassVar[tuple[Setting, ...]] = (
+        *STEP_SETTINGS,
+        *ADAPTIVE_SETTINGS,
+        Setting("beta", float, 0.25, "Newmark β (position weight of a_{n+1}); > 0", low=0.0, high=0.5),
+        Setting("gamma", float, 0.5, "Newmark γ (velocity weight of a_{n+1}); 1/2: 2nd order, no damping",
+                low=0.5, high=1.0),
+        *NEWTON_SETTINGS,
+    )
+
+    def _check_settings(self) -> None:
+        if self.settings["beta"] <= 0.0:
+            raise IntegratorError(
+                "integrator 'newmark' setting 'beta' = 0 is the explicit central-difference scheme, which "
+                "cannot enforce position constraints; use beta > 0 (0.25 = trapezoidal rule)")
+
+    def _coefficients(self) -> tuple[float, float, float, bool]:
+        return 0.0, float(self.settings["beta"]), float(self.settings["gamma"]), False
