@@ -48,6 +48,9 @@ def list_cmd() -> None:
     for col in ("name", "order", "steps", "constraints", "from", "description"):
         t.add_column(col)
     for name, reg in registry().items():
+        if reg.cls is None:
+            t.add_row(name, "", "", "", reg.distribution, f"[red]cannot be loaded: {reg.error}[/]")
+            continue
         cap = reg.cls.capabilities
         steps = "/".join(x for x, ok in (("fixed", cap.fixed_step), ("adaptive", cap.adaptive)) if ok)
         cons = f"index {cap.index}" if cap.constraints else "ODE only"

@@ -248,13 +248,15 @@ def hermite_state(s0: State, s1: State, t: float) -> State:
 @dataclass(frozen=True)
 class Registered:
     name: str
-    cls: type[Integrator]
+    cls: type[Integrator] | None
     distribution: str
+    error: str = ""  # why the entry point could not be loaded (cls is None then)
 
 
 def registry() -> dict[str, Registered]:
     """All integrators from the ``daebench.integrators`` entry points, loaded lazily
-    each call. A plugin may not shadow a built-in (one provided by daebench)."""
+    each call. A plugin may not shadow a built-in (one provided by daebench). A plugin
+    that fails to import is listed with its error instead of breaking the registry."""
     found: dict[str, Registered] = {}
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         dist = ep.dist.name if ep.dist is not None else "?"
@@ -263,11 +265,14 @@ def registry() -> dict[str, Registered]:
                 continue  # a plugin may not shadow a built-in
             if dist != "daebench":
                 raise IntegratorError(f"two plugins register integrator '{ep.name}'")
-        cls = ep.load()
+        try:
+            cls = ep.load()
+        except Exception as exc:  # a broken plugin must not take the others down
+            found[ep.name] = Registered(ep.name, None, dist, f"{type(exc).__name__}: {exc}")
+            continue
         if not (isinstance(cls, type) and issubclass(cls, Integrator)):
-            raise IntegratorError(
-                f"entry point '{ep.name}' of {dist} is not an Integrator subclass: {cls!r}"
-            )
+            found[ep.name] = Registered(ep.name, None, dist, f"{ep.value} is not an Integrator subclass")
+            continue
         found[ep.name] = Registered(ep.name, cls, dist)
     return dict(sorted(found.items()))
 
@@ -279,6 +284,9 @@ def get_integrator(name: str) -> type[Integrator]:
             f"unknown integrator '{name}'{did_you_mean(name, reg)} Available: {', '.join(reg)} "
             f"(see `daebench list`)."
         )
+    if reg[name].cls is None:
+        raise IntegratorError(f"integrator '{name}' (from {reg[name].distribution}) cannot be loaded: "
+                              f"{reg[name].error}")
     return reg[name].cls
 
 
