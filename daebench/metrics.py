@@ -1,0 +1,271 @@
+"""Scores of one run: pure functions on time histories (pandas DataFrames).
+
+Every function here takes histories as written by :mod:`daebench.simulate` (one row
+per output time, column ``t`` plus observables, energy terms, work, constraint
+residuals) and returns plain numbers in a dict, so that a sweep row is the union of
+the dicts. Nothing here runs a simulation, except :func:`time_call`, which only
+times a callable.
+
+Accuracy is measured in the spirit of DiffEqDevTools: both histories are linearly
+interpolated onto one uniform grid on the common time span, and the final, the max
+and the L2 (root-mean-square over the grid, i.e. √(∫e² dt / T)) errors are stored for
+every observable; a plot later picks one.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Iterable, Sequence
+
+import numpy as np
+import pandas as pd
+
+GRID_POINTS = 2001             # default size of the uniform comparison grid
+ENERGY_RTOL = 1e-6             # energy residual beyond this × energy scale is flagged
+#: Pairs of columns that form a point position; scored as one Euclidean error.
+POSITION_PAIRS: dict[str, tuple[str, str]] = {"tip": ("tip_x", "tip_y"), "pos": ("x", "y")}
+#: History columns that are bookkeeping, not observables.
+_BOOKKEEPING_PREFIXES = ("E_", "W_", "lambda_")
+_BOOKKEEPING = {"t", "E", "D_impacts", "energy_residual", "n_active", "C", "Cdot", "Cddot"}
+
+
+# -- grids and interpolation --------------------------------------------------------
+def uniform_grid(t0: float, t1: float, n: int = GRID_POINTS) -> np.ndarray:
+    """``n`` equally spaced times from ``t0`` to ``t1`` (inclusive)."""
+    if not t1 > t0:
+        raise ValueError(f"empty time span [{t0}, {t1}]")
+    return np.linspace(t0, t1, int(n))
+
+
+def interpolate(hist: pd.DataFrame, column: str, grid: np.ndarray) -> np.ndarray:
+    """Linear interpolation of ``hist[column]`` onto ``grid`` (NaN outside the history).
+
+    Duplicate times (an event written twice) keep the last value: the state after
+    the event."""
+    t = hist["t"].to_numpy(float)
+    y = hist[column].to_numpy(float)
+    keep = np.append(np.diff(t) > 0.0, True)
+    t, y = t[keep], y[keep]
+    out = np.interp(grid, t, y)
+    out[(grid < t[0] - 1e-12) | (grid > t[-1] + 1e-12)] = np.nan
+    return out
+
+
+def observable_columns(hist: pd.DataFrame) -> list[str]:
+    """The observable columns of a history (everything but time and bookkeeping)."""
+    return [c for c in hist.columns
+            if c not in _BOOKKEEPING and not c.startswith(_BOOKKEEPING_PREFIXES)
+            and pd.api.types.is_numeric_dtype(hist[c])]
+
+
+def score_name(column: str) -> str:
+    """Short name used in error columns: ``theta_deg`` → ``theta`` (degrees)."""
+    return "theta" if column == "theta_deg" else column
+
+
+# -- accuracy ------------------------------------------------------------------------
+def error_norms(err: np.ndarray, prefix: str) -> dict[str, float]:
+    """Final, max and L2 (RMS over a uniform grid) of an error sample."""
+    a = np.abs(np.asarray(err, float))
+    if a.size == 0 or not np.all(np.isfinite(a)):
+        return {f"{prefix}_final": math.nan, f"{prefix}_max": math.nan, f"{prefix}_l2": math.nan}
+    return {f"{prefix}_final": float(a[-1]), f"{prefix}_max": float(a.max()),
+            f"{prefix}_l2": float(np.sqrt(np.mean(a * a)))}
+
+
+def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] | None = None,
+             n_grid: int = GRID_POINTS) -> dict[str, float]:
+    """Errors of ``hist`` against ``ref`` for every observable both hold.
+
+    Both are interpolated onto one uniform grid over the reference's time span.
+    A history that stops before the reference ends (a diverged or failed run) gets
+    NaN errors: a partial trajectory has no comparable error.
+
+    Returns
+    -------
+    dict
+        ``err_<obs>_{final,max,l2}`` per observable (``theta_deg`` is named
+        ``theta``, in degrees) and ``err_<point>_{final,max,l2}`` for the Euclidean
+        error of a position pair (``tip``: tip_x/tip_y; ``pos``: x/y).
+    """
+    cols = [c for c in (observables or observable_columns(ref)) if c in ref.columns]
+    grid = uniform_grid(float(ref["t"].iloc[0]), float(ref["t"].iloc[-1]), n_grid)
+    reaches = len(hist) > 0 and float(hist["t"].iloc[-1]) >= grid[-1] - 1e-9 * max(1.0, abs(grid[-1]))
+    out: dict[str, float] = {}
+    ref_i = {c: interpolate(ref, c, grid) for c in cols}
+    run_i = {c: interpolate(hist, c, grid) if (reaches and c in hist.columns) else np.full_like(grid, np.nan)
+             for c in cols}
+    for c in cols:
+        out.update(error_norms(run_i[c] - ref_i[c], f"err_{score_name(c)}"))
+    for name, (cx, cy) in POSITION_PAIRS.items():
+        if cx in ref_i and cy in ref_i:
+            e = np.hypot(run_i[cx] - ref_i[cx], run_i[cy] - ref_i[cy])
+            out.update(error_norms(e, f"err_{name}"))
+    return out
+
+
+# -- events ----------------------------------------------------------------------------
+def impact_time_errors(times: Sequence[float], ref_times: Sequence[float]) -> dict[str, float]:
+    """Impact times matched in order (the k-th impact against the k-th of the reference).
+
+    Returns the count of each, the error of the first and second impact times and
+    the max over the matched ones (NaN where an impact is missing)."""
+    t = np.asarray(list(times), float)
+    r = np.asarray(list(ref_times), float)
+    k = min(t.size, r.size)
+    d = np.abs(t[:k] - r[:k])
+    out = {"impacts": int(t.size), "impacts_ref": int(r.size),
+           "err_impact_t_max": float(d.max()) if k else math.nan}
+    for j in (0, 1):
+        out[f"err_impact{j + 1}_t"] = float(d[j]) if j < k else math.nan
+    return out
+
+
+def rebound_apex(hist: pd.DataFrame, impact_times: Sequence[float], column: str | None = None
+                 ) -> tuple[float, float]:
+    """(time, height) of the highest point of ``column`` between the first and the
+    second impact (or the end), from the history. NaN if there is no rebound.
+
+    ``column`` defaults to ``gap`` (height above the plane), else ``tip_y``, else ``y``.
+    """
+    col = column or next((c for c in ("gap", "tip_y", "y") if c in hist.columns), None)
+    times = list(impact_times)
+    if col is None or not times or len(hist) == 0:
+        return math.nan, math.nan
+    t = hist["t"].to_numpy(float)
+    lo = times[0]
+    hi = times[1] if len(times) > 1 else t[-1]
+    sel = (t > lo) & (t < hi)
+    if not np.any(sel):
+        return math.nan, math.nan
+    y = hist[col].to_numpy(float)[sel]
+    i = int(np.argmax(y))
+    y0 = float(np.interp(lo, t, hist[col].to_numpy(float)))
+    if not y[i] > y0 + 1e-12:  # never rose above the plane: no rebound
+        return math.nan, math.nan
+    return float(t[sel][i]), float(y[i])
+
+
+def event_errors(hist: pd.DataFrame, impacts: Sequence[float], ref: pd.DataFrame,
+                 ref_impacts: Sequence[float]) -> dict[str, float]:
+    """Impact-time errors plus rebound-apex time and height errors against the reference."""
+    out = impact_time_errors(impacts, ref_impacts)
+    ta, ya = rebound_apex(hist, impacts)
+    tr, yr = rebound_apex(ref, ref_impacts)
+    out.update({"apex_t": ta, "apex_height": ya,
+                "err_apex_t": abs(ta - tr), "err_apex_height": abs(ya - yr)})
+    return out
+
+
+# -- energy -----------------------------------------------------------------------------
+def energy_residual_series(hist: pd.DataFrame) -> np.ndarray:
+    """E − E0 − ΣW + D_impacts recomputed from the history's columns (so that an
+    inconsistent ``energy_residual`` column cannot hide a drift); falls back on the
+    ``energy_residual`` column when the components are absent."""
+    if "E" not in hist.columns:
+        return hist["energy_residual"].to_numpy(float)
+    E = hist["E"].to_numpy(float)
+    work = sum((hist[c].to_numpy(float) for c in hist.columns if c.startswith("W_")), np.zeros_like(E))
+    d_imp = hist["D_impacts"].to_numpy(float) if "D_impacts" in hist.columns else 0.0
+    return E - E[0] - work + d_imp
+
+
+def energy_scale(hist: pd.DataFrame) -> float:
+    """A size for energies in this run: the largest |energy term| seen (≥ tiny)."""
+    terms = [c for c in hist.columns if c.startswith("E_")] or ["E"]
+    vals = np.abs(hist[terms].to_numpy(float))
+    return float(max(np.nanmax(vals) if vals.size else 0.0, 1e-300))
+
+
+def energy_balance(hist: pd.DataFrame, rtol: float = ENERGY_RTOL) -> dict[str, Any]:
+    """Energy-balance residual: max and RMS over the output times, the final value,
+    the same relative to the energy scale, and a flag ``energy_ok`` (max relative
+    residual ≤ ``rtol``)."""
+    r = energy_residual_series(hist)
+    if r.size == 0 or not np.all(np.isfinite(r)):
+        return {"energy_resid_max": math.nan, "energy_resid_rms": math.nan, "energy_resid_final": math.nan,
+                "energy_resid_rel": math.nan, "energy_ok": False}
+    scale = energy_scale(hist)
+    rmax = float(np.max(np.abs(r)))
+    return {"energy_resid_max": rmax, "energy_resid_rms": float(np.sqrt(np.mean(r * r))),
+            "energy_resid_final": float(r[-1]), "energy_resid_rel": rmax / scale,
+            "energy_ok": bool(rmax <= rtol * scale)}
+
+
+def energy_between(hist: pd.DataFrame, t0: float, t1: float) -> float:
+    """Change of the total energy E over [t0, t1] (linear interpolation)."""
+    t = hist["t"].to_numpy(float)
+    E = hist["E"].to_numpy(float)
+    return float(np.interp(t1, t, E) - np.interp(t0, t, E))
+
+
+# -- constraints ---------------------------------------------------------------------------
+def constraint_residuals(hist: pd.DataFrame) -> dict[str, float]:
+    """max |C|, |Ċ|, |C̈| over the output times while a contact/joint is closed
+    (rows where the columns are not NaN); 0 when nothing was ever closed."""
+    out = {}
+    for c in ("C", "Cdot", "Cddot"):
+        if c in hist.columns:
+            a = np.abs(hist[c].to_numpy(float))
+            a = a[np.isfinite(a)]
+            out[f"{c}_max"] = float(a.max()) if a.size else 0.0
+        else:
+            out[f"{c}_max"] = 0.0
+    return out
+
+
+# -- verdict ------------------------------------------------------------------------------
+def stability_verdict(status: str, message: str, t_final: float, t_end: float) -> dict[str, Any]:
+    """One word (completed, diverged, failed), the time it stopped and why."""
+    reason = message or ("reached t_end" if status == "completed" else "")
+    return {"verdict": status, "verdict_t": float(t_final) if t_final == t_final else math.nan,
+            "verdict_reason": reason, "t_reached": float(t_final) / float(t_end) if t_end else math.nan}
+
+
+# -- timing ---------------------------------------------------------------------------------
+@dataclass
+class Timing:
+    """Minimum wall and CPU time of the timed repeats, and how many were made."""
+
+    wall_s: float
+    cpu_s: float
+    repeats: int
+    result: Any = None
+
+
+def time_call(fn: Callable[[], Any], repeats: int = 3, warmup: bool = True,
+              time_cap: float = 60.0) -> Timing:
+    """Time ``fn()``: one warm-up call (JIT compilation, caches), then the minimum
+    wall (perf_counter) and CPU (process_time) of up to ``repeats`` calls.
+
+    Repeats stop once their total wall time exceeds ``time_cap`` (at least one timed
+    call is always made; the warm-up is skipped when it alone exceeds the cap, in
+    which case the warm-up call is the timed one). The last result is returned.
+    """
+    result = None
+    walls, cpus = [], []
+    if warmup:
+        w0, c0 = time.perf_counter(), time.process_time()
+        result = fn()
+        w, c = time.perf_counter() - w0, time.process_time() - c0
+        if w > time_cap:
+            return Timing(w, c, 1, result)
+    spent = 0.0
+    for _ in range(max(1, int(repeats))):
+        w0, c0 = time.perf_counter(), time.process_time()
+        result = fn()
+        walls.append(time.perf_counter() - w0)
+        cpus.append(time.process_time() - c0)
+        spent += walls[-1]
+        if spent > time_cap:
+            break
+    return Timing(min(walls), min(cpus), len(walls), result)
+
+
+def summarize(values: Iterable[float]) -> float:
+    """max |x| over finite values (NaN if none)."""
+    a = np.abs(np.asarray(list(values), float))
+    a = a[np.isfinite(a)]
+    return float(a.max()) if a.size else math.nan

@@ -1,0 +1,127 @@
+"""Metrics against independent truth: the pendulum's exact elliptic-function solution."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.special import ellipj, ellipk
+
+from daebench import metrics
+from daebench.integrators.hht import HHT
+from daebench.models.pendulum import Pendulum, exact_theta
+from daebench.runner import run_scene
+from daebench.scene import load_scene
+
+G, L, M, TH0 = 9.81, 1.0, 1.0, math.radians(30.0)
+
+
+def exact_history(t: np.ndarray) -> pd.DataFrame:
+    """History of the exact pendulum (released from rest at 30°), energy from
+    θ̇ = 2 k ω_n cn(ω_n t + K) — not from the energy integral itself."""
+    wn = math.sqrt(G / L)
+    k2 = math.sin(TH0 / 2) ** 2
+    th = exact_theta(t, TH0, 0.0, G, L)
+    _, cn, _, _ = ellipj(wn * t + ellipk(k2), k2)
+    om = 2.0 * math.sqrt(k2) * wn * cn
+    x, y = L * np.sin(th), -L * np.cos(th)
+    ek = 0.5 * M * (L * om) ** 2
+    eg = M * G * y
+    return pd.DataFrame({"t": t, "theta_deg": np.rad2deg(th), "x": x, "y": y, "E_kinetic": ek,
+                         "E_gravity": eg, "E": ek + eg, "D_impacts": 0.0,
+                         "energy_residual": ek + eg - (ek[0] + eg[0])})
+
+
+def hht_history(h: float) -> pd.DataFrame:
+    _, res = run_scene(load_scene("pendulum"), HHT(h=h, alpha=0.0), write=False)
+    assert res.status == "completed"
+    return res.history
+
+
+@pytest.fixture(scope="module")
+def runs() -> dict[float, pd.DataFrame]:
+    return {h: hht_history(h) for h in (1e-2, 5e-3)}
+
+
+def test_error_equals_direct_error_against_exact(runs):
+    hist = runs[1e-2]
+    t = hist["t"].to_numpy()
+    ref = exact_history(t)
+    # grid = the output times, so interpolation is the identity and the metric must
+    # equal the error computed by hand
+    s = metrics.accuracy(hist, ref, n_grid=len(t))
+    direct = np.abs(hist["theta_deg"].to_numpy() - np.rad2deg(Pendulum(theta0_deg=30.0).exact_theta(t)))
+    assert s["err_theta_max"] == pytest.approx(direct.max(), rel=1e-12)
+    assert s["err_theta_final"] == pytest.approx(direct[-1], rel=1e-12)
+    assert s["err_theta_l2"] == pytest.approx(math.sqrt(np.mean(direct**2)), rel=1e-12)
+    pos = np.hypot(hist["x"] - ref["x"], hist["y"] - ref["y"]).to_numpy()
+    assert s["err_pos_max"] == pytest.approx(pos.max(), rel=1e-12)
+    assert s["err_theta_max"] > 0.0
+
+
+def test_order_two_error_shrinks_fourfold(runs):
+    t = np.linspace(0.0, 1.0, 1001)
+    ref = exact_history(t)
+    e1 = metrics.accuracy(runs[1e-2], ref)["err_theta_max"]
+    e2 = metrics.accuracy(runs[5e-3], ref)["err_theta_max"]
+    assert 3.5 < e1 / e2 < 4.5
+
+
+def test_exact_solution_has_zero_energy_residual():
+    hist = exact_history(np.linspace(0.0, 2.0, 2001))
+    e = metrics.energy_balance(hist)
+    assert e["energy_resid_max"] < 1e-13
+    assert e["energy_ok"]
+
+
+def test_drifting_energy_is_flagged():
+    hist = exact_history(np.linspace(0.0, 2.0, 2001))
+    hist["E"] = hist["E"] + 1e-3 * hist["t"]  # a linear drift of 1 mJ/s
+    e = metrics.energy_balance(hist)
+    assert not e["energy_ok"]
+    assert e["energy_resid_max"] == pytest.approx(2e-3, rel=1e-6)
+    assert e["energy_resid_final"] == pytest.approx(2e-3, rel=1e-6)
+
+
+def test_partial_history_has_nan_errors():
+    ref = exact_history(np.linspace(0.0, 1.0, 101))
+    s = metrics.accuracy(ref.iloc[:50], ref)
+    assert math.isnan(s["err_theta_max"])
+
+
+def test_impact_times_and_rebound_apex():
+    t = np.linspace(0.0, 1.0, 1001)
+    # a bouncing height: impacts at 0.2 and 0.6, parabolic flight with apex 0.04 at 0.4
+    gap = np.where((t > 0.2) & (t < 0.6), 1.0 * (t - 0.2) * (0.6 - t), 0.0)
+    hist = pd.DataFrame({"t": t, "gap": gap})
+    ta, ya = metrics.rebound_apex(hist, [0.2, 0.6])
+    assert ta == pytest.approx(0.4, abs=1e-9) and ya == pytest.approx(0.04, rel=1e-9)
+    ev = metrics.impact_time_errors([0.2, 0.61], [0.2, 0.6, 0.9])
+    assert ev["impacts"] == 2 and ev["impacts_ref"] == 3
+    assert ev["err_impact2_t"] == pytest.approx(0.01)
+    assert ev["err_impact_t_max"] == pytest.approx(0.01)
+    assert math.isnan(metrics.rebound_apex(pd.DataFrame({"t": t, "gap": 0 * t}), [0.2])[0])
+
+
+def test_constraint_residuals_only_while_closed():
+    h = pd.DataFrame({"t": [0, 1, 2], "C": [np.nan, 1e-12, -3e-12], "Cdot": [np.nan, 2e-9, 0.0],
+                      "Cddot": [np.nan, np.nan, 5.0]})
+    c = metrics.constraint_residuals(h)
+    assert c == {"C_max": 3e-12, "Cdot_max": 2e-9, "Cddot_max": 5.0}
+
+
+def test_time_call_takes_minimum_and_respects_cap():
+    calls = []
+
+    def fn():
+        calls.append(1)
+        return len(calls)
+
+    tm = metrics.time_call(fn, repeats=3)
+    assert len(calls) == 4 and tm.repeats == 3 and tm.result == 4
+    assert 0.0 <= tm.wall_s < 0.1 and tm.cpu_s >= 0.0
+    import time
+    tm = metrics.time_call(lambda: time.sleep(0.05), repeats=5, time_cap=0.01)
+    assert tm.repeats == 1
