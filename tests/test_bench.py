@@ -1,0 +1,129 @@
+"""Sweeps never lose a row; grids are classified before running; references cache and load."""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import ClassVar
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from daebench import bench
+from daebench.integrators import base
+from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+
+# the exploding test integrator overflows on purpose
+pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
+
+
+class Boom(Integrator):
+    """Raises an ordinary exception (a bug, not a StepFailure) on its third step."""
+
+    name: ClassVar[str] = "boom"
+    description: ClassVar[str] = "test only: raises"
+    capabilities: ClassVar[Capabilities] = Capabilities(order=1, constraints=True, index=3)
+    settings_spec = STEP_SETTINGS
+
+    def _start(self) -> None:
+        pass
+
+    def _step_impl(self, t_stop: float) -> State:
+        if self.counters.steps >= 2:
+            raise KeyError("deliberate bug in _step_impl")
+        s = self.state
+        return State(min(s.t + self.h, t_stop), s.q.copy(), s.v.copy(), s.a.copy(), s.lam.copy())
+
+
+class Explode(Integrator):
+    """Multiplies the state by 1e100 every step (overflow after a few): the driver must call it diverged."""
+
+    name: ClassVar[str] = "explode"
+    description: ClassVar[str] = "test only: diverges"
+    capabilities: ClassVar[Capabilities] = Capabilities(order=1, constraints=True, index=3)
+    settings_spec = STEP_SETTINGS
+
+    def _start(self) -> None:
+        pass
+
+    def _step_impl(self, t_stop: float) -> State:
+        s = self.state
+        return State(min(s.t + self.h, t_stop), 1e100 * s.q, 1e100 * s.v + 1.0, s.a.copy(), s.lam.copy())
+
+
+@pytest.fixture()
+def registry(monkeypatch, tmp_path):
+    real = base.registry()
+    reg = {**real, "boom": Registered("boom", Boom, "tests"), "explode": Registered("explode", Explode, "tests")}
+    monkeypatch.setattr(base, "registry", lambda: dict(reg))
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    return reg
+
+
+@pytest.fixture()
+def pendulum():
+    from daebench.scene import load_scene
+
+    return load_scene("pendulum", ["t_end=0.2", "output.dt=1e-2"])
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_raise_diverge_succeed_give_three_rows(registry, pendulum, tmp_path, jobs):
+    df = bench.run_sweep(pendulum, ["boom", "explode", "hht"], steps=[1e-2], jobs=jobs,
+                         reference_mode="none", progress=False, name="three")
+    assert len(df) == 3
+    by = df.set_index("integrator")
+    assert by.loc["boom", "status"] == "failed" and "deliberate bug" in by.loc["boom", "message"]
+    assert by.loc["explode", "status"] == "diverged" and by.loc["explode", "verdict"] == "diverged"
+    assert by.loc["hht", "status"] == "completed"
+    assert by.loc["hht", "verdict_t"] == pytest.approx(0.2)
+    assert by.loc["hht", "steps"] == 20
+    assert (tmp_path / "bench" / "three.parquet").exists() and (tmp_path / "bench" / "three.csv").exists()
+    side = json.loads((tmp_path / "bench" / "three.json").read_text())
+    assert side["rows"] == 3 and "numpy" in side["provenance"]["versions"]
+
+
+def test_scored_against_reference_and_nan_for_diverged(registry, pendulum):
+    ref = bench.compute_reference(pendulum, rtol=1e-10, atol=1e-12)
+    assert ref.path.exists() and ref.meta["agreement"]["err_theta_max"] < 1e-5
+    again = bench.load_reference(pendulum)
+    pd.testing.assert_frame_equal(again.history, ref.history)
+    df = bench.run_sweep(pendulum, ["explode", "hht"], steps=[1e-2, 5e-3], jobs=1, reference_mode="require",
+                         progress=False, write=False)
+    ok = df[df.integrator == "hht"].sort_values("h")
+    assert ok["err_theta_max"].notna().all()
+    e_big, e_small = ok["err_theta_max"].iloc[1], ok["err_theta_max"].iloc[0]
+    assert 3.0 < e_big / e_small < 5.0  # order 2
+    assert df[df.integrator == "explode"]["err_theta_max"].isna().all()
+
+
+def test_grid_keys_classified_and_unknown_refused(registry, pendulum):
+    specs = bench.plan_sweep(pendulum, ["hht", "ida"], grid={"alpha": [0.0, -0.1], "pendulum.length": [1, 2]},
+                             steps=[1e-2])
+    # alpha varies only for hht (2 × 2 lengths); ida has no fixed step → skipped rows (2 lengths)
+    hht = [s for s in specs if s.integrator == "hht"]
+    assert len(hht) == 4 and {s.options["alpha"] for s in hht} == {0.0, -0.1}
+    assert all(s.scene_overrides["pendulum.length"] in (1, 2) for s in specs)
+    assert all(s.skip for s in specs if s.integrator == "ida")
+    with pytest.raises(bench.SweepError, match="unknown grid key 'alpah'.*alpha"):
+        bench.plan_sweep(pendulum, ["hht"], grid={"alpah": [0.0]})
+    with pytest.raises(bench.SweepError, match="unknown integrator 'hhtt'"):
+        bench.plan_sweep(pendulum, ["hhtt"])
+    with pytest.raises(bench.ReferenceMissing, match="daebench reference pendulum"):
+        bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode="require", progress=False)
+
+
+def test_tols_skip_fixed_step_only(registry, pendulum):
+    specs = bench.plan_sweep(pendulum, ["hht", "boom"], tols=[1e-4])
+    hht, boom = specs
+    assert hht.options["adaptive"] is True and hht.options["rtol"] == 1e-4
+    assert "no adaptive" in boom.skip
+    df = bench.run_specs(specs, pendulum, reference_mode="none", progress=False)
+    assert list(df.status) == ["completed", "skipped"]
+
+
+def test_reference_tolerance_margin():
+    assert bench.reference_tolerances() == (1e-11, 1e-13)
+    r, a = bench.reference_tolerances(tightest_rtol=1e-10)
+    assert r == pytest.approx(1e-12) and a == pytest.approx(1e-14)
