@@ -17,6 +17,7 @@ MODELS: dict[str, str] = {
     "hub-beam": "daebench.models.hubbeam",
     "pendulum": "daebench.models.pendulum",
     "andrews": "daebench.models.andrews",
+    "chain": "daebench.models.chain",
 }
 
 
