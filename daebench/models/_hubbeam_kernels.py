@@ -2,8 +2,8 @@
 
 Everything here is a pure function of arrays so that compiled integrator loops can
 call it directly. The physics and notation are those of :mod:`daebench.models.hubbeam`:
-q = (θ, A, B), quadrature weights ``wm`` already multiplied by ρS, tables
-``phx`` (nq, nA), ``phy`` (nq, nB), ``H`` (nq, nB, nB) (ignored when ``fore == 0``).
+q = (θ, A, B), quadrature weights ``wm`` already multiplied by ρS, point-contiguous
+tables ``phx`` (nA, nq), ``phy`` (nB, nq), ``H`` (nB, nB, nq) (ignored when ``fore == 0``).
 
 The parameter vector ``prm`` holds, by index (see ``P_*`` below):
 hub radius a, hub inertia J_h, gravity g (0 = off), torque τ0, torque period T,
@@ -20,11 +20,15 @@ import math
 import numpy as np
 from numba import njit
 
+# Reassociation and fused multiply-add only (SIMD reductions); no "no-NaN/no-inf"
+# assumptions, so a diverging run still shows NaN/inf instead of garbage.
+FASTMATH = {"reassoc", "contract"}
+
 P_A, P_JH, P_G, P_TAU0, P_T, P_TORQUE, P_BETA, P_H0, P_M1 = range(9)
 N_PRM = 9
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def torque(t: float, prm: np.ndarray) -> float:
     """τ(t) = τ0 sin(2πt/T) for t ≤ T, 0 after (0 when the torque is off)."""
     if prm[P_TORQUE] == 0.0 or t > prm[P_T]:
@@ -32,17 +36,19 @@ def torque(t: float, prm: np.ndarray) -> float:
     return prm[P_TAU0] * math.sin(2.0 * math.pi * t / prm[P_T])
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def mass_force(t, q, v, prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy_bar, Hbar,
-               want_m, M, Q, hb):
+               want_m, M, Q, work):
     """Fill M(q) (when ``want_m``) and the applied force Q(t, q, v) (no contact).
 
-    ``Mc`` is the constant part of M (J_h, ∫ρS ΦxᵀΦx, ∫ρS ΦyᵀΦy); ``hb`` is scratch of
-    length nB. M and Q are overwritten.
+    Tables are point-contiguous: ``phx`` (nA, nq), ``phy`` (nB, nq), ``H`` (nB, nB, nq),
+    so every inner loop runs over the quadrature points and vectorizes. ``Mc`` is the
+    constant part of M (J_h, ∫ρS ΦxᵀΦx, ∫ρS ΦyᵀΦy); ``work`` is scratch of shape
+    (nB + 8, nq). M and Q are overwritten.
     """
     nq = xs.shape[0]
-    nA = phx.shape[1]
-    nB = phy.shape[1]
+    nA = phx.shape[0]
+    nB = phy.shape[0]
     n = 1 + nA + nB
     iA = 1
     iB = 1 + nA
@@ -54,65 +60,108 @@ def mass_force(t, q, v, prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy
         for i in range(n):
             for j in range(n):
                 M[i, j] = 0.0
-    for i in range(nB):
-        hb[i] = 0.0
-    # -- inertia: M = ∫ρS GᵀG (variable part), Q_v = −∫ρS Gᵀc -----------------
+    # per-point fields, each a row of work
+    p1 = work[nB]
+    p2 = work[nB + 1]
+    pd1 = work[nB + 2]
+    pd2 = work[nB + 3]
+    c0 = work[nB + 4]
+    c1 = work[nB + 5]
+    bdhbd = work[nB + 6]  # Ḃᵀ H Ḃ
+    tmp = work[nB + 7]
     for k in range(nq):
-        w = wm[k]
-        xa = 0.0
-        xad = 0.0
-        for i in range(nA):
-            xa += phx[k, i] * q[iA + i]
-            xad += phx[k, i] * v[iA + i]
-        yb = 0.0
-        ybd = 0.0
+        p1[k] = a + xs[k]
+        p2[k] = 0.0
+        pd1[k] = 0.0
+        pd2[k] = 0.0
+        bdhbd[k] = 0.0
+    for i in range(nA):
+        qi = q[iA + i]
+        vi = v[iA + i]
+        for k in range(nq):
+            p1[k] += phx[i, k] * qi
+            pd1[k] += phx[i, k] * vi
+    for i in range(nB):
+        qi = q[iB + i]
+        vi = v[iB + i]
+        for k in range(nq):
+            p2[k] += phy[i, k] * qi
+            pd2[k] += phy[i, k] * vi
+    if fore:
+        # hb[i, k] = (H_k B)_i (rows 0..nB−1 of work), p1 −= ½ BᵀHB, ṗ1 −= (HB)ᵀḂ
         for i in range(nB):
-            yb += phy[k, i] * q[iB + i]
-            ybd += phy[k, i] * v[iB + i]
-        bhb = 0.0    # Bᵀ H B
-        bdhbd = 0.0  # Ḃᵀ H Ḃ
-        hbbd = 0.0   # (H B)ᵀ Ḃ
+            hb = work[i]
+            for k in range(nq):
+                hb[k] = 0.0
+            for j in range(nB):
+                qj = q[iB + j]
+                wij = v[iB + i] * v[iB + j]
+                for k in range(nq):
+                    h = H[i, j, k]
+                    hb[k] += h * qj
+                    bdhbd[k] += h * wij
+            qi = q[iB + i]
+            vi = v[iB + i]
+            for k in range(nq):
+                p1[k] -= 0.5 * qi * hb[k]
+                pd1[k] -= vi * hb[k]
+    # r̈ = R (G q̈ + c),  c = −θ̇² p + 2θ̇ E ṗ + [−ḂᵀHḂ, 0];  G = [[−p2, Φx, −(HB)ᵀ], [p1, 0, Φy]]
+    s0 = 0.0
+    for k in range(nq):
+        c0[k] = wm[k] * (-thd * thd * p1[k] - 2.0 * thd * pd2[k] - bdhbd[k])  # weighted
+        c1[k] = wm[k] * (-thd * thd * p2[k] + 2.0 * thd * pd1[k])
+        s0 += -p2[k] * c0[k] + p1[k] * c1[k]
+    Q[0] -= s0
+    for i in range(nA):
+        s0 = 0.0
+        for k in range(nq):
+            s0 += phx[i, k] * c0[k]
+        Q[iA + i] -= s0
+    for i in range(nB):
+        s0 = 0.0
+        for k in range(nq):
+            s0 += phy[i, k] * c1[k]
         if fore:
-            for i in range(nB):
-                s1 = 0.0
-                s2 = 0.0
-                for j in range(nB):
-                    h = H[k, i, j]
-                    s1 += h * q[iB + j]
-                    s2 += h * v[iB + j]
-                hb[i] = s1
-                bhb += q[iB + i] * s1
-                bdhbd += v[iB + i] * s2
-                hbbd += s1 * v[iB + i]
-        p1 = a + xs[k] + xa - 0.5 * bhb
-        p2 = yb
-        pd1 = xad - hbbd
-        pd2 = ybd
-        # r̈ = R (G q̈ + c),  c = −θ̇² p + 2θ̇ E ṗ + [−ḂᵀHḂ, 0]
-        c0 = -thd * thd * p1 - 2.0 * thd * pd2 - bdhbd
-        c1 = -thd * thd * p2 + 2.0 * thd * pd1
-        # G = [[−p2, Φx, −(HB)ᵀ], [p1, 0, Φy]]
-        Q[0] -= w * (-p2 * c0 + p1 * c1)
-        for i in range(nA):
-            Q[iA + i] -= w * phx[k, i] * c0
-        for i in range(nB):
-            Q[iB + i] -= w * (phy[k, i] * c1 - hb[i] * c0)
-        if want_m:
-            M[0, 0] += w * (p1 * p1 + p2 * p2)
-            for i in range(nA):
-                M[0, iA + i] -= w * p2 * phx[k, i]
-            for i in range(nB):
-                M[0, iB + i] += w * (p2 * hb[i] + p1 * phy[k, i])
-            if fore:
-                for i in range(nA):
-                    wi = w * phx[k, i]
-                    for j in range(nB):
-                        M[iA + i, iB + j] -= wi * hb[j]
-                for i in range(nB):
-                    wi = w * hb[i]
-                    for j in range(i, nB):
-                        M[iB + i, iB + j] += wi * hb[j]
+            hb = work[i]
+            for k in range(nq):
+                s0 -= hb[k] * c0[k]
+        Q[iB + i] -= s0
     if want_m:
+        s0 = 0.0
+        for k in range(nq):
+            s0 += wm[k] * (p1[k] * p1[k] + p2[k] * p2[k])
+            tmp[k] = wm[k] * p2[k]
+        M[0, 0] += s0
+        for i in range(nA):
+            s0 = 0.0
+            for k in range(nq):
+                s0 += tmp[k] * phx[i, k]
+            M[0, iA + i] -= s0
+        for i in range(nB):
+            s0 = 0.0
+            for k in range(nq):
+                s0 += wm[k] * p1[k] * phy[i, k]
+            if fore:
+                hb = work[i]
+                for k in range(nq):
+                    s0 += tmp[k] * hb[k]
+            M[0, iB + i] += s0
+        if fore:
+            for j in range(nB):
+                hbj = work[j]
+                for k in range(nq):
+                    tmp[k] = wm[k] * hbj[k]
+                for i in range(nA):
+                    s0 = 0.0
+                    for k in range(nq):
+                        s0 += phx[i, k] * tmp[k]
+                    M[iA + i, iB + j] -= s0
+                for i in range(j + 1):
+                    hbi = work[i]
+                    s0 = 0.0
+                    for k in range(nq):
+                        s0 += hbi[k] * tmp[k]
+                    M[iB + i, iB + j] += s0
         for i in range(n):
             for j in range(i + 1, n):
                 M[j, i] = M[i, j]
@@ -142,25 +191,23 @@ def mass_force(t, q, v, prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy
         P2 = 0.0
         for i in range(nB):
             P2 += phy_bar[i] * q[iB + i]
+        for i in range(nB):
+            Q[iB + i] -= g * ct * phy_bar[i]
         if fore:
             for i in range(nB):
                 s = 0.0
                 for j in range(nB):
                     s += Hbar[i, j] * q[iB + j]
-                hb[i] = s  # Hbar B
-                P1 -= 0.5 * q[iB + i] * s
+                P1 -= 0.5 * q[iB + i] * s  # P1 = ∫ρS p1 includes −½ BᵀH̄B
+                Q[iB + i] += g * st * s
         Q[0] -= g * (ct * P1 - st * P2)
         for i in range(nA):
             Q[iA + i] -= g * st * phx_bar[i]
-        for i in range(nB):
-            Q[iB + i] -= g * ct * phy_bar[i]
-            if fore:
-                Q[iB + i] += g * st * hb[i]
     # -- drive torque ------------------------------------------------------------------
     Q[0] += torque(t, prm)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def point_kinematics(q, v, prm, fore, xp, phx_p, phy_p, H_p, G0, G1):
     """Position, velocity, field Jacobian G and c at one material point.
 
@@ -205,7 +252,7 @@ def point_kinematics(q, v, prm, fore, xp, phx_p, phy_p, H_p, G0, G1):
     return p1, p2, pd1, pd2, c0, c1
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def gap_kernel(q, v, prm, fore, xp, phx_p, phy_p, H_p, gq, G1):
     """Gap g = e_Yᵀ R p + h0, its Jacobian (into ``gq``) and γ_g = −e_Yᵀ R c.
     ``G1`` is scratch of length n."""
@@ -219,12 +266,12 @@ def gap_kernel(q, v, prm, fore, xp, phx_p, phy_p, H_p, gq, G1):
     return g, gamma
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _point_fields(k, q, fore, xs, phx, phy, H, a, vec, P0, P1, G0, G1, D0):
     """At quadrature point k: P = ∂p/∂q rows (P0, P1), G rows, D0 = −(H vec_B)ᵀ in the
     B columns (row 0 of ∂(P vec)/∂q). Returns (p1, p2)."""
-    nA = phx.shape[1]
-    nB = phy.shape[1]
+    nA = phx.shape[0]
+    nB = phy.shape[0]
     iA = 1
     iB = 1 + nA
     p1 = a + xs[k]
@@ -233,22 +280,22 @@ def _point_fields(k, q, fore, xs, phx, phy, H, a, vec, P0, P1, G0, G1, D0):
     P1[0] = 0.0
     D0[0] = 0.0
     for i in range(nA):
-        P0[iA + i] = phx[k, i]
+        P0[iA + i] = phx[i, k]
         P1[iA + i] = 0.0
         D0[iA + i] = 0.0
-        p1 += phx[k, i] * q[iA + i]
+        p1 += phx[i, k] * q[iA + i]
     for i in range(nB):
         hbi = 0.0
         hvi = 0.0
         if fore:
             for j in range(nB):
-                hbi += H[k, i, j] * q[iB + j]
-                hvi += H[k, i, j] * vec[iB + j]
+                hbi += H[i, j, k] * q[iB + j]
+                hvi += H[i, j, k] * vec[iB + j]
         P0[iB + i] = -hbi
-        P1[iB + i] = phy[k, i]
+        P1[iB + i] = phy[i, k]
         D0[iB + i] = -hvi
         p1 -= 0.5 * q[iB + i] * hbi
-        p2 += phy[k, i] * q[iB + i]
+        p2 += phy[i, k] * q[iB + i]
     for i in range(P0.shape[0]):
         G0[i] = P0[i]
         G1[i] = P1[i]
@@ -257,7 +304,7 @@ def _point_fields(k, q, fore, xs, phx, phy, H, a, vec, P0, P1, G0, G1, D0):
     return p1, p2
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def force_jacobian(t, q, v, prm, fore, xs, wm, phx, phy, H, K1, K2, phx_bar, phy_bar, Hbar, Kq, Kv):
     """Analytic (∂Q/∂q, ∂Q/∂v) of the applied force (no contact). Kq, Kv overwritten.
 
@@ -267,8 +314,8 @@ def force_jacobian(t, q, v, prm, fore, xs, wm, phx, phy, H, K1, K2, phx_bar, phy
     where P = ∂p/∂q and D = ∂ṗ/∂q (row 0, B columns: −(HḂ)ᵀ).
     """
     nq = xs.shape[0]
-    nA = phx.shape[1]
-    nB = phy.shape[1]
+    nA = phx.shape[0]
+    nB = phy.shape[0]
     n = 1 + nA + nB
     iA = 1
     iB = 1 + nA
@@ -313,7 +360,7 @@ def force_jacobian(t, q, v, prm, fore, xs, wm, phx, phy, H, K1, K2, phx_bar, phy
         if fore:
             for i in range(nB):
                 for j in range(nB):
-                    Kq[iB + i, iB + j] += w * c0 * H[k, i, j]
+                    Kq[iB + i, iB + j] += w * c0 * H[i, j, k]
         # ∂Q/∂v
         for j in range(n):
             dc0[j] = -2.0 * thd * P1[j] + 2.0 * D0[j]
@@ -369,12 +416,12 @@ def force_jacobian(t, q, v, prm, fore, xs, wm, phx, phy, H, K1, K2, phx_bar, phy
                     Kq[iB + i, iB + j] += g * st * Hbar[i, j]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def mass_jacobian_product(q, acc, prm, fore, xs, wm, phx, phy, H, out):
     """∂(M(q) acc)/∂q = ∫ρS [ (∂G/∂q)ᵀ(G acc) + Gᵀ (acc₀ E P + D_acc) ]. ``out`` overwritten."""
     nq = xs.shape[0]
-    nA = phx.shape[1]
-    nB = phy.shape[1]
+    nA = phx.shape[0]
+    nB = phy.shape[0]
     n = 1 + nA + nB
     iB = 1 + nA
     a = prm[P_A]
@@ -410,4 +457,4 @@ def mass_jacobian_product(q, acc, prm, fore, xs, wm, phx, phy, H, out):
         if fore:
             for i in range(nB):
                 for j in range(nB):
-                    out[iB + i, iB + j] -= w * ga0 * H[k, i, j]
+                    out[iB + i, iB + j] -= w * ga0 * H[i, j, k]

@@ -212,10 +212,11 @@ class HubBeam(MechanicalSystem):
         self.prm = prm
         self.fore = 1 if fore else 0
         c = np.ascontiguousarray
-        self.kernel_args = (prm, self.fore, c(tab.x), c(wm), c(at.phx), c(at.phy), c(H), self.Mc,
-                            c(self.K1), c(self.K2), c(wm @ at.phx), c(wm @ at.phy), c(Hbar))
+        # point-contiguous tables (kernels loop over quadrature points innermost)
+        self.kernel_args = (prm, self.fore, c(tab.x), c(wm), c(at.phx.T), c(at.phy.T), c(H.transpose(1, 2, 0)),
+                            self.Mc, c(self.K1), c(self.K2), c(wm @ at.phx), c(wm @ at.phy), c(Hbar))
         self._jac_args = self.kernel_args[:7] + self.kernel_args[8:]
-        self._hb = np.zeros(max(nB, 1))
+        self._work = np.zeros((nB + 8, tab.x.size))
         self._G1 = np.zeros(self.n)
         self._pt = [(float(tab.points[i]), c(tab.at_points.phx[i]), c(tab.at_points.phy[i]), c(self.Hp[i]))
                     for i in range(2)]
@@ -237,20 +238,20 @@ class HubBeam(MechanicalSystem):
         M = np.empty((self.n, self.n))
         Q = np.empty(self.n)
         kern.mass_force(float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), *self.kernel_args,
-                        True, M, Q, self._hb)
+                        True, M, Q, self._work)
         return M, Q
 
     def mass(self, q: np.ndarray) -> np.ndarray:
         M = np.empty((self.n, self.n))
         Q = np.empty(self.n)
         q = np.asarray(q, dtype=float)
-        kern.mass_force(0.0, q, np.zeros(self.n), *self.kernel_args, True, M, Q, self._hb)
+        kern.mass_force(0.0, q, np.zeros(self.n), *self.kernel_args, True, M, Q, self._work)
         return M
 
     def applied_force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         Q = np.empty(self.n)
         kern.mass_force(float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), *self.kernel_args,
-                        False, self.Mc, Q, self._hb)
+                        False, self.Mc, Q, self._work)
         return Q
 
     def _contact_force(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
