@@ -129,6 +129,163 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
         raise typer.Exit(1)
 
 
+# ---- harness: references, sweeps, figures, the paper ------------------------------------
+def _floats(text: str | None, what: str) -> list[float] | None:
+    if not text:
+        return None
+    try:
+        return [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        fail(f"{what} must be comma-separated numbers, e.g. 1e-3,5e-4; got '{text}'")
+    return None
+
+
+def _grid(items: list[str]) -> dict[str, list[str]]:
+    grid: dict[str, list[str]] = {}
+    for it in items:
+        if "=" not in it:
+            fail(f"--grid needs key=v1,v2,... (e.g. --grid alpha=0,-0.15); got '{it}'")
+        k, v = it.split("=", 1)
+        vals = [x.strip() for x in v.split(",") if x.strip()]
+        if not vals:
+            fail(f"--grid {k.strip()} has no values")
+        grid[k.strip()] = vals
+    return grid
+
+
+@app.command()
+def reference(scene: str = typer.Argument(..., help="scene name or path to a .toml file"),
+              set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
+              rtol: Optional[float] = typer.Option(None, "--rtol", help="IDA rtol (default 1e-11)"),
+              atol: Optional[float] = typer.Option(None, "--atol", help="IDA atol (default rtol·1e-2)"),
+              force: bool = typer.Option(False, "--force", help="recompute even if cached")) -> None:
+    """Compute (or show) the cached IDA reference of a scene, checked against a 10× looser run."""
+    from daebench import bench
+
+    sc = _load(scene, set_)
+    if not force:
+        try:
+            ref = bench.load_reference(sc)
+            console.print(f"cached: {ref.path} (rtol {ref.rtol:g}); use --force to recompute")
+            console.print_json(json.dumps(ref.meta.get("agreement", {})))
+            return
+        except bench.ReferenceMissing:
+            pass
+    try:
+        ref = bench.compute_reference(sc, rtol=rtol, atol=atol)
+    except (ParamError, RuntimeError) as exc:
+        fail(str(exc))
+    console.print(f"reference: {ref.path}  (IDA rtol {ref.rtol:g}, {ref.meta['wall_s']:.3g} s, "
+                  f"{len(ref.impacts)} impacts)")
+    agr = ref.meta.get("agreement", {})
+    worst = {k: v for k, v in agr.items() if k.startswith("err_") and k.endswith("_max")}
+    console.print("agreement with the 10× looser check run: "
+                  + ", ".join(f"{k} {v:.2e}" for k, v in worst.items() if v == v))
+
+
+@app.command()
+def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml file"),
+          integrators: str = typer.Option(..., "--integrators", "-i", help="comma-separated names, e.g. hht,baumgarte"),
+          grid: list[str] = typer.Option([], "--grid", help="key=v1,v2,...: an integrator setting or a scene key"),
+          steps: Optional[str] = typer.Option(None, "--steps", help="fixed steps h, e.g. 1e-3,5e-4"),
+          tols: Optional[str] = typer.Option(None, "--tols", help="tolerances (adaptive runs), e.g. 1e-4,1e-6"),
+          opt: list[str] = typer.Option([], "--opt", help="fixed integrator setting name=value for every run"),
+          set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
+          jobs: int = typer.Option(1, "--jobs", "-j", help="local worker processes"),
+          scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786)"),
+          ref_mode: str = typer.Option("require", "--reference",
+                                       help="require (error if missing) | compute | auto (score if cached) | none"),
+          repeats: int = typer.Option(1, "--repeats", help="timed repeats (min taken; > 1 adds a warm-up run)"),
+          name: Optional[str] = typer.Option(None, "--name", help="table name under results/bench/")) -> None:
+    """Sweep integrators × grid × steps/tols on a scene; one scored row per run."""
+    from daebench import bench as B
+    from daebench.params import parse_pairs
+
+    sc = _load(scene, set_)
+    try:
+        options = parse_pairs(opt, "--opt", "h_contact=1e-6") if opt else {}
+        names = [x.strip() for x in integrators.split(",") if x.strip()]
+        df = B.run_sweep(sc, names, _grid(grid), _floats(steps, "--steps"), _floats(tols, "--tols"),
+                         jobs=jobs, scheduler=scheduler, options=options, name=name,
+                         reference_mode=ref_mode, repeats=repeats, warmup=repeats > 1)
+    except (ParamError, B.ReferenceMissing) as exc:
+        fail(str(exc))
+    cols = [c for c in ("label", "h", "tol", "status", "wall_s", "steps", "err_theta_max", "err_tip_max",
+                        "energy_resid_max", "Cdot_max") if c in df.columns]
+    t = Table(title=f"{sc.name} ({len(df)} runs)")
+    for c in cols:
+        t.add_column(c)
+    for _, r in df.iterrows():
+        t.add_row(*[f"{r[c]:.3g}" if isinstance(r[c], float) else str(r[c]) for c in cols])
+    console.print(t)
+    console.print(f"table: {B.results_dir() / 'bench' / ((name or f'{sc.name}-{sc.hash[:8]}') + '.parquet')}")
+
+
+plot_app = typer.Typer(no_args_is_help=True, help="Figures from sweep tables and run histories.")
+app.add_typer(plot_app, name="plot")
+
+
+@plot_app.command("wp")
+def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv)"),
+            x: str = typer.Option("wall_s", "--x", help="cost column (wall_s, cpu_s, steps, ...)"),
+            y: str = typer.Option("err_theta_max", "--y", help="error column"),
+            group: str = typer.Option("label", "--group", help="one line per value of this column"),
+            out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
+    """Work-precision diagram (log–log, Pareto front marked) as PNG and SVG."""
+    from pathlib import Path
+
+    from daebench import bench as B
+    from daebench import plots, provenance
+
+    p = Path(table)
+    if not p.exists():
+        fail(f"table '{table}' does not exist (sweeps write results/bench/<name>.parquet)")
+    df = B.read_table(p)
+    side = p.with_suffix(".json")
+    prov = json.loads(side.read_text())["provenance"] if side.exists() else provenance.collect()
+    stem = Path(out) if out else p.with_name(f"{p.stem}-wp-{y}-vs-{x}")
+    try:
+        _, files = plots.work_precision(df, x, y, group, stem, prov, title=p.stem)
+    except KeyError as exc:
+        fail(str(exc.args[0]))
+    console.print("wrote " + ", ".join(map(str, files)))
+
+
+@plot_app.command("history")
+def plot_history(files: list[str] = typer.Argument(..., help="history files written by `daebench run`"),
+                 out: str = typer.Option("results/figures/history", "--out", help="output stem"),
+                 modal: bool = typer.Option(True, "--modal/--no-modal", help="also W_i(t) if present")) -> None:
+    """θ, energy residual and constraint residuals against t (and modal participation)."""
+    from pathlib import Path
+
+    from daebench import plots, provenance
+
+    try:
+        hists = {Path(f).stem: plots.read_history(f) for f in files}
+    except FileNotFoundError as exc:
+        fail(str(exc))
+    prov = provenance.collect()
+    written = plots.history(hists, out, prov)[1]
+    if modal and any(c.startswith("W") and c[1:].isdigit() for h in hists.values() for c in h.columns):
+        written += plots.modal_participation(hists, f"{out}-modal", prov)[1]
+    console.print("wrote " + ", ".join(map(str, written)))
+
+
+@app.command()
+def paper(quick: bool = typer.Option(False, "--quick", help="reduced grid for CI (N=3, t_end 0.5 s, h_contact 1e-5)"),
+          jobs: int = typer.Option(1, "--jobs", "-j", help="local worker processes"),
+          out: Optional[str] = typer.Option(None, "--out", help="output folder (default results/paper)")) -> None:
+    """Regenerate the beam-impact study: Table 1 beside the published seconds, one figure
+    and one computed verdict per claim (CASES.md)."""
+    from daebench import paper as P
+
+    res = P.run_paper(quick=quick, jobs=jobs, out=out)
+    console.print(res.table_md)
+    for v in res.verdicts:
+        console.print(v)
+    console.print(f"outputs in {res.folder}")
+
+
 def main() -> None:  # pragma: no cover
     app()
 
