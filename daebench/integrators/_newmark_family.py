@@ -226,6 +226,7 @@ class NewmarkFamily(Integrator):
             attempts += 1
             x = x0.copy()
             fresh = False
+            since = 0  # iterations with the current fresh matrix
             d_prev = None
             converged = False
             for it in range(maxiter):
@@ -248,9 +249,11 @@ class NewmarkFamily(Integrator):
                 if self._lu is None or not reuse:
                     self._factor(t1, h, q, v, a, x[n:n + m] / bh2 if m else None, M, Cq)
                     fresh = True
+                    since = 0
                 dx, info = dgetrs(self._lu[0], self._lu[1], r)
                 dx = -dx
                 c.newton_iterations += 1
+                since += 1
                 x += dx
                 if not np.isfinite(x).all():
                     raise _Fail("non-finite Newton iterate")
@@ -267,15 +270,18 @@ class NewmarkFamily(Integrator):
                 if small and self._constraints_ok(t1, x, unpack, tol, qscale):
                     converged = True
                     break
-                if rate is not None and rate > NEWTON_RATE_REFRESH:
-                    if not fresh:
-                        self._lu = None  # stale matrix converges too slowly: rebuild at the next iterate
-                    elif rate > NEWTON_RATE_DIVERGE:
+                if rate is not None:
+                    # a stale matrix that contracts poorly, or too slowly to finish within maxiter,
+                    # is rebuilt at the next iterate
+                    slow = rate >= 1.0 or d * rate ** (maxiter - it - 1) > tol * (1.0 - rate)
+                    if not fresh and (rate > NEWTON_RATE_REFRESH or slow):
+                        self._lu = None
+                    elif fresh and rate > NEWTON_RATE_DIVERGE:
                         break
                 d_prev = d
             if converged:
                 break
-            if fresh or attempts > 1:
+            if attempts > 1 or (fresh and since >= 3):
                 raise _Fail(f"Newton did not converge in {maxiter} iterations")
             self._lu = None  # one retry from the predictor with a fresh matrix
         q = x[:n].copy()
