@@ -117,7 +117,8 @@ def test_static_deflection_modes_converge():
         sc = load_scene("beam-impact", [f"discretization.n={N}"])
         errs[N] = abs(static_tip(build_system(sc)) / exact_static_tip(sc) - 1.0)
     print("static tip error (modes)", errs)
-    assert errs[3] < 1e-2 and errs[12] < errs[6] < errs[3] and errs[12] < 1e-4
+    # measured: 1.6e-4, 6.1e-6, 2.1e-7
+    assert errs[3] < 5e-4 and errs[12] < errs[6] < errs[3] and errs[12] < 1e-6
 
 
 # ---------------------------------------------------------------------------

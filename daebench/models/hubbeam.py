@@ -39,7 +39,15 @@ dE/dt = 0 along the motion (tests/test_hubbeam.py checks this numerically).
 Discretizations (tables from :mod:`daebench.models.shapes`): clamped–free cantilever
 modes (N per direction, normalized ∫Φy_iΦy_j dx = L δ_ij, evaluated cancellation-free)
 with axial modes sin((2i−1)πx/2L); or Hermite-cubic/linear finite elements.
-The per-evaluation work is in :mod:`daebench.models._hubbeam_kernels` (numba).
+The per-evaluation work is in :mod:`daebench.models._hubbeam_kernels` (numba): one
+pass over a fixed set of quadrature points, O(nq·nB²) with foreshortening.
+
+Note on conditioning: with J_h = 0 (beam-impact) the rigid rotation field x·δθ is
+almost in the span of the clamped modes, so cond(M) grows with N (≈ 4e3, 2e4, 1e5,
+2e5 at N = 3, 5, 9, 12). That is the model, not a defect of the tables.
+
+Modal participation (observables ``W1..WN``, modes only):
+W_i = Φy_i(L) B_i / Σ_j |Φy_j(L) B_j|.
 """
 
 from __future__ import annotations
@@ -217,6 +225,7 @@ class HubBeam(MechanicalSystem):
                             self.Mc, c(self.K1), c(self.K2), c(wm @ at.phx), c(wm @ at.phy), c(Hbar))
         self._jac_args = self.kernel_args[:7] + self.kernel_args[8:]
         self._work = np.zeros((nB + 8, tab.x.size))
+        self._zeros = np.zeros(self.n)  # read-only zero velocity
         self._G1 = np.zeros(self.n)
         self._pt = [(float(tab.points[i]), c(tab.at_points.phx[i]), c(tab.at_points.phy[i]), c(self.Hp[i]))
                     for i in range(2)]
@@ -245,7 +254,7 @@ class HubBeam(MechanicalSystem):
         M = np.empty((self.n, self.n))
         Q = np.empty(self.n)
         q = np.asarray(q, dtype=float)
-        kern.mass_force(0.0, q, np.zeros(self.n), *self.kernel_args, True, M, Q, self._work)
+        kern.mass_force(0.0, q, self._zeros, *self.kernel_args, True, M, Q, self._work)
         return M
 
     def applied_force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -256,7 +265,7 @@ class HubBeam(MechanicalSystem):
 
     def _contact_force(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """g_qᵀ F of a continuous contact law (zero when open)."""
-        g, gq, _ = self._gap_all(q, v)
+        g, gq, _ = self._point(1, q, v)
         if g >= 0.0:
             return np.zeros(self.n)
         F = self.contact_law.force(np.array([g]), np.array([gq @ v]))
@@ -285,24 +294,22 @@ class HubBeam(MechanicalSystem):
 
     # -- contact ------------------------------------------------------------------
     def _point(self, which: int, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray, float]:
+        """(gap, gap Jacobian, γ_g) of material point ``which`` (0 = tip, 1 = contact point)."""
         gq = np.empty(self.n)
         xp, phx, phy, Hp = self._pt[which]
         g, gamma = kern.gap_kernel(np.asarray(q, dtype=float), np.asarray(v, dtype=float), self.prm, self.fore,
                                    xp, phx, phy, Hp, gq, self._G1)
         return g, gq, gamma
 
-    def _gap_all(self, q, v):
-        return self._point(1, q, v)
-
     def gap(self, q: np.ndarray) -> np.ndarray:
         if not self.n_contacts:
             return np.zeros(0)
-        return np.array([self._point(1, q, np.zeros(self.n))[0]])
+        return np.array([self._point(1, q, self._zeros)[0]])
 
     def gap_jacobian(self, q: np.ndarray) -> np.ndarray:
         if not self.n_contacts:
             return np.zeros((0, self.n))
-        return self._point(1, q, np.zeros(self.n))[1][None, :]
+        return self._point(1, q, self._zeros)[1][None, :]
 
     def gap_gamma(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         if not self.n_contacts:
