@@ -101,7 +101,8 @@ class Driver:
         self.constraint_contacts = law is not None and not law.continuous and system.n_contacts > 0
         self.continuous_contacts = law is not None and law.continuous and system.n_contacts > 0
         needs = system.n_bilateral > 0 or self.constraint_contacts
-        check_capabilities(type(integrator), needs, integrator.adaptive)
+        check_capabilities(type(integrator), needs, integrator.adaptive,
+                           contacts_by_integrator=system.contacts_by_integrator)
 
     # -- public -----------------------------------------------------------------
     def run(self) -> RunResult:

@@ -161,6 +161,11 @@ class MechanicalSystem:
         """(q0, v0) at t = 0, consistent with the bilateral constraints."""
         raise NotImplementedError
 
+    @property
+    def contacts_by_integrator(self) -> bool:
+        """Contact points with no law for the driver: an integrator must resolve them."""
+        return self.n_contacts > 0 and self.contact_law is None
+
     def total_energy(self, q: np.ndarray, v: np.ndarray) -> float:
         return float(sum(self.energy(q, v).values()))
 

@@ -175,3 +175,18 @@ def test_ode_only_integrator_refused_on_constraint_contact():
 
     with pytest.raises(IntegratorError, match="ODEs only"):
         simulate(Ball(1.0, ConstraintLaw(0.0)), OdeOnly(h=1e-3), 1.0, 1e-2)
+
+
+def test_contacts_left_to_the_integrator_need_one_that_resolves_them():
+    """A complementarity scene refuses an integrator that would let bodies pass through
+    each other, and the complementarity integrator refuses a scene without such contacts."""
+    from daebench.runner import run_scene
+    from daebench.scene import load_scene
+
+    chain = load_scene("chain-impact", ["contact.law=complementarity", "t_end=1e-3"])
+    with pytest.raises(IntegratorError, match="does not resolve contacts"):
+        run_scene(chain, "ida", write=False)
+    with pytest.raises(IntegratorError, match="resolves contacts itself"):
+        run_scene(load_scene("pendulum"), "lcp", write=False)
+    rec, _ = run_scene(chain, "lcp", {"h": 1e-5}, write=False)
+    assert rec.status == "completed", rec.message

@@ -67,6 +67,9 @@ class Capabilities:
         1 (acceleration level, possibly stabilized); None for ODE-only methods.
     dense_output : bool
         Whether :meth:`Integrator.dense` is better than the default Hermite cubic.
+    contacts : bool
+        Whether it resolves the system's contacts itself (complementarity time
+        stepping) instead of leaving them to the driver's events and contact laws.
     """
 
     order: int
@@ -75,6 +78,7 @@ class Capabilities:
     constraints: bool = False
     index: int | None = None
     dense_output: bool = False
+    contacts: bool = False
 
 
 # Settings every stepping integrator shares: the paper's protocol and adaptivity.
@@ -291,9 +295,21 @@ def get_integrator(name: str) -> type[Integrator]:
 
 
 def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
-                       adaptive: bool = False, what: str = "this case") -> None:
+                       adaptive: bool = False, what: str = "this case",
+                       contacts_by_integrator: bool = False) -> None:
     """Refuse a mismatch before the first step, with a message that says what to do."""
     cap = cls.capabilities
+    if contacts_by_integrator and not cap.contacts:
+        raise IntegratorError(
+            f"{what} leaves its contacts to the integrator (contact law 'complementarity'), but "
+            f"'{cls.name}' does not resolve contacts; use `--integrator lcp`, or pick a contact law "
+            f"the driver handles (`--set contact.law=hertz`, `penalty` or `constraint`)."
+        )
+    if cap.contacts and not contacts_by_integrator:
+        raise IntegratorError(
+            f"integrator '{cls.name}' resolves contacts itself and needs a case whose contacts are "
+            f"left to it (`--set contact.law=complementarity`); {what} has none."
+        )
     if problem_needs_constraints and not cap.constraints:
         raise IntegratorError(
             f"integrator '{cls.name}' integrates ODEs only, but {what} has constraints "

@@ -141,7 +141,7 @@ class ComplementarityLCP(Integrator):
     name: ClassVar[str] = "lcp"
     description: ClassVar[str] = ("complementarity contact: trapezoidal rule + one LCP per step on the "
                                   "time-averaged gap (contact.law = complementarity)")
-    capabilities: ClassVar[Capabilities] = Capabilities(order=2, fixed_step=True, constraints=False)
+    capabilities: ClassVar[Capabilities] = Capabilities(order=2, fixed_step=True, constraints=False, contacts=True)
     settings_spec: ClassVar[tuple[Setting, ...]] = STEP_SETTINGS + (
         Setting("gap_weight", float, 0.5, "θ in ḡ = (1−θ) g_n + θ g_{n+1}; 0.5 = time-averaged gap",
                 low=0.5, high=1.0),
