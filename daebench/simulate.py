@@ -4,7 +4,8 @@ A run is a sequence of smooth phases with a fixed active set. Within a phase the
 integrator steps freely; after each accepted step the driver looks for events in the
 step just taken, on the integrator's dense output:
 
-* a contact gap closing (g: + → −) — with the ``constraint`` law an *impact*: the
+* a contact gap closing (g: + → −; after a release or rebound, once the gap has left a
+  ``GAP_BAND`` zero band) — with the ``constraint`` law an *impact*: the
   Newton impact map with restitution e is applied, and the contact is closed
   (e = 0, or a rebound too slow to resolve) or left open with ġ⁺ = −e ġ⁻;
   with a continuous law (Hertz, penalty) the approach speed v₀ is recorded and the
@@ -38,6 +39,10 @@ from daebench.integrators.base import Integrator, StepFailure, check_capabilitie
 from daebench.system import MechanicalSystem, Problem, State
 
 EVENT_TOL = 1e-13        # event times located to this (seconds)
+GAP_BAND = 1e-9          # m: after a release or a rebound, a contact re-arms its closing event
+                         # only once its gap exceeds this; until then closing is detected at
+                         # g = −GAP_BAND. Without the band, solver noise (|g| ~ 1e-12 at a
+                         # release) re-closes the contact at once, over and over (chatter).
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
 REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes it (Zeno)
 DIVERGENCE_ENERGY = 1e3  # energy residual beyond this × energy scale means the run diverged
@@ -124,6 +129,7 @@ class Driver:
         self.energy_scale = max(abs(self.E0), 1e-12)
         self.out_i = 0
         self.last_impact_t = np.full(max(sys_.n_contacts, 1), -np.inf)
+        self.armed = sys_.gap(q) > GAP_BAND if sys_.n_contacts else np.zeros(0, bool)
         self.episode_start_W: dict[int, float] = {}  # contact work at first touch
         status, message = "completed", ""
         state = State(0.0, q, v)
@@ -161,6 +167,7 @@ class Driver:
             tensile = [c for j, c in enumerate(self.active) if lam[k + j] < 0.0]
             if tensile:
                 self.active = [c for c in self.active if c not in tensile]
+                self.armed[tensile] = False
                 return state
         if self.continuous_contacts:
             law = sys_.contact_law
@@ -185,7 +192,6 @@ class Driver:
             powers1 = self._power(end)
             self._accumulate_work(prev, end, powers0, powers1, problem)
             self._track_constraints(end, problem)
-            self._check_divergence(end)
             powers0 = powers1
             if event is not None:
                 return self._apply_event(event, end, problem)
@@ -207,12 +213,16 @@ class Driver:
                     if g1[i] > 0.0:
                         cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i], prev, new),
                                       "separate", i))
-                elif g1[i] < 0.0 and g0[i] >= 0.0:
-                    cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i], prev, new),
+                    continue
+                off = 0.0 if self.armed[i] else GAP_BAND
+                if g1[i] < -off <= g0[i]:
+                    cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i] + off, prev, new),
                                   "close", i))
-                elif g1[i] < 0.0 and self.constraint_contacts:
-                    # started the step already (numerically) closed: impact at its start
+                elif g1[i] < -off and self.constraint_contacts:
+                    # the step started already (numerically) closed: impact at its start
                     cands.append((prev.t, "close", i))
+                elif g1[i] > GAP_BAND:
+                    self.armed[i] = True
         if self.constraint_contacts and self.active:
             k = sys_.n_bilateral
             for j, c in enumerate(self.active):
@@ -253,9 +263,11 @@ class Driver:
                                        res.energy_loss, closed))
             if closed:
                 self.active.append(i)
+            self.armed[i] = False
             v = res.v_plus
         elif kind == "open":
             self.active.remove(i)
+            self.armed[i] = False
         elif kind == "close":  # continuous law: first touch
             vn = float(sys_.gap_jacobian(q)[i] @ v)
             sys_.contact_law.approach_speed[i] = max(-vn, 1e-12)
@@ -314,6 +326,7 @@ class Driver:
                 row[f"W_{k}"] = w
             row["D_impacts"] = self.d_impacts
             row["energy_residual"] = E - self.E0 - sum(work.values()) + self.d_impacts
+            self._check_divergence(to, row["energy_residual"], terms, work)
             if self.constraint_contacts or self.continuous_contacts:
                 row["n_active"] = len(self.active) + len(self.penetrating)
             if problem.m and self.active:
@@ -345,14 +358,12 @@ class Driver:
         if not (np.all(np.isfinite(s.q)) and np.all(np.isfinite(s.v))):
             raise _Diverged(f"t = {s.t:.6g} s: the state became non-finite")
 
-    def _check_divergence(self, s: State) -> None:
-        terms = self.system.energy(s.q, s.v)
-        E = float(sum(terms.values()))
-        resid = E - self.E0 - sum(self.work.values()) + self.d_impacts
+    def _check_divergence(self, t: float, resid: float, terms: dict, work: dict) -> None:
+        """Called at each output time (where the energy is computed anyway)."""
         scale = (self.energy_scale + sum(abs(x) for x in terms.values())
-                 + sum(abs(w) for w in self.work.values()) + self.d_impacts)
+                 + sum(abs(w) for w in work.values()) + self.d_impacts)
         if not math.isfinite(resid) or abs(resid) > DIVERGENCE_ENERGY * scale:
-            raise _Diverged(f"t = {s.t:.6g} s: energy residual {resid:.3g} J exceeds "
+            raise _Diverged(f"t = {t:.6g} s: energy residual {resid:.3g} J exceeds "
                             f"{DIVERGENCE_ENERGY:g} × the energy scale {scale:.3g} J")
 
 
