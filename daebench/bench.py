@@ -14,8 +14,11 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import signal
+import threading
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
@@ -40,6 +43,31 @@ REF_INTEGRATOR = "ida"
 
 class ReferenceMissing(FileNotFoundError):
     """No cached reference for a scene; the message says which command makes one."""
+
+
+class RunTimeout(BaseException):
+    """A run exceeded its wall-time cap (a BaseException so that a plugin's broad
+    ``except Exception`` cannot swallow it)."""
+
+
+@contextmanager
+def deadline(seconds: float | None):
+    """Raise :class:`RunTimeout` in this thread after ``seconds`` of wall time
+    (SIGALRM; only in the main thread of a process — elsewhere no cap)."""
+    if not seconds or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s")
+
+    old = signal.signal(signal.SIGALRM, handler)
+    signal.setitimer(signal.ITIMER_REAL, float(seconds))
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, old)
 
 
 class SweepError(ParamError):
@@ -272,11 +300,15 @@ def _nan_errors(row: dict[str, Any]) -> None:
 
 
 def execute(spec: RunSpec, scene: Scene, reference_mode: str = "auto", repeats: int = 1,
-            warmup: bool = False, time_cap: float = 600.0) -> dict[str, Any]:
+            warmup: bool = False, time_cap: float = 600.0, history_dir: str | Path | None = None,
+            run_cap: float | None = None) -> dict[str, Any]:
     """Run one spec and score it; never raises — an exception becomes a 'failed' row.
 
     ``reference_mode``: 'auto' (score if a cached reference exists), 'require',
-    'compute' or 'none'.
+    'compute' or 'none'. With ``history_dir`` the history is kept as
+    ``<history_dir>/<run>-<integrator>.parquet`` and its path is the row's ``history``.
+    ``run_cap`` (seconds) bounds each run's wall time: a run that hangs becomes a
+    'failed' row saying so.
     """
     row: dict[str, Any] = {"run": spec.index, "case": scene.name, "integrator": spec.integrator,
                            "label": spec.label, **spec.varied,
@@ -289,8 +321,11 @@ def execute(spec: RunSpec, scene: Scene, reference_mode: str = "auto", repeats: 
             row.update(status="skipped", message=spec.skip, verdict="skipped", verdict_reason=spec.skip)
             return row
         cls = base.get_integrator(spec.integrator)  # entry-point loading stays out of the timing
-        timing = metrics.time_call(lambda: run_scene(sc, cls(**spec.options), write=False),
-                                   repeats=repeats, warmup=warmup, time_cap=time_cap)
+        def one_run():
+            with deadline(run_cap):
+                return run_scene(sc, cls(**spec.options), write=False)
+
+        timing = metrics.time_call(one_run, repeats=repeats, warmup=warmup, time_cap=time_cap)
         rec, res = timing.result
         row.update(status=res.status, message=res.message, wall_s=timing.wall_s, cpu_s=timing.cpu_s,
                    repeats=timing.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
@@ -299,6 +334,11 @@ def execute(spec: RunSpec, scene: Scene, reference_mode: str = "auto", repeats: 
         hist = res.history
         impacts = [float(i.t) for i in res.impacts]
         row["impact_times"] = json.dumps(impacts)
+        if history_dir is not None and len(hist):
+            hp = Path(history_dir) / f"{spec.index:04d}-{spec.integrator}.parquet"
+            hp.parent.mkdir(parents=True, exist_ok=True)
+            hist.to_parquet(hp, index=False)
+            row["history"] = str(hp)
         if len(hist):
             row.update(metrics.energy_balance(hist))
         row.update({f"{k}_max": float(v) for k, v in res.constraint_max.items()})
@@ -317,7 +357,7 @@ def execute(spec: RunSpec, scene: Scene, reference_mode: str = "auto", repeats: 
             row.update(metrics.impact_time_errors(impacts, []))
         if res.status != "completed":
             _nan_errors(row)
-    except Exception as exc:  # never lose a row
+    except (Exception, RunTimeout) as exc:  # never lose a row
         row.update(status="failed", message=f"{type(exc).__name__}: {exc}", verdict="failed",
                    verdict_reason=f"{type(exc).__name__}: {exc}",
                    traceback=traceback.format_exc(limit=4))
@@ -383,9 +423,11 @@ def _run_dask(specs, scene, scheduler, kw, tick) -> list[dict[str, Any]]:
 
 def run_specs(specs: Sequence[RunSpec], scene: Scene, jobs: int = 1, executor: str = "process",
               scheduler: Any = None, reference_mode: str = "auto", repeats: int = 1, warmup: bool = False,
-              time_cap: float = 600.0, progress: bool = True, description: str = "runs") -> pd.DataFrame:
+              time_cap: float = 600.0, progress: bool = True, description: str = "runs",
+              history_dir: str | Path | None = None, run_cap: float | None = None) -> pd.DataFrame:
     """Execute planned runs; one row each, in plan order."""
-    kw = dict(reference_mode=reference_mode, repeats=repeats, warmup=warmup, time_cap=time_cap)
+    kw = dict(reference_mode=reference_mode, repeats=repeats, warmup=warmup, time_cap=time_cap,
+              history_dir=history_dir, run_cap=run_cap)
     bar = _progress() if progress else None
     task = bar.add_task(description, total=len(specs), last="") if bar else None
 
@@ -437,7 +479,8 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
               jobs: int = 1, executor: str = "process", scheduler: Any = None,
               options: dict[str, Any] | None = None, name: str | None = None,
               reference_mode: str = "auto", repeats: int = 1, warmup: bool = False,
-              time_cap: float = 600.0, write: bool = True, progress: bool = True) -> pd.DataFrame:
+              time_cap: float = 600.0, write: bool = True, progress: bool = True,
+              run_cap: float | None = None) -> pd.DataFrame:
     """Plan, run and score a sweep; one tidy row per run.
 
     Parameters
@@ -453,6 +496,7 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
     name : table name under results/bench/ (default ``<scene>-<hash8>``)
     reference_mode : 'auto' | 'require' | 'compute' | 'none'
     repeats, warmup, time_cap : timing (see :func:`daebench.metrics.time_call`)
+    run_cap : wall-time cap of one run in seconds (None: no cap)
 
     Returns
     -------
@@ -463,7 +507,7 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
     specs = plan_sweep(scene, integrators, grid, steps, tols, options)
     check_reference_tolerance(specs, scene, reference_mode)
     df = run_specs(specs, scene, jobs, executor, scheduler, reference_mode, repeats, warmup, time_cap,
-                   progress, description=f"{scene.name}")
+                   progress, description=f"{scene.name}", run_cap=run_cap)
     if write:
         write_table(df, name or f"{scene.name}-{scene.hash[:8]}", [scene])
     return df

@@ -196,7 +196,8 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
           ref_mode: str = typer.Option("require", "--reference",
                                        help="require (error if missing) | compute | auto (score if cached) | none"),
           repeats: int = typer.Option(1, "--repeats", help="timed repeats (min taken; > 1 adds a warm-up run)"),
-          name: Optional[str] = typer.Option(None, "--name", help="table name under results/bench/")) -> None:
+          name: Optional[str] = typer.Option(None, "--name", help="table name under results/bench/"),
+          run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]")) -> None:
     """Sweep integrators × grid × steps/tols on a scene; one scored row per run."""
     from daebench import bench as B
     from daebench.params import parse_pairs
@@ -207,7 +208,7 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
         names = [x.strip() for x in integrators.split(",") if x.strip()]
         df = B.run_sweep(sc, names, _grid(grid), _floats(steps, "--steps"), _floats(tols, "--tols"),
                          jobs=jobs, scheduler=scheduler, options=options, name=name,
-                         reference_mode=ref_mode, repeats=repeats, warmup=repeats > 1)
+                         reference_mode=ref_mode, repeats=repeats, warmup=repeats > 1, run_cap=run_cap)
     except (ParamError, B.ReferenceMissing) as exc:
         fail(str(exc))
     cols = [c for c in ("label", "h", "tol", "status", "wall_s", "steps", "err_theta_max", "err_tip_max",
@@ -274,12 +275,14 @@ def plot_history(files: list[str] = typer.Argument(..., help="history files writ
 @app.command()
 def paper(quick: bool = typer.Option(False, "--quick", help="reduced grid for CI (N=3, t_end 0.5 s, h_contact 1e-5)"),
           jobs: int = typer.Option(1, "--jobs", "-j", help="local worker processes"),
-          out: Optional[str] = typer.Option(None, "--out", help="output folder (default results/paper)")) -> None:
+          out: Optional[str] = typer.Option(None, "--out", help="output folder (default results/paper)"),
+          run_cap: Optional[float] = typer.Option(None, "--run-cap",
+                                                  help="wall-time cap of one run [s] (default 60 with --quick)")) -> None:
     """Regenerate the beam-impact study: Table 1 beside the published seconds, one figure
     and one computed verdict per claim (CASES.md)."""
     from daebench import paper as P
 
-    res = P.run_paper(quick=quick, jobs=jobs, out=out)
+    res = P.run_paper(quick=quick, jobs=jobs, out=out, run_cap=run_cap)
     console.print(res.table_md)
     for v in res.verdicts:
         console.print(v)

@@ -127,3 +127,24 @@ def test_reference_tolerance_margin():
     assert bench.reference_tolerances() == (1e-11, 1e-13)
     r, a = bench.reference_tolerances(tightest_rtol=1e-10)
     assert r == pytest.approx(1e-12) and a == pytest.approx(1e-14)
+
+
+class Hang(Boom):
+    """Never finishes a step (like a driver stuck on repeated events)."""
+
+    name: ClassVar[str] = "hang"
+
+    def _step_impl(self, t_stop: float) -> State:
+        import time
+        while True:
+            time.sleep(0.01)
+
+
+def test_hanging_run_is_a_failed_row(registry, pendulum, monkeypatch):
+    reg = {**base.registry(), "hang": Registered("hang", Hang, "tests")}
+    monkeypatch.setattr(base, "registry", lambda: dict(reg))
+    df = bench.run_sweep(pendulum, ["hang", "hht"], steps=[1e-2], reference_mode="none", progress=False,
+                         write=False, run_cap=0.5)
+    by = df.set_index("integrator")
+    assert by.loc["hang", "status"] == "failed" and "wall-time cap" in by.loc["hang", "message"]
+    assert by.loc["hht", "status"] == "completed"
