@@ -269,3 +269,35 @@ def test_bad_scene_values_name_the_key(override, key):
 def test_fem_allows_many_elements():
     sc = load_scene("hub-beam", ["discretization.n=13"])
     assert build_system(sc).n == 1 + 13 + 26
+
+
+def test_kernels_callable_from_compiled_code():
+    """The contract for compiled integrator loops: kernel_args + mass_force from @njit."""
+    from numba import njit
+
+    from daebench.models import _hubbeam_kernels as kern
+
+    @njit
+    def call(t, q, v, args, M, Q, work):
+        kern.mass_force(t, q, v, *args, True, M, Q, work)
+
+    s = all_effects("modes")
+    q, v = random_state(s)
+    M = np.empty((s.n, s.n))
+    Q = np.empty(s.n)
+    call(0.4, q, v, s.kernel_args, M, Q, np.zeros_like(s._work))
+    M_ref, Q_ref = s.mass_and_force(0.4, q, v)
+    assert np.array_equal(M, M_ref) and np.array_equal(Q, Q_ref)
+    assert np.allclose(M, M.T, rtol=0, atol=1e-15 * np.abs(M).max())
+
+
+def test_switched_off_effects_are_not_assembled():
+    s = system("beam-impact", ["effects.foreshortening=false", "effects.gravity=false", "effects.contact=false"])
+    assert s.tables.H is None and s.contact_law is None and s.n_contacts == 0
+    q, v = random_state(s)
+    assert "gap" not in s.observables(0.0, q, v) and s.power(0.0, q, v) == {}
+    assert s.energy(q, v)["gravity"] == 0.0
+    # zero-order model: M does not depend on B
+    q2 = q.copy()
+    q2[s.iB] *= 3.0
+    assert np.allclose(s.mass(q)[s.iB, s.iB], s.mass(q2)[s.iB, s.iB], rtol=0, atol=1e-15)
