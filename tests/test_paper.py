@@ -1,0 +1,47 @@
+"""The paper reproduction: its plan, the published data, and `daebench paper --quick` end to end."""
+
+from __future__ import annotations
+
+import pandas as pd
+from typer.testing import CliRunner
+
+from daebench import paper
+from daebench.cli import app
+
+
+def test_published_table_is_the_papers():
+    t = paper.PUBLISHED_TABLE1
+    assert t.loc[3, "HHT α=0"] == 305 and t.loc[9, "HHT α=0"] == 9818
+    assert t.loc[5, "Baumgarte (1000,5000)"] == 319 and t.loc[7, "HHT α=-1/3"] == 2092
+    assert list(t.index) == [3, 5, 7, 9] and t.shape == (4, 6)
+
+
+def test_plan_uses_the_papers_protocol_and_setting_names():
+    specs = paper.plan(paper.Protocol.full())
+    table = [s for s in specs if s.varied["set"] == "table"]
+    assert len(table) == 24 and {s.varied["setting"] for s in table} == set(paper.PUBLISHED_TABLE1.columns)
+    assert all(s.options["h"] == 1e-4 and s.options["h_contact"] == 1e-6 for s in specs)
+    b = [s for s in specs if s.integrator == "baumgarte"]
+    assert {(s.options["delta"], s.options["epsilon"]) for s in b} == set(paper.BAUMGARTE)
+    hertz = [s for s in specs if s.varied["set"] == "hertz"]
+    assert hertz[0].integrator == "newmark" and hertz[0].scene_overrides["contact.law"] == "hertz"
+    quick = paper.plan(paper.Protocol.quick())
+    assert len(quick) == 13 and {s.scene_overrides["discretization.n"] for s in quick} == {3}
+
+
+def test_paper_quick_writes_table_figures_verdicts(tmp_path, monkeypatch):
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    out = tmp_path / "paper"
+    r = CliRunner().invoke(app, ["paper", "--quick", "--jobs", "2", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(out / "table1.csv")
+    assert len(t) == 6 and set(t["N"]) == {3}
+    assert (t["published_s"].to_numpy() == paper.PUBLISHED_TABLE1.loc[3].to_numpy()).all() or \
+        set(t["published_s"]) == set(paper.PUBLISHED_TABLE1.loc[3])
+    md = (out / "table1.md").read_text()
+    assert "published" in md and "provenance" in md and "numpy" in md
+    verdicts = (out / "verdicts.md").read_text()
+    for k in range(1, 8):
+        assert f"claim {k}:" in verdicts
+    assert (out / "claim7.png").exists() and (out / "claim7.svg").exists()
+    assert len(list(out.glob("claim*.png"))) >= 6
