@@ -148,3 +148,27 @@ def test_hanging_run_is_a_failed_row(registry, pendulum, monkeypatch):
     by = df.set_index("integrator")
     assert by.loc["hang", "status"] == "failed" and "wall-time cap" in by.loc["hang", "message"]
     assert by.loc["hht", "status"] == "completed"
+
+
+def test_cli_bench_reference_plot_and_clear_errors(registry, tmp_path):
+    from typer.testing import CliRunner
+
+    from daebench.cli import app
+
+    run = CliRunner().invoke
+    r = run(app, ["bench", "pendulum", "-i", "hht,bogus", "--steps", "1e-2"])
+    assert r.exit_code == 2 and "unknown integrator 'bogus'" in r.output
+    r = run(app, ["bench", "pendulum", "-i", "hht", "--grid", "alpah=0", "--steps", "1e-2"])
+    assert r.exit_code == 2 and "did you mean 'alpha'" in r.output
+    sets = ["--set", "t_end=0.2", "--set", "output.dt=1e-2"]
+    r = run(app, ["bench", "pendulum", "-i", "hht", "--steps", "1e-2", *sets])
+    assert r.exit_code == 2 and "daebench reference pendulum" in r.output
+    r = run(app, ["reference", "pendulum", *sets, "--rtol", "1e-9"])
+    assert r.exit_code == 0, r.output
+    r = run(app, ["bench", "pendulum", "-i", "hht", "--steps", "2e-2,1e-2", "--name", "t", *sets])
+    assert r.exit_code == 0, r.output
+    r = run(app, ["plot", "wp", str(tmp_path / "bench" / "t.parquet"), "--out", str(tmp_path / "wp")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "wp.png").exists() and (tmp_path / "wp.svg").exists()
+    r = run(app, ["plot", "wp", str(tmp_path / "bench" / "t.parquet"), "--y", "nope"])
+    assert r.exit_code == 2 and "column 'nope'" in r.output
