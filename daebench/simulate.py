@@ -46,6 +46,8 @@ GAP_BAND = 1e-9          # m: after a release or a rebound, a contact re-arms it
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
 REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes it (Zeno)
 DIVERGENCE_ENERGY = 1e3  # energy residual beyond this × energy scale means the run diverged
+MAX_STALLED_PHASES = 100 # consecutive phases that do not advance time: the event logic is stuck
+PROJECTION_ITERS = 3     # Newton iterations of the position projection onto C(q) = 0
 
 
 @dataclass
@@ -56,9 +58,12 @@ class Impact:
     vn_plus: float           # after the impact (constraint law) or at separation (continuous laws)
     energy_loss: float       # kinetic energy lost (constraint law) or dissipated in the episode
     closed: bool = False     # the contact stayed closed after the impact
+    q: np.ndarray | None = field(default=None, repr=False)        # configuration at the impact
+    v_minus: np.ndarray | None = field(default=None, repr=False)  # velocities before / after
+    v_plus: np.ndarray | None = field(default=None, repr=False)
 
     def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        return {k: v for k, v in asdict(self).items() if k not in ("q", "v_minus", "v_plus")}
 
 
 @dataclass
@@ -125,19 +130,34 @@ class Driver:
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
         self.work: dict[str, float] = {}
         self.d_impacts = 0.0
-        self.E0 = sys_.total_energy(q, v)
-        self.energy_scale = max(abs(self.E0), 1e-12)
+        terms0 = sys_.energy(q, v)
+        self.E0 = float(sum(terms0.values()))
+        # energy scale of the run: the size of the initial energy terms (a system starting
+        # at E0 = 0 with large opposite terms still has a scale)
+        self.energy_scale = max(sum(abs(x) for x in terms0.values()), 1e-12)
         self.out_i = 0
         self.last_impact_t = np.full(max(sys_.n_contacts, 1), -np.inf)
         self.armed = sys_.gap(q) > GAP_BAND if sys_.n_contacts else np.zeros(0, bool)
+        self.last_release_t = np.full(max(sys_.n_contacts, 1), -np.inf)
+        # contacts re-closed within the first step after their release (the free motion went
+        # back into the plane faster than the step resolves — unresolved chatter): they stay
+        # closed for one full step before the sign of λ is read again, so every such cycle
+        # advances time by at least one step (a documented regularization)
+        self.hold: set[int] = set()
         self.episode_start_W: dict[int, float] = {}  # contact work at first touch
         status, message = "completed", ""
         state = State(0.0, q, v)
         phases = 0
         try:
+            stalled = 0
             while state.t < self.t_end - 1e-15 * max(1.0, self.t_end):
                 phases += 1
+                t_before = state.t
                 state = self._phase(state)
+                stalled = stalled + 1 if state.t <= t_before else 0
+                if stalled > MAX_STALLED_PHASES:
+                    raise StepFailure(f"no progress: {stalled} consecutive events at t = {state.t:.12g} s "
+                                      f"(contact set {self.active}); the event logic cannot resolve this state")
         except _Diverged as exc:
             status, message = "diverged", str(exc)
         except StepFailure as exc:
@@ -164,7 +184,7 @@ class Driver:
         if self.constraint_contacts and self.active:
             # a closed contact that would pull (λ < 0) opens before the phase starts
             k = sys_.n_bilateral
-            tensile = [c for j, c in enumerate(self.active) if lam[k + j] < 0.0]
+            tensile = [c for j, c in enumerate(self.active) if lam[k + j] < 0.0 and c not in self.hold]
             if tensile:
                 self.active = [c for c in self.active if c not in tensile]
                 self.armed[tensile] = False
@@ -191,7 +211,7 @@ class Driver:
                 end = State(event[0], end.q, end.v, end.a, end.lam)
             powers1 = self._power(end)
             self._accumulate_work(prev, end, powers0, powers1, problem)
-            self._track_constraints(end, problem)
+            self._track_constraints(new, problem)  # at the integrator's own step, not an interpolant
             powers0 = powers1
             if event is not None:
                 return self._apply_event(event, end, problem)
@@ -216,7 +236,10 @@ class Driver:
                     continue
                 off = 0.0 if self.armed[i] else GAP_BAND
                 if g1[i] < -off <= g0[i]:
-                    cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i] + off, prev, new),
+                    # the band decides whether the contact closed; where is g = 0 when the
+                    # step started on or above the plane
+                    at = 0.0 if g0[i] >= 0.0 else off
+                    cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i] + at, prev, new),
                                   "close", i))
                 elif g1[i] < -off and self.constraint_contacts:
                     # the step started already (numerically) closed: impact at its start
@@ -229,6 +252,9 @@ class Driver:
                 if new.lam[k + j] < 0.0 <= prev.lam[k + j]:
                     cands.append((self._root(lambda t: self.integ.dense(t).lam[k + j], prev, new),
                                   "open", c))
+                elif new.lam[k + j] < 0.0 and c in self.hold:
+                    cands.append((new.t, "open", c))  # still tensile after the held step
+            self.hold.clear()
         return min(cands, key=lambda c: c[0]) if cands else None
 
     def _root(self, f, prev: State, new: State) -> float:
@@ -243,7 +269,9 @@ class Driver:
     def _apply_event(self, event, state: State, problem: Problem) -> State:
         t, kind, i = event
         sys_ = self.system
-        q, v = state.q, state.v
+        # the event state comes from the dense output: put it back on the constraints of
+        # the phase it ends (closed contacts: g = 0, ġ = 0) before switching
+        q, v = project(problem, t, state.q, state.v)
         if kind == "close" and self.constraint_contacts:
             M = sys_.mass(q)
             Gq = sys_.gap_jacobian(q)
@@ -260,14 +288,19 @@ class Driver:
             self.last_impact_t[i] = t
             self.d_impacts += res.energy_loss
             self.impacts.append(Impact(t, i, float(res.vn_minus[0]), float(res.vn_plus[0]),
-                                       res.energy_loss, closed))
+                                       res.energy_loss, closed, q.copy(), v.copy(), res.v_plus.copy()))
+            v = res.v_plus
             if closed:
                 self.active.append(i)
+                if t - self.last_release_t[i] <= self.integ.h:
+                    self.hold.add(i)
+                # the impact was located on g = 0 (or −GAP_BAND): start the closed phase on it
+                q, v = project(Problem(sys_, tuple(self.active)), t, q, v)
             self.armed[i] = False
-            v = res.v_plus
         elif kind == "open":
             self.active.remove(i)
             self.armed[i] = False
+            self.last_release_t[i] = t
         elif kind == "close":  # continuous law: first touch
             vn = float(sys_.gap_jacobian(q)[i] @ v)
             sys_.contact_law.approach_speed[i] = max(-vn, 1e-12)
@@ -359,12 +392,33 @@ class Driver:
             raise _Diverged(f"t = {s.t:.6g} s: the state became non-finite")
 
     def _check_divergence(self, t: float, resid: float, terms: dict, work: dict) -> None:
-        """Called at each output time (where the energy is computed anyway)."""
-        scale = (self.energy_scale + sum(abs(x) for x in terms.values())
-                 + sum(abs(w) for w in work.values()) + self.d_impacts)
+        """Called at each output time (where the energy is computed anyway). The scale is
+        fixed by the start and the booked work — never by the current energy, which grows
+        with a blow-up."""
+        scale = self.energy_scale + sum(abs(w) for w in work.values()) + self.d_impacts
         if not math.isfinite(resid) or abs(resid) > DIVERGENCE_ENERGY * scale:
             raise _Diverged(f"t = {t:.6g} s: energy residual {resid:.3g} J exceeds "
                             f"{DIVERGENCE_ENERGY:g} × the energy scale {scale:.3g} J")
+
+
+def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mass-weighted projection of (q, v) onto C(t, q) = 0 and C_q v + C_t = 0 of the
+    problem's active constraints (no-op when none are active)."""
+    if problem.m == 0:
+        return q, v
+    M = problem.mass(q)
+    q = q.copy()
+    for _ in range(PROJECTION_ITERS):
+        C = problem.constraint(t, q)
+        if np.max(np.abs(C)) < 1e-15:
+            break
+        Cq = problem.constraint_jacobian(t, q)
+        MiCt = np.linalg.solve(M, Cq.T)
+        q -= MiCt @ np.linalg.solve(Cq @ MiCt, C)
+    Cq = problem.constraint_jacobian(t, q)
+    MiCt = np.linalg.solve(M, Cq.T)
+    v = v - MiCt @ np.linalg.solve(Cq @ MiCt, Cq @ v + problem.constraint_t(t, q))
+    return q, v
 
 
 def simulate(system: MechanicalSystem, integrator: Integrator, t_end: float, output_dt: float,
