@@ -15,7 +15,7 @@ from daebench.params import ParamError
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Benchmark time integrators for constrained mechanical systems with impact.")
 console = Console()
-err = Console(stderr=True)
+err = Console(stderr=True, soft_wrap=True)  # never wrap an error: keys in it get copied
 
 
 def fail(msg: str, code: int = 2) -> None:
@@ -72,8 +72,9 @@ def show(scene: str = typer.Argument(..., help="scene name or path to a .toml fi
         console.print("effects: " + ", ".join(f"{k} [{'green' if v else 'dim'}]{'on' if v else 'off'}[/]"
                                                for k, v in eff.items()))
     t = Table()
-    for col in ("key", "value") + (("type / range", "meaning") if keys else ()):
-        t.add_column(col)
+    t.add_column("key", no_wrap=True)  # keys are copied into --set: never truncate them
+    for col in ("value",) + (("type / range", "meaning") if keys else ()):
+        t.add_column(col, overflow="fold")
     for k, v in sc.values.items():
         if k.startswith("effects."):
             continue

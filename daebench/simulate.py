@@ -35,7 +35,7 @@ import pandas as pd
 from scipy.optimize import brentq
 
 from daebench.contact import impact_map
-from daebench.integrators.base import Integrator, StepFailure, check_capabilities
+from daebench.integrators.base import BatchWatch, Integrator, StepFailure, check_capabilities
 from daebench.system import MechanicalSystem, Problem, State
 
 EVENT_TOL = 1e-13        # event times located to this (seconds)
@@ -128,7 +128,7 @@ class Driver:
         self.impacts: list[Impact] = []
         self.rows: list[dict[str, float]] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
-        self.work: dict[str, float] = {}
+        self.work: dict[str, float] = {k: 0.0 for k in sys_.power(0.0, q, v)}  # W(0) = 0, not NaN
         self.d_impacts = 0.0
         terms0 = sys_.energy(q, v)
         self.E0 = float(sum(terms0.values()))
@@ -199,9 +199,14 @@ class Driver:
         if self.out_i == 0 and state.t == 0.0:
             self._record_until(state, state, problem, 0.0)
         powers0 = self._power(state)
+        batch = self._batch_ok(problem)
         while True:
-            prev = self.integ.state
-            new = self.integ.step(self.t_end)
+            if batch and not self.hold and not powers0 and self.out_i < len(self.t_out):
+                new = self._advance(problem)
+                prev = self.integ.prev
+            else:
+                prev = self.integ.state
+                new = self.integ.step(self.t_end)
             self._t_last = new.t
             self._last_state = new
             self._check_finite(new)
@@ -217,6 +222,43 @@ class Driver:
                 return self._apply_event(event, end, problem)
             if new.t >= self.t_end - 1e-15 * max(1.0, self.t_end):
                 return new
+
+    # -- fast path: many quiet steps per call ----------------------------------------------
+    def _batch_ok(self, problem: Problem) -> bool:
+        """Whether this phase may run through ``integ.advance`` (a compiled phase runner).
+
+        Only when the integrator offers it for this problem, the model declares that it
+        has no non-conservative power outside contact (descriptor flag), and no continuous
+        contact is penetrating. Within such a phase the per-step driver work on a step
+        without event, output time or sign change is exactly what the runner does itself
+        (re-arming gaps, constraint maxima); the step that needs more is handed back and
+        processed below like any other step, so results do not depend on the path."""
+        if not self.integ.can_advance(problem) or self.penetrating:
+            return False
+        md = getattr(self.integ, "_md", None)
+        return md is not None and bool(md[2][3])
+
+    def _advance(self, problem: Problem) -> State:
+        sys_ = self.system
+        k = sys_.n_bilateral
+        inactive = np.array([i for i in range(sys_.n_contacts) if i not in self.active], dtype=np.int64) \
+            if (self.constraint_contacts or self.continuous_contacts) else np.zeros(0, dtype=np.int64)
+        lam_rows = np.array([k + j for j in range(len(self.active))], dtype=np.int64) \
+            if self.constraint_contacts else np.zeros(0, dtype=np.int64)
+        armed = self.armed if self.armed.size else np.zeros(1, dtype=bool)
+        cmax = np.array([self.cmax["C"], self.cmax["Cdot"], self.cmax["Cddot"]])
+        watch = BatchWatch(inactive, lam_rows, armed, self.continuous_contacts, problem.m > 0, cmax,
+                           float(self.t_out[self.out_i]), self.t_end)
+        t0 = self.integ.state.t
+        try:
+            return self.integ.advance(self.t_end, watch)
+        except StepFailure:
+            if self.integ.state.t > t0:  # quiet steps were taken before the failing one
+                self._t_last = self.integ.state.t
+                self._last_state = self.integ.state
+            raise
+        finally:
+            self.cmax.update(C=float(cmax[0]), Cdot=float(cmax[1]), Cddot=float(cmax[2]))
 
     # -- events ------------------------------------------------------------------------
     def _find_event(self, prev: State, new: State, problem: Problem):
