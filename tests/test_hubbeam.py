@@ -255,7 +255,6 @@ def test_hertz_default_stiffness():
 
 @pytest.mark.parametrize("override, key", [
     ("discretization.n=13", "discretization.n"),
-    ("discretization.kind=meshfree", "discretization.kind"),
     ("contact.penalty_stiffness=0", "contact.penalty_stiffness"),
     ("contact.restitution=1.5", "contact.restitution"),
     ("beam.lenght=2", "beam.length"),
