@@ -58,7 +58,8 @@ import numpy as np
 
 from daebench.contact import DAMPING_LAWS, make_contact_law
 from daebench.models import _hubbeam_kernels as kern
-from daebench.models.shapes import BUILDERS, MAX_ELEMENTS, MAX_MODES, ShapeTables, tabulate
+from daebench.models.shapes import (BUILDER_OPTIONS, BUILDERS, MAX_ELEMENTS, MAX_MODES, MAX_NODES,
+                                     MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE, ShapeTables, tabulate)
 from daebench.params import Param
 from daebench.scene import Scene, SceneError
 from daebench.system import MechanicalSystem, central_difference
@@ -74,7 +75,12 @@ SCHEMA: dict[str, Param] = {
         Param("discretization.kind", str, "modes", "shape functions of the beam",
               choices=("modes", "fem", "meshfree")),
         Param("discretization.n", int, 5,
-              "modes per direction (modes: 1..12) or number of elements (fem: 1..200)", low=1, high=MAX_ELEMENTS),
+              "modes per direction (modes: 1..12), number of elements (fem: 1..200) or of nodes, root included "
+              "(meshfree: 3..60)", low=1, high=MAX_ELEMENTS),
+        Param("discretization.influence", float, MESHFREE_INFLUENCE,
+              "meshfree: influence-domain radius in nodal spacings", low=1.5, high=6.0),
+        Param("discretization.cell_gauss", int, MESHFREE_CELL_GAUSS, "meshfree: Gauss points per background cell",
+              low=1, high=16),
         Param("effects.gravity", bool, True, "gravity along −Y"),
         Param("effects.axial", bool, True, "axial stretch (off: inextensible beam, foreshortening kept)"),
         Param("effects.foreshortening", bool, True, "first-order coupling (off: zero-order model, H ≡ 0)"),
@@ -125,9 +131,9 @@ def check_scene(scene: Scene) -> None:
     """Cross-key checks; raise :class:`SceneError` naming the key and the fix."""
     kind = scene["discretization.kind"]
     n = scene["discretization.n"]
-    if kind == "meshfree":
-        raise SceneError("scene key 'discretization.kind' = 'meshfree' is not yet available; "
-                         "use 'modes' or 'fem'")
+    if kind == "meshfree" and not 3 <= n <= MAX_NODES:
+        raise SceneError(f"scene key 'discretization.n' = {n} is out of range [3, {MAX_NODES}] for "
+                         f"discretization.kind = 'meshfree' (number of nodes, root included)")
     if kind == "modes" and not 1 <= n <= MAX_MODES:
         raise SceneError(f"scene key 'discretization.n' = {n} is out of range [1, {MAX_MODES}] for "
                          f"discretization.kind = 'modes' (number of cantilever modes)")
@@ -177,7 +183,8 @@ class HubBeam(MechanicalSystem):
         rhoS = rho * S
         a = s["hub.radius"]
         fore = self.effects["foreshortening"]
-        basis = BUILDERS[self.kind](L, s["discretization.n"], self.effects["axial"])
+        opts = {k: s[f"discretization.{k}"] for k in BUILDER_OPTIONS.get(self.kind, ())}
+        basis = BUILDERS[self.kind](L, s["discretization.n"], self.effects["axial"], **opts)
         self.x_contact = s["contact.point"] * L
         # extra material points: 0 = tip, 1 = contact point
         tab: ShapeTables = tabulate(basis, np.array([L, self.x_contact]), foreshortening=fore)
