@@ -71,6 +71,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dgetrf, dgetrs
 
+from daebench.integrators import _compiled_models as _cm
+from daebench.integrators import _compiled_newmark as _cn
 from daebench.integrators.base import Integrator, Setting, State, StepFailure
 from daebench.system import central_difference
 
@@ -135,6 +137,20 @@ class NewmarkFamily(Integrator):
         self._lu_h = 0.0
         self._h_next = self.h
         self._prev_al: tuple[float, np.ndarray, np.ndarray] | None = None  # (h, a, λ) of the step before
+        # compiled path (daebench.integrators._compiled_newmark): the same Newton iteration in numba
+        # when the model exposes kernels; its iteration state lives in arrays
+        self._md = _cm.descriptor(p.system)
+        if self._md is not None:
+            nx = self._nx
+            self._F = np.ascontiguousarray(self._F, dtype=float)
+            self._c_active = np.array(p.active, dtype=np.int64)
+            self._c_st = np.zeros(4)
+            self._c_LU = np.zeros((nx, nx))
+            self._c_piv = np.zeros(nx, dtype=np.int64)
+            self._c_aold = np.zeros(n)
+            self._c_lold = np.zeros(m)
+            self._c_cnt = np.zeros(4, dtype=np.int64)
+            self._c_cnt0 = np.zeros(4, dtype=np.int64)
 
     # -- one accepted step ------------------------------------------------------------
     def _step_impl(self, t_stop: float) -> State:
@@ -168,6 +184,11 @@ class NewmarkFamily(Integrator):
                 self._h_next = max(h * fac, h_try) if h < h_try else h * fac
             self._F = F
             self._prev_al = (h, s.a, s.lam)
+            if self._md is not None:
+                self._c_aold[:] = s.a
+                self._c_lold[:] = s.lam
+                self._c_st[_cn.ST_PREV] = 1.0
+                self._c_st[_cn.ST_HOLD] = h
             t_new = t_stop if h == remaining else s.t + h
             return State(t_new, q, v, a, lam)
 
@@ -181,8 +202,68 @@ class NewmarkFamily(Integrator):
         w = self.settings["atol"] + self.settings["rtol"] * np.maximum(np.abs(q), np.abs(s.q))
         return float(np.sqrt(np.mean((e / w) ** 2)))
 
+    # -- compiled path -------------------------------------------------------------------
+    def _coeff_args(self) -> tuple:
+        s = self.settings
+        return (self._alpha, self._beta, self._gamma, self._ggl, float(s["newton_tol"]),
+                int(s["newton_maxiter"]), bool(s["reuse_jacobian"]))
+
+    def _sync_compiled(self) -> None:
+        """Move the compiled counters into the integrator's and the problem's counters."""
+        d = self._c_cnt - self._c_cnt0
+        self._c_cnt0[:] = self._c_cnt
+        self.counters.newton_iterations += int(d[_cn.C_NEWTON])
+        self.counters.lu_factorizations += int(d[_cn.C_LU])
+        self.problem.counters.residual_evals += int(d[_cn.C_RES])
+        self.problem.counters.jacobian_evals += int(d[_cn.C_JAC])
+
+    def _fail_message(self, status: int) -> str:
+        return _cn.FAIL_MESSAGES[status].format(maxiter=self.settings["newton_maxiter"])
+
+    def _newton_compiled(self, h: float):
+        s = self.state
+        n, m = self.problem.n, self.problem.m
+        out = (np.empty(n), np.empty(n), np.empty(n), np.empty(m), np.empty(n))
+        status = _cn.newton_once(self._md, self._c_active, float(s.t), s.q, s.v, s.a, s.lam, self._F, float(h),
+                                 *self._coeff_args(), self._c_st, self._c_LU, self._c_piv, self._c_aold,
+                                 self._c_lold, self._c_cnt, *out)
+        self._sync_compiled()
+        if status:
+            raise _Fail(self._fail_message(status))
+        return out
+
+    def can_advance(self, problem) -> bool:
+        return self._md is not None and not self.adaptive and problem is self.problem
+
+    def advance(self, t_stop: float, watch=None) -> State:
+        """Fixed-step phase runner (:func:`daebench.integrators._compiled_newmark.run_fixed`):
+        many steps per call, stopping after the first step the driver must see."""
+        if watch is None or not self.can_advance(self.problem):
+            return self.step(t_stop)
+        s = self.state
+        if t_stop <= s.t:
+            raise ValueError(f"t_stop = {t_stop} is not after t = {s.t}")
+        n, m = self.problem.n, self.problem.m
+        q, v, a, lam = s.q.copy(), s.v.copy(), s.a.copy(), s.lam.copy()
+        pq, pv, pa, plam = np.empty(n), np.empty(n), np.empty(n), np.empty(m)
+        status, k, t_prev, t_now, h_fail = _cn.run_fixed(
+            self._md, self._c_active, watch.inactive, watch.lam_rows, watch.armed, bool(watch.continuous),
+            bool(watch.track), watch.cmax, float(s.t), q, v, a, lam, self._F, float(self.h), float(t_stop),
+            float(watch.t_out_next), float(watch.t_end), int(watch.max_steps), *self._coeff_args(),
+            self._c_st, self._c_LU, self._c_piv, self._c_aold, self._c_lold, self._c_cnt, pq, pv, pa, plam)
+        self._sync_compiled()
+        if k:
+            self.counters.steps += k
+            self.prev = State(t_prev, pq, pv, pa, plam)
+            self.state = State(t_now, q, v, a, lam)
+        if status:
+            raise StepFailure(f"{self._fail_message(status)} (t = {self.state.t:.9g}, h = {h_fail:.3g})")
+        return self.state
+
     # -- the Newton iteration ----------------------------------------------------------
     def _newton(self, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if self._md is not None:
+            return self._newton_compiled(h)
         p, s = self.problem, self.state
         n, m, ggl = p.n, p.m, self._ggl
         al, be, ga = self._alpha, self._beta, self._gamma

@@ -196,6 +196,21 @@ class Integrator:
         self.counters.steps += 1
         return new
 
+    def can_advance(self, problem: Problem) -> bool:
+        """Whether :meth:`advance` runs many steps per call on ``problem`` (a compiled
+        phase runner). Default False: the driver calls :meth:`step` once per step."""
+        return False
+
+    def advance(self, t_stop: float, watch: "BatchWatch | None" = None) -> State:
+        """Advance one or more accepted steps and return the new state; afterwards
+        ``self.prev`` is the state before the *last* step, which is the one the driver
+        inspects for events. The default is a single :meth:`step`. An integrator that
+        returns True from :meth:`can_advance` may take several steps, stopping after the
+        first step that ``watch`` says the driver must see (see
+        :class:`BatchWatch`); the earlier ("quiet") steps' bookkeeping — re-arming gaps,
+        constraint maxima — is done by the integrator into ``watch``."""
+        return self.step(t_stop)
+
     def dense(self, t: float) -> State:
         """State at t within the last step: cubic Hermite in q (using v) and in v
         (using a), linear in λ."""
@@ -221,6 +236,29 @@ class Integrator:
 
     def _step_impl(self, t_stop: float) -> State:
         raise NotImplementedError
+
+
+@dataclass
+class BatchWatch:
+    """What the driver watches, handed to :meth:`Integrator.advance`.
+
+    A step is *quiet* (needs no driver attention) when no inactive contact's gap fell
+    below its closing threshold (−0 if ``armed``, else −GAP_BAND; with a ``continuous``
+    law any negative gap counts), no multiplier in ``lam_rows`` is negative, the state is
+    finite, and neither ``t_out_next`` (minus 1e-12·max(1, t_end)) nor ``t_end`` was
+    reached. For quiet steps the integrator sets ``armed[i]`` once gap i exceeds the band
+    and, if ``track``, raises ``cmax`` = [max|C|, max|Ċ|, max|C̈|] (arrays updated in place).
+    """
+
+    inactive: np.ndarray        # int64: open contacts whose closing is watched
+    lam_rows: np.ndarray        # int64: rows of λ of closed contacts (opening when λ < 0)
+    armed: np.ndarray           # bool, per contact (updated in place)
+    continuous: bool
+    track: bool
+    cmax: np.ndarray            # float64[3] (updated in place)
+    t_out_next: float
+    t_end: float
+    max_steps: int = 2000
 
 
 def hermite_state(s0: State, s1: State, t: float) -> State:
