@@ -290,6 +290,25 @@ def paper(quick: bool = typer.Option(False, "--quick", help="reduced grid for CI
     console.print(f"outputs in {res.folder}")
 
 
+@app.command()
+def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke test), no Table 1 grid"),
+         jobs: int = typer.Option(2, "--jobs", "-j", help="worker processes for the Table 1 grid"),
+         table: bool = typer.Option(True, "--table/--no-table", help="time the 24-run Table 1 grid"),
+         exudyn: bool = typer.Option(True, "--exudyn/--no-exudyn", help="compare with Exudyn when installed"),
+         out: Optional[str] = typer.Option(None, "--out", help="output folder (default results/perf)")) -> None:
+    """Speed figures in one run (Table 1 grid vs the published seconds, per-step scaling in N,
+    Exudyn side by side, adaptive steps), steps/s per integrator; writes results/perf/."""
+    from daebench import perf as P
+
+    s = P.PerfSettings.quick() if quick else P.PerfSettings(jobs=jobs)
+    if not table:
+        s.table = False
+    s.exudyn = exudyn
+    res = P.run_perf(s, out)
+    console.print(P.markdown(res), highlight=False, markup=False)
+    console.print(f"written: {res['folder']}/perf.json, perf.md")
+
+
 def main() -> None:  # pragma: no cover
     app()
 

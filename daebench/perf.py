@@ -1,0 +1,408 @@
+"""`daebench perf`: the speed figures of issue 6, measured in one run, as ratios.
+
+1. **Table 1 grid** (beam-impact, 24 runs under the paper's protocol, h = 1e-4 s,
+   1e-6 s in contact, 1 s each; runs that diverge or fail end early and count as they
+   are): total wall time, and the speed-up over the published 47 500 s.
+2. **Scaling**: ``hht`` wall time per step on beam-impact (free flight before the first
+   impact, fixed h) for N = 3 … 12, the fitted exponent p of cost ∝ N^p and
+   [cost(12)/cost(3)] / (12/3)².
+3. **Exudyn** (optional extra ``exudyn``): per-step wall time of ``hht`` against
+   Exudyn's generalized-α (same step, same ρ∞ = (1+α)/(1−α)) on the rigid pendulum;
+   and on a hinged flexible beam under gravity (same L, EI, ρA; no contact; Exudyn:
+   2-D ANCF cable elements) the wall time each code needs for the same error of the
+   tip angle at t_end against its own converged reference (work–precision lines
+   interpolated in log–log).
+4. **Adaptivity**: the fewest steps of adaptive ``hht`` / ``ida`` that keep the max θ
+   error over the beam-impact run below 1e-6 rad (against the cached IDA reference),
+   as a fraction of the paper protocol's steps.
+
+Plus steps per second of every integrator on beam-impact N = 5 under the protocol.
+Compile time (numba, first call in a process; loaded from the on-disk cache after the
+first process) is measured first and reported separately; nothing else includes it.
+Everything is written to ``results/perf/perf.json`` and ``perf.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from daebench import provenance
+from daebench.runner import results_dir, run_scene
+from daebench.scene import load_scene
+
+PUBLISHED_TABLE1_TOTAL_S = 47500.0
+THETA_TARGET_RAD = 1e-6
+
+
+@dataclass
+class PerfSettings:
+    """Sizes of the measurements (``quick`` shrinks all of them for smoke tests)."""
+
+    jobs: int = 2
+    table: bool = True
+    table_t_end: float = 1.0
+    scaling_Ns: tuple[int, ...] = (3, 5, 7, 9, 12)
+    scaling_t_end: float = 0.3
+    pendulum_T: float = 10.0
+    pendulum_h: float = 1e-3
+    beam_T: float = 0.3
+    beam_hs: tuple[float, ...] = (4e-4, 2e-4, 1e-4, 5e-5)
+    beam_ref_h: float = 6.25e-6
+    ancf_elements: int = 8
+    exudyn: bool = True
+    adaptive_tols: tuple[float, ...] = (1e-6, 1e-7, 1e-8, 1e-9)
+    adaptive_t_end: float = 1.0
+    rates_t_end: float = 1.0
+
+    @classmethod
+    def quick(cls) -> "PerfSettings":
+        return cls(jobs=1, table=False, scaling_Ns=(3, 5), scaling_t_end=0.01, pendulum_T=0.1, beam_T=0.01,
+                   beam_hs=(2e-4, 1e-4), beam_ref_h=2.5e-5, ancf_elements=2, adaptive_tols=(1e-6,),
+                   adaptive_t_end=0.02, rates_t_end=0.005)
+
+
+def _timed(fn):
+    t = time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - t
+
+
+def compile_time() -> dict[str, float]:
+    """Wall time of the first compiled calls in this process (cache load, or compilation
+    when the cache is cold), for hub-beam and the pendulum."""
+    out = {}
+    for name, sets, integ in (("beam-impact", ["t_end=0.0002"], "hht"), ("pendulum", ["t_end=0.002"], "hht")):
+        sc = load_scene(name, sets)
+        _, w = _timed(lambda: run_scene(sc, integ, {"h": 1e-4}, write=False))
+        out[name] = w
+    return out
+
+
+# -- 1. Table 1 ---------------------------------------------------------------------------------
+def table1(s: PerfSettings) -> dict[str, Any]:
+    from daebench import bench, paper
+
+    p = paper.Protocol(t_end=s.table_t_end)
+    specs = [x for x in paper.plan(p) if x.varied["set"] == "table"]
+    scene = paper.base_scene(p)
+    df, wall = _timed(lambda: bench.run_specs(specs, scene, jobs=s.jobs, reference_mode="none", progress=False))
+    runs = [{"N": int(r["N"]), "setting": r["setting"], "status": r["status"], "wall_s": float(r["wall_s"]),
+             "steps": int(r.get("steps", 0) or 0), "t_final": float(r.get("t_final", math.nan))}
+            for _, r in df.iterrows()]
+    return {"runs": runs, "total_wall_s": wall, "sum_run_wall_s": float(df["wall_s"].sum()),
+            "jobs": s.jobs, "speedup_vs_published": PUBLISHED_TABLE1_TOTAL_S / wall,
+            "target_s": 120.0, "met": wall < 120.0}
+
+
+# -- 2. scaling ----------------------------------------------------------------------------------
+def scaling(s: PerfSettings) -> dict[str, Any]:
+    rows = []
+    for N in s.scaling_Ns:
+        sc = load_scene("beam-impact", [f"discretization.n={N}", f"t_end={s.scaling_t_end}",
+                                        f"output.dt={s.scaling_t_end / 10}"])
+        run_scene(sc, "hht", {"h": 1e-4}, write=False)  # warm (tables, caches)
+        (rec, _), w = _timed(lambda: run_scene(sc, "hht", {"h": 1e-4, "alpha": -0.15}, write=False))
+        rows.append({"N": N, "n": N + 1, "steps": rec.counters["steps"], "us_per_step": 1e6 * w / rec.counters["steps"]})
+    N = np.array([r["N"] for r in rows], float)
+    c = np.array([r["us_per_step"] for r in rows])
+    p = float(np.polyfit(np.log(N), np.log(c), 1)[0]) if len(N) > 1 else math.nan
+    ratio = (c[-1] / c[0]) / (N[-1] / N[0]) ** 2 if len(N) > 1 else math.nan
+    return {"rows": rows, "exponent": p, "growth_over_N2": ratio, "met": bool(ratio <= 1.0)}
+
+
+# -- 3. Exudyn -----------------------------------------------------------------------------------
+def _exu_settings(exu, T: float, h: float, rho: float):
+    sim = exu.SimulationSettings()
+    sim.timeIntegration.numberOfSteps = int(round(T / h))
+    sim.timeIntegration.endTime = T
+    sim.timeIntegration.generalizedAlpha.spectralRadius = rho
+    sim.timeIntegration.newton.useModifiedNewton = True
+    sim.timeIntegration.verboseMode = 0
+    sim.solution.file.write = False
+    sim.show.computationTime = False
+    sim.show.statistics = False
+    return sim
+
+
+def exudyn_pendulum(T: float, h: float, rho: float, theta0_deg: float = 30.0) -> tuple[float, float]:
+    """(wall time of SolveDynamic, final θ [rad]) of Exudyn's generalized-α on the Cartesian pendulum."""
+    import exudyn as exu
+    from exudyn.itemInterface import (DistanceConstraint, LoadCoordinate, MarkerNodeCoordinate, MarkerNodePosition,
+                                      MassPoint2D, NodePoint2D, NodePointGround)
+
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    th, l, m, g = math.radians(theta0_deg), 1.0, 1.0, 9.81
+    nG = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
+    n = mbs.AddNode(NodePoint2D(referenceCoordinates=[l * math.sin(th), -l * math.cos(th)]))
+    mbs.AddObject(MassPoint2D(mass=m, nodeNumber=n))
+    mG = mbs.AddMarker(MarkerNodePosition(nodeNumber=nG))
+    mB = mbs.AddMarker(MarkerNodePosition(nodeNumber=n))
+    mbs.AddObject(DistanceConstraint(markerNumbers=[mG, mB], distance=l))
+    mc = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=n, coordinate=1))
+    mbs.AddLoad(LoadCoordinate(markerNumber=mc, load=-m * g))
+    mbs.Assemble()
+    sim = _exu_settings(exu, T, h, rho)
+    _, w = _timed(lambda: exu.SolveDynamic(mbs, sim))
+    p = mbs.GetNodeOutput(n, exu.OutputVariableType.Position)
+    return w, math.atan2(p[0], -p[1])
+
+
+def exudyn_ancf_beam(T: float, h: float, rho: float, ne: int, scene) -> tuple[float, float]:
+    """(wall, tip angle [rad] at T) of a hinged ANCF cable (same L, EI, ρA, EA, start angle, g)."""
+    import exudyn as exu
+    from exudyn.itemInterface import (CoordinateConstraint, LoadMassProportional, MarkerBodyMass,
+                                      MarkerNodeCoordinate, NodePoint2DSlope1, NodePointGround, ObjectANCFCable2D,
+                                      ObjectGround)
+
+    L, A, I = scene["beam.length"], scene["beam.area"], scene["beam.inertia"]
+    rho_m, E, g = scene["beam.density"], scene["beam.modulus"], scene["gravity.g"]
+    th = math.radians(scene["start.theta_deg"])
+    c, s_ = math.cos(th), math.sin(th)
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    nodes = [mbs.AddNode(NodePoint2DSlope1(referenceCoordinates=[k * L / ne * c, k * L / ne * s_, c, s_]))
+             for k in range(ne + 1)]
+    for k in range(ne):
+        o = mbs.AddObject(ObjectANCFCable2D(length=L / ne, massPerLength=rho_m * A,
+                                            bendingStiffness=E * I, axialStiffness=E * A,
+                                            nodeNumbers=[nodes[k], nodes[k + 1]]))
+        mbs.AddLoad(LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(bodyNumber=o)),
+                                         loadVector=[0, -g, 0]))
+    mbs.AddObject(ObjectGround())
+    nG = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
+    mG = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nG, coordinate=0))
+    for k in (0, 1):  # the hinge: root position fixed, slope free
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[mG, mbs.AddMarker(MarkerNodeCoordinate(
+            nodeNumber=nodes[0], coordinate=k))]))
+    mbs.Assemble()
+    sim = _exu_settings(exu, T, h, rho)
+    _, w = _timed(lambda: exu.SolveDynamic(mbs, sim))
+    p = mbs.GetNodeOutput(nodes[-1], exu.OutputVariableType.Position)
+    return w, math.atan2(p[1], p[0])
+
+
+def _cost_at(errs: list[float], walls: list[float], target: float) -> float:
+    """Wall time at error ``target`` on the log–log work–precision line (interpolated)."""
+    e, w = np.log(np.array(errs)), np.log(np.array(walls))
+    ok = np.isfinite(e) & np.isfinite(w)
+    e, w = e[ok], w[ok]
+    if len(e) < 2:
+        return math.nan
+    order = np.argsort(e)
+    return float(np.exp(np.interp(math.log(target), e[order], w[order])))
+
+
+def exudyn_compare(s: PerfSettings) -> dict[str, Any]:
+    try:
+        import exudyn
+    except ImportError:
+        return {"available": False, "note": "exudyn not installed (pip install 'daebench[exudyn]')"}
+    out: dict[str, Any] = {"available": True, "version": exudyn.__version__}
+    alpha = -0.15
+    rho = (1 + alpha) / (1 - alpha)
+    # -- pendulum, same step ---------------------------------------------------------------
+    T, h = s.pendulum_T, s.pendulum_h
+    sc = load_scene("pendulum", [f"t_end={T}", f"output.dt={T / 10}"])
+    run_scene(sc, "hht", {"h": h}, write=False)
+    exudyn_pendulum(min(T, 0.01), h, rho)  # warm
+    best_ours, best_exu = math.inf, math.inf
+    for _ in range(3):
+        (rec, res), w = _timed(lambda: run_scene(sc, "hht", {"h": h, "alpha": alpha}, write=False))
+        best_ours = min(best_ours, w)
+        we, th_e = exudyn_pendulum(T, h, rho)
+        best_exu = min(best_exu, we)
+    from daebench.models.pendulum import exact_theta
+    th_exact = float(exact_theta(T, math.radians(30.0)))
+    steps = rec.counters["steps"]
+    out["pendulum"] = {
+        "T": T, "h": h, "alpha": alpha, "rho_inf": rho, "steps": steps,
+        "ours_us_per_step": 1e6 * best_ours / steps, "exudyn_us_per_step": 1e6 * best_exu / round(T / h),
+        "ours_theta_err": abs(math.radians(float(res.history["theta_deg"].iloc[-1])) - th_exact),
+        "exudyn_theta_err": abs(th_e - th_exact),
+    }
+    out["pendulum"]["ratio_ours_over_exudyn"] = out["pendulum"]["ours_us_per_step"] / out["pendulum"]["exudyn_us_per_step"]
+    # -- flexible beam, equal accuracy -------------------------------------------------------
+    T = s.beam_T
+    sets = ["effects.contact=false", f"t_end={T}", f"output.dt={T / 10}"]
+    sc = load_scene("beam-impact", sets)
+
+    def ours(hh):
+        (rec, res), w = _timed(lambda: run_scene(sc, "hht", {"h": hh, "alpha": alpha}, write=False))
+        last = res.history.iloc[-1]
+        return w, math.atan2(float(last["tip_y"]), float(last["tip_x"]))
+
+    ours(s.beam_hs[0])
+    _, ref_o = ours(s.beam_ref_h)
+    _, ref_e = exudyn_ancf_beam(T, s.beam_ref_h, rho, s.ancf_elements, sc)
+    rows = []
+    for hh in s.beam_hs:
+        wo, tho = ours(hh)
+        we, the = exudyn_ancf_beam(T, hh, rho, s.ancf_elements, sc)
+        rows.append({"h": hh, "ours_wall_s": wo, "ours_err": abs(tho - ref_o), "exudyn_wall_s": we,
+                     "exudyn_err": abs(the - ref_e)})
+    errs = [r["ours_err"] for r in rows] + [r["exudyn_err"] for r in rows]
+    pos = [e for e in errs if e > 0]
+    target = float(np.exp(np.mean(np.log(pos)))) if pos else math.nan  # inside both lines' ranges
+    co = _cost_at([r["ours_err"] for r in rows], [r["ours_wall_s"] for r in rows], target)
+    ce = _cost_at([r["exudyn_err"] for r in rows], [r["exudyn_wall_s"] for r in rows], target)
+    out["beam"] = {"T": T, "alpha": alpha, "rho_inf": rho, "ours_model": "hub-beam modes N=5 (n=6)",
+                   "exudyn_model": f"ANCFCable2D × {s.ancf_elements} elements", "rows": rows,
+                   "ref_tip_angle_ours": ref_o, "ref_tip_angle_exudyn": ref_e,
+                   "target_err": target, "ours_wall_at_target": co, "exudyn_wall_at_target": ce,
+                   "ratio_ours_over_exudyn": co / ce if ce == ce and ce > 0 else math.nan}
+    return out
+
+
+# -- 4. adaptivity -------------------------------------------------------------------------------
+def adaptive(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
+    from daebench import bench
+
+    sc = load_scene("beam-impact", [f"t_end={s.adaptive_t_end}"])
+    try:
+        ref = bench.load_reference(sc, compute=True)
+    except Exception as exc:  # noqa: BLE001 - reported, not raised
+        return {"available": False, "note": f"no reference: {exc}"}
+    rt = ref.history["t"].to_numpy()
+    rth = np.radians(ref.history["theta_deg"].to_numpy())
+    rows = []
+    for integ in ("ida", "hht"):
+        for tol in s.adaptive_tols:
+            opts = {"rtol": tol, "atol": tol * 1e-2}
+            if integ == "hht":
+                opts.update(adaptive=True, alpha=-0.15)
+            (rec, res), w = _timed(lambda: run_scene(sc, integ, opts, write=False))
+            h = res.history
+            err = float(np.max(np.abs(np.radians(h["theta_deg"].to_numpy()) - np.interp(h["t"].to_numpy(), rt, rth)))) \
+                if len(h) else math.nan
+            rows.append({"integrator": integ, "rtol": tol, "status": rec.status, "steps": rec.counters["steps"],
+                         "wall_s": w, "theta_err_max_rad": err})
+    ok = [r for r in rows if r["status"] == "completed" and r["theta_err_max_rad"] <= THETA_TARGET_RAD]
+    best = min(ok, key=lambda r: r["steps"]) if ok else None
+    res = {"rows": rows, "paper_protocol_steps": paper_steps, "best": best}
+    if best and paper_steps:
+        res["steps_fraction"] = best["steps"] / paper_steps
+        res["met"] = res["steps_fraction"] < 0.01
+    return res
+
+
+# -- steps per second ----------------------------------------------------------------------------
+def step_rates(s: PerfSettings) -> list[dict[str, Any]]:
+    sc = load_scene("beam-impact", ["discretization.n=5", f"t_end={s.rates_t_end}"])
+    proto = {"h": 1e-4, "h_contact": 1e-6}
+    cases = [("hht", [], {**proto, "alpha": -0.15}), ("baumgarte", [], {**proto, "delta": 10.0, "epsilon": 50.0}),
+             ("newmark+hertz", ["contact.law=hertz"], dict(proto)), ("ida", [], {})]
+    rows = []
+    for label, sets, opts in cases:
+        scx = sc.with_overrides(dict(x.split("=", 1) for x in sets)) if sets else sc
+        integ = label.split("+")[0]
+        (rec, _), w = _timed(lambda: run_scene(scx, integ, opts, write=False))
+        st = rec.counters["steps"]
+        rows.append({"integrator": label, "status": rec.status, "t_final": rec.t_final, "steps": st, "wall_s": w,
+                     "steps_per_s": st / w if w > 0 else math.nan})
+    return rows
+
+
+# -- all -------------------------------------------------------------------------------------------
+def run_perf(s: PerfSettings, out: str | Path | None = None) -> dict[str, Any]:
+    folder = Path(out) if out is not None else results_dir() / "perf"
+    folder.mkdir(parents=True, exist_ok=True)
+    res: dict[str, Any] = {"provenance": provenance.collect(), "load_before": os.getloadavg(),
+                           "compiled": os.environ.get("DAEBENCH_COMPILED", "1"), "settings": s.__dict__}
+    res["compile_s"] = compile_time()
+    res["step_rates"] = step_rates(s)
+    res["table1"] = table1(s) if s.table else None
+    res["scaling"] = scaling(s)
+    res["exudyn"] = exudyn_compare(s) if s.exudyn else {"available": False, "note": "skipped"}
+    paper_steps = next((r["steps"] for r in res["step_rates"] if r["integrator"] == "hht"), None)
+    if res["table1"]:
+        paper_steps = next((r["steps"] for r in res["table1"]["runs"]
+                            if r["N"] == 5 and r["setting"] == "HHT α=-0.15"), paper_steps)
+    res["adaptive"] = adaptive(s, paper_steps)
+    res["load_after"] = os.getloadavg()
+    (folder / "perf.json").write_text(json.dumps(res, indent=2, default=_json_default))
+    (folder / "perf.md").write_text(markdown(res))
+    res["folder"] = str(folder)
+    return res
+
+
+def _json_default(x):
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return str(x)
+
+
+def _f(x, fmt=".3g"):
+    return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, fmt)
+
+
+def markdown(r: dict[str, Any]) -> str:
+    L = ["# daebench perf", ""]
+    L.append(f"compile / cache load (first calls in the process): "
+             + ", ".join(f"{k} {_f(v)} s" for k, v in r["compile_s"].items()))
+    L.append(f"load average before: {', '.join(f'{x:.2f}' for x in r['load_before'])}")
+    L += ["", "## The four figures", ""]
+    t = r.get("table1")
+    if t:
+        L.append(f"1. Table 1 grid (24 runs, jobs={t['jobs']}): {_f(t['total_wall_s'])} s wall "
+                 f"→ {_f(t['speedup_vs_published'], '.0f')}× the published 47 500 s (target < 120 s: "
+                 f"{'met' if t['met'] else 'NOT met'})")
+    else:
+        L.append("1. Table 1 grid: skipped")
+    sc = r["scaling"]
+    L.append(f"2. hht per-step cost N = {sc['rows'][0]['N']} → {sc['rows'][-1]['N']}: exponent "
+             f"{_f(sc['exponent'])}, growth / N² = {_f(sc['growth_over_N2'])} ({'met' if sc['met'] else 'NOT met'})")
+    ex = r["exudyn"]
+    if ex.get("available"):
+        p, b = ex["pendulum"], ex["beam"]
+        L.append(f"3. vs Exudyn {ex['version']} generalized-α: pendulum per step ours/Exudyn = "
+                 f"{_f(p['ratio_ours_over_exudyn'])} ({_f(p['ours_us_per_step'])} vs {_f(p['exudyn_us_per_step'])} µs); "
+                 f"flexible beam wall at equal tip-angle error {_f(b['target_err'])} rad: ours/Exudyn = "
+                 f"{_f(b['ratio_ours_over_exudyn'])} ({b['ours_model']} vs {b['exudyn_model']})")
+    else:
+        L.append(f"3. Exudyn: {ex.get('note')}")
+    a = r["adaptive"]
+    if a.get("best"):
+        b = a["best"]
+        L.append(f"4. {b['integrator']} rtol {b['rtol']:g}: {b['steps']} steps for max θ error "
+                 f"{_f(b['theta_err_max_rad'])} rad ≤ 1e-6 = {_f(a.get('steps_fraction'))} of the protocol's "
+                 f"{a['paper_protocol_steps']} steps (target < 0.01: {'met' if a.get('met') else 'NOT met'})")
+    else:
+        L.append(f"4. adaptive: no run reached 1e-6 rad ({a.get('note', '')})")
+    L += ["", "## Steps per second, beam-impact N = 5, protocol h = 1e-4 s / 1e-6 s in contact", "",
+          "| integrator | status | t_final | steps | wall [s] | steps/s |", "|---|---|---|---|---|---|"]
+    for x in r["step_rates"]:
+        L.append(f"| {x['integrator']} | {x['status']} | {_f(x['t_final'])} | {x['steps']} | {_f(x['wall_s'])} | "
+                 f"{_f(x['steps_per_s'], '.0f')} |")
+    if t:
+        L += ["", "## Table 1 runs", "", "| N | setting | status | wall [s] | steps | t_final |", "|---|---|---|---|---|---|"]
+        for x in t["runs"]:
+            L.append(f"| {x['N']} | {x['setting']} | {x['status']} | {_f(x['wall_s'])} | {x['steps']} | "
+                     f"{_f(x['t_final'])} |")
+    L += ["", "## Scaling", "", "| N | n | steps | µs/step |", "|---|---|---|---|"]
+    for x in sc["rows"]:
+        L.append(f"| {x['N']} | {x['n']} | {x['steps']} | {_f(x['us_per_step'])} |")
+    if ex.get("available"):
+        L += ["", "## Flexible beam work–precision (tip angle at T vs own reference)", "",
+              "| h | ours wall [s] | ours err | Exudyn wall [s] | Exudyn err |", "|---|---|---|---|---|"]
+        for x in ex["beam"]["rows"]:
+            L.append(f"| {x['h']:g} | {_f(x['ours_wall_s'])} | {_f(x['ours_err'])} | {_f(x['exudyn_wall_s'])} | "
+                     f"{_f(x['exudyn_err'])} |")
+    if a.get("rows"):
+        L += ["", "## Adaptive runs (max θ error over the run vs the IDA reference)", "",
+              "| integrator | rtol | status | steps | wall [s] | θ err [rad] |", "|---|---|---|---|---|---|"]
+        for x in a["rows"]:
+            L.append(f"| {x['integrator']} | {x['rtol']:g} | {x['status']} | {x['steps']} | {_f(x['wall_s'])} | "
+                     f"{_f(x['theta_err_max_rad'])} |")
+    L.append(provenance.markdown_footer(r["provenance"]))
+    return "\n".join(L) + "\n"

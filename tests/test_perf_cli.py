@@ -1,0 +1,20 @@
+"""Smoke test of `daebench perf` with tiny settings (the figures themselves come from a
+full `daebench perf` run on a quiet machine, never from timed tests)."""
+
+import json
+
+from typer.testing import CliRunner
+
+from daebench.cli import app
+
+
+def test_perf_quick_writes_the_figures(tmp_path, monkeypatch):
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    res = CliRunner().invoke(app, ["perf", "--quick", "--out", str(tmp_path / "perf")])
+    assert res.exit_code == 0, res.output
+    data = json.loads((tmp_path / "perf" / "perf.json").read_text())
+    for k in ("compile_s", "step_rates", "scaling", "exudyn", "adaptive"):
+        assert k in data
+    assert {r["integrator"] for r in data["step_rates"]} == {"hht", "baumgarte", "newmark+hertz", "ida"}
+    assert all(r["steps"] > 0 for r in data["step_rates"])
+    assert "growth / N²" in res.output and "Steps per second" in res.output
