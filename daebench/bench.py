@@ -351,7 +351,7 @@ def execute(spec: RunSpec, scene: Scene, reference_mode: str = "auto", repeats: 
                     raise
         if ref is not None and len(hist):
             row["ref_rtol"] = ref.rtol
-            row.update(metrics.accuracy(hist, ref.history))
+            row.update(metrics.accuracy(hist, ref.history, sc.get("output.observables") or None))
             row.update(metrics.event_errors(hist, impacts, ref.history, ref.impacts))
         else:
             row.update(metrics.impact_time_errors(impacts, []))

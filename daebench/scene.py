@@ -35,7 +35,8 @@ COMMON_SCHEMA: dict[str, Param] = {
         Param("model", str, "", "model the scene runs"),
         Param("t_end", float, 1.0, "end time", low=1e-9, high=1e5, unit="s"),
         Param("output.dt", float, 1e-3, "spacing of the output times", low=1e-9, high=1e5, unit="s"),
-        Param("output.observables", list, [], "observables written and scored"),
+        Param("output.observables", list, [], "observables scored against the reference (empty: all); "
+              "the history records every observable"),
         Param("output.format", str, "csv", "history file format", choices=("csv", "parquet")),
     )
 }
