@@ -59,7 +59,8 @@ import numpy as np
 from daebench.contact import DAMPING_LAWS, make_contact_law
 from daebench.models import _hubbeam_kernels as kern
 from daebench.models.shapes import (BUILDER_OPTIONS, BUILDERS, MAX_ELEMENTS, MAX_MODES, MAX_NODES,
-                                     MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE, ShapeTables, tabulate)
+                                     MAX_INFLUENCE, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE, MIN_INFLUENCE,
+                                     ShapeTables, tabulate)
 from daebench.params import Param
 from daebench.scene import Scene, SceneError
 from daebench.system import MechanicalSystem, central_difference
@@ -78,7 +79,7 @@ SCHEMA: dict[str, Param] = {
               "modes per direction (modes: 1..12), number of elements (fem: 1..200) or of nodes, root included "
               "(meshfree: 3..60)", low=1, high=MAX_ELEMENTS),
         Param("discretization.influence", float, MESHFREE_INFLUENCE,
-              "meshfree: influence-domain radius in nodal spacings", low=1.5, high=6.0),
+              "meshfree: influence-domain radius in nodal spacings", low=MIN_INFLUENCE, high=MAX_INFLUENCE),
         Param("discretization.cell_gauss", int, MESHFREE_CELL_GAUSS, "meshfree: Gauss points per background cell",
               low=1, high=16),
         Param("effects.gravity", bool, True, "gravity along −Y"),
@@ -247,24 +248,6 @@ class HubBeam(MechanicalSystem):
                 penalty_damping=s["contact.penalty_damping"])
         else:
             self.contact_law = None
-
-    # -- compiled kernels ------------------------------------------------------
-    def kernels(self) -> tuple:
-        """Model descriptor for compiled integrator loops
-        (:mod:`daebench.integrators._compiled_models`; built once, tables shared)."""
-        md = getattr(self, "_md", None)
-        if md is None:
-            from daebench.integrators import _compiled_models as cm
-
-            prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy_bar, Hbar = self.kernel_args
-            xp, phx_p, phy_p, Hp = self._pt[1]
-            power_free = not (self.effects["torque"] or self.effects["damping"])
-            md = cm.pack(cm.KIND_HUBBEAM, prm, [fore, self.n_contacts, 0, int(power_free)],
-                         [xs, wm, phx_bar, phy_bar, phx_p, phy_p, [xp], np.zeros(self.n), np.zeros(self.n)],
-                         [phx, phy, Mc, K1, K2, Hbar, Hp, np.zeros_like(self._work)],
-                         H)
-            self._md = md
-        return md
 
     # -- dynamics --------------------------------------------------------------
     def mass_and_force(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
