@@ -249,6 +249,24 @@ class HubBeam(MechanicalSystem):
         else:
             self.contact_law = None
 
+    # -- compiled kernels ------------------------------------------------------
+    def kernels(self) -> tuple:
+        """Model descriptor for compiled integrator loops
+        (:mod:`daebench.integrators._compiled_models`; built once, tables shared)."""
+        md = getattr(self, "_md", None)
+        if md is None:
+            from daebench.integrators import _compiled_models as cm
+
+            prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy_bar, Hbar = self.kernel_args
+            xp, phx_p, phy_p, Hp = self._pt[1]
+            power_free = not (self.effects["torque"] or self.effects["damping"])
+            md = cm.pack(cm.KIND_HUBBEAM, prm, [fore, self.n_contacts, 0, int(power_free)],
+                         [xs, wm, phx_bar, phy_bar, phx_p, phy_p, [xp], np.zeros(self.n), np.zeros(self.n)],
+                         [phx, phy, Mc, K1, K2, Hbar, Hp, np.zeros_like(self._work)],
+                         H)
+            self._md = md
+        return md
+
     # -- dynamics --------------------------------------------------------------
     def mass_and_force(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(M(q), applied force Q(t, q, v)) from one kernel pass (no contact force)."""
