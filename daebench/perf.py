@@ -60,6 +60,7 @@ class PerfSettings:
     exudyn: bool = True
     adaptive_tols: tuple[float, ...] = (1e-6, 1e-7, 1e-8, 1e-9)
     adaptive_t_end: float = 1.0
+    adaptive_cap_s: float = 60.0
     rates_t_end: float = 1.0
 
     @classmethod
@@ -279,7 +280,13 @@ def adaptive(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
             opts = {"rtol": tol, "atol": tol * 1e-2}
             if integ == "hht":
                 opts.update(adaptive=True, alpha=-0.15)
-            (rec, res), w = _timed(lambda: run_scene(sc, integ, opts, write=False))
+            try:
+                with bench.deadline(s.adaptive_cap_s):
+                    (rec, res), w = _timed(lambda: run_scene(sc, integ, opts, write=False))
+            except bench.RunTimeout:
+                rows.append({"integrator": integ, "rtol": tol, "status": f"over {s.adaptive_cap_s:g} s cap",
+                             "steps": -1, "wall_s": math.nan, "theta_err_max_rad": math.nan})
+                continue
             h = res.history
             err = float(np.max(np.abs(np.radians(h["theta_deg"].to_numpy()) - np.interp(h["t"].to_numpy(), rt, rth)))) \
                 if len(h) else math.nan
@@ -317,10 +324,16 @@ def run_perf(s: PerfSettings, out: str | Path | None = None) -> dict[str, Any]:
     folder.mkdir(parents=True, exist_ok=True)
     res: dict[str, Any] = {"provenance": provenance.collect(), "load_before": os.getloadavg(),
                            "compiled": os.environ.get("DAEBENCH_COMPILED", "1"), "settings": s.__dict__}
+    def save():
+        (folder / "perf.json").write_text(json.dumps(res, indent=2, default=_json_default))
+
     res["compile_s"] = compile_time()
     res["step_rates"] = step_rates(s)
+    save()
     res["table1"] = table1(s) if s.table else None
+    save()
     res["scaling"] = scaling(s)
+    save()
     res["exudyn"] = exudyn_compare(s) if s.exudyn else {"available": False, "note": "skipped"}
     paper_steps = next((r["steps"] for r in res["step_rates"] if r["integrator"] == "hht"), None)
     if res["table1"]:
