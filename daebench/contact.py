@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 DAMPING_LAWS = ("lankarani-nikravesh", "hunt-crossley", "flores", "none")
+APPROACH_SPEED_MIN = 1e-3  # m/s: the hysteresis factors scale as 1/v0; a grazing or resting
+                           # contact (v0 → 0) gets the damping of a 1 mm/s impact instead of ∞
 
 
 def hysteresis_factor(law: str, e: float, v0: float) -> float:
@@ -87,7 +89,7 @@ class HertzLaw(ContactLaw):
         ok = np.isfinite(v0) & (v0 > 0.0)
         chi = np.zeros_like(v0)
         for i in np.flatnonzero(ok):
-            chi[i] = hysteresis_factor(self.damping, self.restitution, float(v0[i]))
+            chi[i] = hysteresis_factor(self.damping, self.restitution, max(float(v0[i]), APPROACH_SPEED_MIN))
         return chi
 
     def force(self, g: np.ndarray, gdot: np.ndarray) -> np.ndarray:

@@ -188,6 +188,7 @@ class Driver:
             if tensile:
                 self.active = [c for c in self.active if c not in tensile]
                 self.armed[tensile] = False
+                self.last_release_t[tensile] = state.t  # a release like any other (see hold)
                 return state
         if self.continuous_contacts:
             law = sys_.contact_law
@@ -283,8 +284,9 @@ class Driver:
                     at = 0.0 if g0[i] >= 0.0 else off
                     cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i] + at, prev, new),
                                   "close", i))
-                elif g1[i] < -off and self.constraint_contacts:
-                    # the step started already (numerically) closed: impact at its start
+                elif g1[i] < -off:
+                    # the step started already (numerically) closed — e.g. a grazing re-contact
+                    # right after a separation: contact at its start
                     cands.append((prev.t, "close", i))
                 elif g1[i] > GAP_BAND:
                     self.armed[i] = True
@@ -351,6 +353,7 @@ class Driver:
             self.impacts.append(Impact(t, i, vn, math.nan, math.nan))
         elif kind == "separate":
             self.penetrating.discard(i)
+            self.armed[i] = False  # a release like any other: re-closing goes by the band rule
             vn = float(sys_.gap_jacobian(q)[i] @ v)
             for imp in reversed(self.impacts):
                 if imp.contact == i and math.isnan(imp.vn_plus):
