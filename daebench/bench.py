@@ -186,7 +186,8 @@ class RunSpec:
     @property
     def label(self) -> str:
         parts = [f"{k}={_fmt(v)}" for k, v in self.varied.items() if k not in ("h", "rtol", "atol", "tol")]
-        return self.integrator + (f" ({', '.join(parts)})" if parts else "")
+        mode = " adaptive" if self.options.get("adaptive") else ""  # never one line with fixed steps
+        return self.integrator + mode + (f" ({', '.join(parts)})" if parts else "")
 
 
 def _fmt(v: Any) -> str:
