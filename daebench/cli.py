@@ -54,6 +54,8 @@ def list_cmd() -> None:
         cap = reg.cls.capabilities
         steps = "/".join(x for x, ok in (("fixed", cap.fixed_step), ("adaptive", cap.adaptive)) if ok)
         cons = f"index {cap.index}" if cap.constraints else "ODE only"
+        if cap.contacts:
+            cons += ", resolves contacts"
         t.add_row(name, str(cap.order), steps, cons, reg.distribution, reg.cls.description)
     console.print(t)
 
