@@ -80,25 +80,40 @@ def pack(kind: int, prm, ip, a1: list, a2: list, a3) -> tuple:
 
 @njit(cache=True)
 def mass_force(md, t, q, v, M, Q):
-    """M(q) and the applied force Q(t, q, v) (without continuous contact forces)."""
-    kind, prm, ip, a1, a2, a3 = md
-    if kind == KIND_HUBBEAM:
-        hk.mass_force(t, q, v, prm, ip[IP_FORE], a1[0], a1[1], a2[0], a2[1], a3, a2[2], a2[3], a2[4],
-                      a1[2], a1[3], a2[5], True, M, Q, a2[7])
+    """M(q) and the applied force Q(t, q, v) (without continuous contact forces).
+
+    Hot loops call the pendulum's kernels (``pendulum_*``, parameter array only) directly
+    when ``md[0] == KIND_PENDULUM``: every njit call that receives ``md`` increfs and
+    decrefs its ~20 arrays atomically on entry and exit, and on the pendulum those
+    reference counts were most of the step (measured with perf)."""
+    if md[0] == KIND_PENDULUM:
+        pendulum_mass_force(md[1], M, Q)
     else:
-        m = prm[0]
-        M[0, 0] = m
-        M[0, 1] = 0.0
-        M[1, 0] = 0.0
-        M[1, 1] = m
-        Q[0] = 0.0
-        Q[1] = -m * prm[2]
+        _mass_force(md, t, q, v, M, Q)
+
+
+@njit(cache=True)
+def pendulum_mass_force(prm, M, Q):
+    m = prm[0]
+    M[0, 0] = m
+    M[0, 1] = 0.0
+    M[1, 0] = 0.0
+    M[1, 1] = m
+    Q[0] = 0.0
+    Q[1] = -m * prm[2]
+
+
+@njit(cache=True)
+def _mass_force(md, t, q, v, M, Q):
+    kind, prm, ip, a1, a2, a3 = md
+    hk.mass_force(t, q, v, prm, ip[IP_FORE], a1[0], a1[1], a2[0], a2[1], a3, a2[2], a2[3], a2[4],
+                  a1[2], a1[3], a2[5], True, M, Q, a2[7])
 
 
 @njit(cache=True)
 def force_jacobian(md, t, q, v, Kq, Kv):
-    kind, prm, ip, a1, a2, a3 = md
-    if kind == KIND_HUBBEAM:
+    if md[0] == KIND_HUBBEAM:
+        kind, prm, ip, a1, a2, a3 = md
         hk.force_jacobian(t, q, v, prm, ip[IP_FORE], a1[0], a1[1], a2[0], a2[1], a3, a2[3], a2[4],
                           a1[2], a1[3], a2[5], Kq, Kv)
     else:
@@ -108,8 +123,8 @@ def force_jacobian(md, t, q, v, Kq, Kv):
 
 @njit(cache=True)
 def mass_jacobian_product(md, q, acc, out):
-    kind, prm, ip, a1, a2, a3 = md
-    if kind == KIND_HUBBEAM:
+    if md[0] == KIND_HUBBEAM:
+        kind, prm, ip, a1, a2, a3 = md
         hk.mass_jacobian_product(q, acc, prm, ip[IP_FORE], a1[0], a1[1], a2[0], a2[1], a3, out)
     else:
         out[:, :] = 0.0
@@ -135,17 +150,28 @@ def gaps(md, q, zeros, g):
 def constraints(md, t, q, v, active, C, Cq, Ct, gam):
     """Rows of the active constraints (bilateral first, then C = −g of the closed contacts
     in ``active``): C, C_q, C_t and γ."""
+    if md[0] == KIND_PENDULUM:
+        pendulum_constraints(md[1], q, v, C, Cq, Ct, gam)
+    else:
+        _constraints(md, t, q, v, active, C, Cq, Ct, gam)
+
+
+@njit(cache=True)
+def pendulum_constraints(prm, q, v, C, Cq, Ct, gam):
+    """The rod (the pendulum has no contacts)."""
+    l = prm[1]
+    C[0] = 0.5 * (q[0] * q[0] + q[1] * q[1] - l * l)
+    Cq[0, 0] = q[0]
+    Cq[0, 1] = q[1]
+    Ct[0] = 0.0
+    gam[0] = -(v[0] * v[0] + v[1] * v[1])
+
+
+@njit(cache=True)
+def _constraints(md, t, q, v, active, C, Cq, Ct, gam):
     kind, prm, ip, a1, a2, a3 = md
     n = q.shape[0]
     r = 0
-    if kind == KIND_PENDULUM:
-        l = prm[1]
-        C[0] = 0.5 * (q[0] * q[0] + q[1] * q[1] - l * l)
-        Cq[0, 0] = q[0]
-        Cq[0, 1] = q[1]
-        Ct[0] = 0.0
-        gam[0] = -(v[0] * v[0] + v[1] * v[1])
-        r = 1
     for c in active:
         if kind == KIND_HUBBEAM:
             g, gamma = _gap_point(md, q, v)

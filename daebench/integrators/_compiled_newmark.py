@@ -134,7 +134,7 @@ def workspace(n, m, nx):
 
 
 @njit(cache=True)
-def _unpack(md, n, m, ggl, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va):
+def _unpack(n, m, ggl, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va):
     """q, a, v of the iterate x (GGL: a = (q − q̂ − C_qᵀμ)/βh²)."""
     for i in range(n):
         mu = 0.0
@@ -153,16 +153,11 @@ def _cq(md, t, q, active, Cq, ws):
 
 
 @njit(cache=True)
-def _constraints_ok(md, active, n, m, ggl, t1, t0, x, tol, qscale, q_hat, v_hat, bh2, gah, be, ga, ws):
+def _constraints_ok(n, m, ggl, t1, t0, tol, qscale, Cq, C, Ct, va, be, ga):
+    """The constraint part of the convergence test, on C, C_q, C_t and v evaluated at the
+    iterate by the caller."""
     if m == 0:
         return True
-    v1, vm, vx, mn = ws
-    Cq = mn[6]
-    C, Ct, gam = vm[0], vm[1], vm[2]
-    qa, aa, va = v1[2], v1[3], v1[4]
-    _cq(md, t1, x[:n], active, Cq, ws)
-    _unpack(md, n, m, ggl, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va)
-    cm.constraints(md, t1, qa, va, active, C, mn[7], Ct, gam)
     pos = 0.0
     vel = 0.0
     for k in range(m):
@@ -290,7 +285,13 @@ def newton(md, active, t, q, v, a, lam, F_old, h, al, be, ga, ggl, tol, maxiter,
     q_hat, v_hat, qa, aa, va, Q = v1[0], v1[1], v1[2], v1[3], v1[4], v1[5]
     C, Ct, gam = vm[0], vm[1], vm[2]
     x0, x, r, dx = vx[0][:nx], vx[1][:nx], vx[2][:nx], vx[3][:nx]
-    M, Cq = mn[0], mn[6]
+    M, Cq, Cq2 = mn[0], mn[6], mn[7]
+    zeros, scratch = v1[6], vm[3]
+    # the descriptor is passed on only off the pendulum's branch: every njit call that
+    # receives ``md`` increfs/decrefs its ~20 arrays (atomics), measured (perf) to be most
+    # of the pendulum's step when done several times per Newton iteration
+    kind = md[0]
+    prm = md[1]
     t1 = t + h
     bh2 = be * h * h
     w1 = 1.0 / (1.0 + al)
@@ -325,9 +326,15 @@ def newton(md, active, t, q, v, a, lam, F_old, h, al, be, ga, ggl, tol, maxiter,
         converged = False
         for it in range(maxiter):
             if m:
-                _cq(md, t1, x[:n], active, Cq, ws)
-            _unpack(md, n, m, ggl, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va)
-            cm.mass_force(md, t1, qa, va, M, Q)
+                if kind == cm.KIND_PENDULUM:
+                    cm.pendulum_constraints(prm, x[:n], zeros, scratch, Cq, scratch, scratch)
+                else:
+                    cm.constraints(md, t1, x[:n], zeros, active, scratch, Cq, scratch, scratch)
+            _unpack(n, m, ggl, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va)
+            if kind == cm.KIND_PENDULUM:
+                cm.pendulum_mass_force(prm, M, Q)
+            else:
+                cm.mass_force(md, t1, qa, va, M, Q)
             cnt[C_RES] += 1
             finite = True
             for i in range(n):
@@ -340,7 +347,10 @@ def newton(md, active, t, q, v, a, lam, F_old, h, al, be, ga, ggl, tol, maxiter,
                         ri += Cq[k, i] * x[n + k]
                 r[i] = ri
             if m:
-                cm.constraints(md, t1, qa, va, active, C, mn[7], Ct, gam)
+                if kind == cm.KIND_PENDULUM:
+                    cm.pendulum_constraints(prm, qa, va, C, Cq2, Ct, gam)
+                else:
+                    cm.constraints(md, t1, qa, va, active, C, Cq2, Ct, gam)
                 for k in range(m):
                     r[n + k] = C[k]
                     if ggl:
@@ -392,10 +402,20 @@ def newton(md, active, t, q, v, a, lam, F_old, h, al, be, ga, ggl, tol, maxiter,
             has_rate = d_prev != 0.0
             rate = d / d_prev if has_rate else 0.0
             small = d <= max(tol, ROUNDOFF) or (has_rate and rate < 1.0 and rate / (1.0 - rate) * d <= tol)
-            if small and _constraints_ok(md, active, n, m, ggl, t1, t, x, tol, qscale, q_hat, v_hat, bh2, gah,
-                                         be, ga, ws):
-                converged = True
-                break
+            if small:
+                if m:
+                    if kind == cm.KIND_PENDULUM:
+                        cm.pendulum_constraints(prm, x[:n], zeros, scratch, Cq, scratch, scratch)
+                    else:
+                        cm.constraints(md, t1, x[:n], zeros, active, scratch, Cq, scratch, scratch)
+                    _unpack(n, m, ggl, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va)
+                    if kind == cm.KIND_PENDULUM:
+                        cm.pendulum_constraints(prm, qa, va, C, Cq2, Ct, gam)
+                    else:
+                        cm.constraints(md, t1, qa, va, active, C, Cq2, Ct, gam)
+                if _constraints_ok(n, m, ggl, t1, t, tol, qscale, Cq, C, Ct, va, be, ga):
+                    converged = True
+                    break
             if has_rate:
                 slow = rate >= 1.0 or d * rate ** (maxiter - it - 1) > tol * (1.0 - rate)
                 if not fresh and (rate > NEWTON_RATE_REFRESH or slow):
@@ -409,8 +429,11 @@ def newton(md, active, t, q, v, a, lam, F_old, h, al, be, ga, ggl, tol, maxiter,
             return 3
         st[ST_LU] = 0.0
     if m:
-        _cq(md, t1, x[:n], active, Cq, ws)
-    _unpack(md, n, m, ggl, x, Cq, q_hat, v_hat, bh2, gah, out_q, out_a, out_v)
+        if kind == cm.KIND_PENDULUM:
+            cm.pendulum_constraints(prm, x[:n], zeros, scratch, Cq, scratch, scratch)
+        else:
+            cm.constraints(md, t1, x[:n], zeros, active, scratch, Cq, scratch, scratch)
+    _unpack(n, m, ggl, x, Cq, q_hat, v_hat, bh2, gah, out_q, out_a, out_v)
     for k in range(m):
         out_lam[k] = x[n + k] / bh2
     if al != 0.0:
