@@ -11,6 +11,7 @@ import pytest
 from daebench.models import build_system
 from daebench.models.hubbeam import HubBeam, hertz_default_stiffness
 from daebench.scene import SceneError, load_scene
+from _fd import fd  # tests/_fd.py
 
 RNG = np.random.default_rng(20240607)
 
@@ -35,16 +36,6 @@ def random_state(s: HubBeam, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray
     q[s.iB] = scale * 3e-2 * RNG.standard_normal(s.nB) / np.arange(1, s.nB + 1)
     v[s.iB] = scale * 1.0 * RNG.standard_normal(s.nB) / np.arange(1, s.nB + 1)
     return q, v
-
-
-def fd(fun, x: np.ndarray, h: float = 1e-6) -> np.ndarray:
-    """Central differences with a fixed absolute step (columns = ∂fun/∂x_j)."""
-    cols = []
-    for j in range(x.size):
-        e = np.zeros_like(x)
-        e[j] = h
-        cols.append((np.asarray(fun(x + e)) - np.asarray(fun(x - e))) / (2 * h))
-    return np.array(cols).T
 
 
 def rel(a: np.ndarray, b: np.ndarray) -> float:

@@ -28,6 +28,7 @@ from daebench.models.shapes import (
 )
 from daebench.runner import run_scene
 from daebench.scene import SceneError, load_scene
+from _fd import fd  # tests/_fd.py
 
 RNG = np.random.default_rng(5)
 L = 1.8
@@ -175,15 +176,6 @@ def test_scene_file_builds_the_papers_meshfree_model():
 # ---------------------------------------------------------------------------
 # the model with meshfree tables (Jacobians and energy are discretization-independent
 # code, so one cheap check each that the tables plug in correctly)
-def fd(fun, x, h=1e-6):
-    cols = []
-    for j in range(x.size):
-        e = np.zeros_like(x)
-        e[j] = h
-        cols.append((np.asarray(fun(x + e)) - np.asarray(fun(x - e))) / (2 * h))
-    return np.array(cols).T
-
-
 def test_meshfree_model_jacobians_and_lagrange():
     s = build_system(load_scene("hub-beam-meshfree", ["discretization.n=5", "effects.gravity=true",
                                                       "effects.damping=true", "damping.beta=1e-3"]))
