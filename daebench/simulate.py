@@ -229,15 +229,12 @@ class Driver:
         """Whether this phase may run through ``integ.advance`` (a compiled phase runner).
 
         Only when the integrator offers it for this problem, the model declares that it
-        has no non-conservative power outside contact (descriptor flag), and no continuous
+        has no non-conservative power outside contact (``system.power_free``), and no continuous
         contact is penetrating. Within such a phase the per-step driver work on a step
         without event, output time or sign change is exactly what the runner does itself
         (re-arming gaps, constraint maxima); the step that needs more is handed back and
         processed below like any other step, so results do not depend on the path."""
-        if not self.integ.can_advance(problem) or self.penetrating:
-            return False
-        md = getattr(self.integ, "_md", None)
-        return md is not None and bool(md[2][3])
+        return self.system.power_free and not self.penetrating and self.integ.can_advance(problem)
 
     def _advance(self, problem: Problem) -> State:
         sys_ = self.system

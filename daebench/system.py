@@ -162,6 +162,14 @@ class MechanicalSystem:
         raise NotImplementedError
 
     @property
+    def power_free(self) -> bool:
+        """Whether the model has no non-conservative effect of its own (:meth:`power` is
+        empty whenever no continuous contact penetrates). Declared, not inferred from a
+        zero power at one instant: compiled phase runners skip the work bookkeeping only
+        when this is true. Default False (safe)."""
+        return False
+
+    @property
     def contacts_by_integrator(self) -> bool:
         """Contact points with no law for the driver: an integrator must resolve them."""
         return self.n_contacts > 0 and self.contact_law is None

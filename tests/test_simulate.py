@@ -213,3 +213,23 @@ def test_blow_up_is_a_diverged_verdict_with_time_and_reason():
     res = simulate(FreeBall(1.0, None), Pumping(h=1e-3), t_end=1.0, output_dt=1e-2)
     assert res.status == "diverged"
     assert "energy residual" in res.message and res.t_final < 1.0
+
+
+@pytest.mark.parametrize("case, sets", [("beam-impact", []), ("hub-beam", []), ("pendulum", []),
+                                        ("andrews", []), ("chain-impact", ["contact.law=constraint"]),
+                                        ("hub-beam", ["effects.torque=false", "effects.damping=true", "damping.beta=1e-3"])])
+def test_declared_power_free_matches_the_model_power(case, sets):
+    """Compiled phase runners skip the work bookkeeping when a model declares itself free
+    of non-conservative power; the declaration must agree with power() at random states."""
+    from daebench.models import build_system
+    from daebench.scene import load_scene
+
+    system = build_system(load_scene(case, sets))
+    rng = np.random.default_rng(1)
+    q0, v0 = system.initial_state()
+    powers = [system.power(float(t), q0 + 1e-3 * rng.standard_normal(q0.size), v0 + rng.standard_normal(v0.size))
+              for t in rng.uniform(0.0, 1.0, 5)]
+    if system.power_free:
+        assert all(p == {} for p in powers)
+    else:
+        assert all(p and any(x != 0.0 for x in p.values()) for p in powers)

@@ -259,8 +259,7 @@ class HubBeam(MechanicalSystem):
 
             prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy_bar, Hbar = self.kernel_args
             xp, phx_p, phy_p, Hp = self._pt[1]
-            power_free = not (self.effects["torque"] or self.effects["damping"])
-            md = cm.pack(cm.KIND_HUBBEAM, prm, [fore, self.n_contacts, 0, int(power_free)],
+            md = cm.pack(cm.KIND_HUBBEAM, prm, [fore, self.n_contacts, 0, int(self.power_free)],
                          [xs, wm, phx_bar, phy_bar, phx_p, phy_p, [xp], np.zeros(self.n), np.zeros(self.n)],
                          [phx, phy, Mc, K1, K2, Hbar, Hp, np.zeros_like(self._work)],
                          H)
@@ -372,6 +371,10 @@ class HubBeam(MechanicalSystem):
             P2 = float(p[11] @ B)
             out["gravity"] = g * (math.sin(q[0]) * P1 + math.cos(q[0]) * P2)
         return out
+
+    @property
+    def power_free(self) -> bool:
+        return not (self.effects["torque"] or self.effects["damping"])
 
     def power(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         out: dict[str, float] = {}

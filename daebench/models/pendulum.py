@@ -72,12 +72,14 @@ class Pendulum(MechanicalSystem):
     def mass_jacobian_product(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
         return self._zero
 
+    power_free = True  # gravity only: no non-conservative effect
+
     def kernels(self) -> tuple:
         """Model descriptor for compiled integrator loops (the pendulum's branch of
         :mod:`daebench.integrators._compiled_models`: M = mI, Q = (0, −mg), C = ½(|q|² − l²))."""
         from daebench.integrators import _compiled_models as cm
 
-        return cm.pack(cm.KIND_PENDULUM, [self.m, self.l, self.g], [0, 0, 1, 1], [], [], np.zeros((1, 1, 1)))
+        return cm.pack(cm.KIND_PENDULUM, [self.m, self.l, self.g], [0, 0, 1, int(self.power_free)], [], [], np.zeros((1, 1, 1)))
 
     # -- the rod ------------------------------------------------------------
     def constraint(self, t: float, q: np.ndarray) -> np.ndarray:
