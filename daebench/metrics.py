@@ -269,3 +269,82 @@ def summarize(values: Iterable[float]) -> float:
     a = np.abs(np.asarray(list(values), float))
     a = a[np.isfinite(a)]
     return float(a.max()) if a.size else math.nan
+
+
+# -- oscillation content -----------------------------------------------------------
+TREND_DEGREE = 12   # Chebyshev degree of the slow motion removed before the spectrum
+ZERO_PAD = 8        # FFT length / samples: keeps the scalloping loss of an off-bin tone < 1 %
+
+
+def oscillation_spectrum(t: np.ndarray, x: np.ndarray, trend_degree: int = TREND_DEGREE
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Amplitude spectrum of the oscillation of ``x(t)`` about its slow trend.
+
+    ``x`` is sampled at uniform times ``t``. The trend (e.g. the rigid swing of a beam)
+    is a least-squares Chebyshev polynomial of ``trend_degree``; the remainder is
+    Hann-windowed, zero-padded ``ZERO_PAD``× and transformed. A sinusoid of amplitude A
+    appears as a peak of height A (the window's coherent gain is divided out) to about
+    1 %. Returns (ω [rad/s], amplitude); the low end holds what the trend fit left.
+    """
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    if t.size < 4 * (trend_degree + 1):
+        raise ValueError(f"need at least {4 * (trend_degree + 1)} samples for a spectrum, got {t.size}")
+    dt = float(t[1] - t[0])
+    if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=0.0):
+        raise ValueError("oscillation_spectrum needs uniformly sampled times")
+    r = x - np.polynomial.Chebyshev.fit(t, x, trend_degree)(t)
+    w = np.hanning(r.size)
+    nfft = ZERO_PAD * (1 << int(math.ceil(math.log2(r.size))))
+    amp = 2.0 * np.abs(np.fft.rfft(r * w, nfft)) / w.sum()
+    return 2.0 * math.pi * np.fft.rfftfreq(nfft, dt), amp
+
+
+TONE_GUARD_BINS = 16  # a tone is the largest amplitude within this many bins on each side
+
+
+def highest_frequency_above(omega: np.ndarray, amp: np.ndarray, level: float, span: float
+                            ) -> tuple[float, float]:
+    """The highest tone of a spectrum from :func:`oscillation_spectrum` with an amplitude
+    above ``level``: (its ω, its amplitude), or (0, 0) if none.
+
+    ``span`` is the sampled time span (bin = 2π/span). A tone is a peak that is the
+    largest value within ``TONE_GUARD_BINS`` bins on either side, which excludes the Hann
+    sidelobes of stronger tones (−31 dB at 2.5 bins, falling 18 dB/octave: below 1e-3 of
+    the tone beyond 16 bins). Two tones closer than that count as one (the stronger)."""
+    d_omega = float(omega[1] - omega[0])
+    guard = max(1, int(round(TONE_GUARD_BINS * 2.0 * math.pi / span / d_omega)))
+    padded = np.concatenate([np.full(guard, -np.inf), amp, np.full(guard, -np.inf)])
+    windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * guard + 1)
+    tones = np.flatnonzero((amp > level) & (amp >= windows.max(axis=1)))
+    if tones.size == 0:
+        return 0.0, 0.0
+    k = int(tones[-1])
+    return float(omega[k]), float(amp[k])
+
+
+def free_windows(hist: pd.DataFrame, min_length: float, breaks: Sequence[float] = ()
+                 ) -> list[tuple[float, float]]:
+    """Spans of the history with no closed contact (``n_active == 0`` at every output
+    time) and no time of ``breaks`` (impacts: the velocity jumps there) inside, at least
+    ``min_length`` long, trimmed by one output interval at each end (an event lies between
+    two outputs)."""
+    t = hist["t"].to_numpy()
+    free = hist["n_active"].to_numpy() == 0 if "n_active" in hist else np.ones(t.size, bool)
+    for tb in breaks:
+        k = int(np.searchsorted(t, tb))
+        free[max(k - 1, 0):k + 1] = False
+    out, i = [], 0
+    while i < t.size:
+        if not free[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < t.size and free[j + 1]:
+            j += 1
+        a = i + (1 if i > 0 else 0)
+        b = j - (1 if j < t.size - 1 else 0)
+        if b > a and t[b] - t[a] >= min_length:
+            out.append((float(t[a]), float(t[b])))
+        i = j + 1
+    return out

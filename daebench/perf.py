@@ -14,7 +14,8 @@
    interpolated in log–log).
 4. **Adaptivity**: the fewest steps of adaptive ``hht`` / ``ida`` that keep the max θ
    error over the beam-impact run below 1e-6 rad (against the cached IDA reference),
-   as a fraction of the paper protocol's steps.
+   as a fraction of the paper protocol's steps; beside it a lower bound for *any*
+   integrator from the tones θ carries in free flight (:func:`resolution_bound`).
 
 Plus steps per second of every integrator on beam-impact N = 5 under the protocol.
 Compile time (numba, first call in a process; loaded from the on-disk cache after the
@@ -61,13 +62,16 @@ class PerfSettings:
     adaptive_tols: tuple[float, ...] = (1e-6, 1e-7, 1e-8, 1e-9)
     adaptive_t_end: float = 1.0
     adaptive_cap_s: float = 60.0
+    bound_h: float = 1e-5          # the spectrum run behind the resolution bound (target 4)
+    bound_dt: float = 2.5e-5       # its output interval: Nyquist 1.26e5 rad/s
+    bound_min_window: float = 0.05 # free-flight windows shorter than this are left out
     rates_t_end: float = 1.0
 
     @classmethod
     def quick(cls) -> "PerfSettings":
         return cls(jobs=1, table=False, scaling_Ns=(3, 5), scaling_t_end=0.01, pendulum_T=0.1, beam_T=0.01,
                    beam_hs=(2e-4, 1e-4), beam_ref_h=2.5e-5, ancf_elements=2, adaptive_tols=(1e-6,),
-                   adaptive_t_end=0.02, rates_t_end=0.005)
+                   adaptive_t_end=0.02, rates_t_end=0.005, bound_min_window=0.01)
 
 
 def _timed(fn):
@@ -310,6 +314,49 @@ def adaptive(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
     return res
 
 
+def resolution_bound(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
+    """A lower bound on the steps ANY integrator needs to hold θ to 1e-6 rad on beam-impact.
+
+    θ itself oscillates at the beam's mode frequencies (with J_h = 0 the rod is pinned–free,
+    and its top mode moves the hinge angle). A time stepper with steps longer than π/ω
+    cannot follow a tone of frequency ω at all (sampled at that rate it aliases onto a lower
+    frequency), so over a free-flight window of length T every tone above the target
+    amplitude demands at least ω T / π steps; summed over the free windows (closed phases
+    and the history before its first window add more) this bounds the count from below,
+    whatever the order or the error control. (At order p the phase error of such a tone
+    grows like ω T (hω)^p, which asks far more; the bound uses the aliasing limit only.)
+
+    The spectrum is taken from an ``hht`` run with α = 0 (no numerical damping, so the
+    tones keep their amplitude) at ``bound_h``, sampled every ``bound_dt``."""
+    from daebench import metrics
+
+    sc = load_scene("beam-impact", [f"t_end={s.adaptive_t_end}", f"output.dt={s.bound_dt}"])
+    (rec, res), w = _timed(lambda: run_scene(sc, "hht", {"h": s.bound_h, "h_contact": min(s.bound_h, 1e-6),
+                                                         "alpha": 0.0}, write=False))
+    if rec.status != "completed":
+        return {"available": False, "note": f"spectrum run {rec.status}: {rec.message}"}
+    h = res.history
+    windows = []
+    for t0, t1 in metrics.free_windows(h, s.bound_min_window, breaks=[i.t for i in res.impacts]):
+        part = h[(h["t"] >= t0) & (h["t"] <= t1)]
+        om, amp = metrics.oscillation_spectrum(part["t"].to_numpy(), np.radians(part["theta_deg"].to_numpy()))
+        row = {"t0": t0, "t1": t1, "amplitude_max": float(amp.max())}
+        for key, level in (("", THETA_TARGET_RAD), ("_100x", 100 * THETA_TARGET_RAD)):
+            w_top, a_top = metrics.highest_frequency_above(om, amp, level, t1 - t0)
+            row.update({f"omega_top{key}": w_top, f"amplitude_top{key}": a_top,
+                        f"steps_min{key}": w_top * (t1 - t0) / math.pi})
+        windows.append(row)
+    bound = float(sum(x["steps_min"] for x in windows))
+    out = {"available": True, "windows": windows, "steps_lower_bound": bound,
+           "steps_lower_bound_100x": float(sum(x["steps_min_100x"] for x in windows)), "spectrum_run_wall_s": w,
+           "spectrum_run": {"integrator": "hht", "alpha": 0.0, "h": s.bound_h, "output_dt": s.bound_dt}}
+    if paper_steps:
+        out["fraction_of_protocol"] = bound / paper_steps
+        out["fraction_of_protocol_100x"] = out["steps_lower_bound_100x"] / paper_steps
+        out["target_attainable"] = bound < 0.01 * paper_steps
+    return out
+
+
 # -- steps per second ----------------------------------------------------------------------------
 def step_rates(s: PerfSettings) -> list[dict[str, Any]]:
     sc = load_scene("beam-impact", ["discretization.n=5", f"t_end={s.rates_t_end}"])
@@ -349,6 +396,7 @@ def run_perf(s: PerfSettings, out: str | Path | None = None) -> dict[str, Any]:
         paper_steps = next((r["steps"] for r in res["table1"]["runs"]
                             if r["N"] == 5 and r["setting"] == "HHT α=-0.15"), paper_steps)
     res["adaptive"] = adaptive(s, paper_steps)
+    res["adaptive"]["bound"] = resolution_bound(s, paper_steps)
     res["load_after"] = os.getloadavg()
     (folder / "perf.json").write_text(json.dumps(res, indent=2, default=_json_default))
     (folder / "perf.md").write_text(markdown(res))
@@ -402,6 +450,15 @@ def markdown(r: dict[str, Any]) -> str:
                  f"{a['paper_protocol_steps']} steps (target < 0.01: {'met' if a.get('met') else 'NOT met'})")
     else:
         L.append(f"4. adaptive: no run reached 1e-6 rad ({a.get('note', '')})")
+    bd = a.get("bound") or {}
+    if bd.get("available"):
+        top = max(bd["windows"], key=lambda x: x["omega_top_100x"], default=None)
+        L.append(f"   lower bound for any integrator (aliasing, see below): ≥ {bd['steps_lower_bound']:.0f} steps = "
+                 f"{_f(bd.get('fraction_of_protocol'))} of the protocol; counting only tones 100× above the "
+                 f"target: ≥ {bd['steps_lower_bound_100x']:.0f} = {_f(bd.get('fraction_of_protocol_100x'))}"
+                 + (f" (θ carries a {_f(top['amplitude_top_100x'])} rad tone at ω = "
+                    f"{top['omega_top_100x']:.0f} rad/s)" if top and top["omega_top_100x"] > 0 else "")
+                 + f" — target < 0.01 {'attainable' if bd.get('target_attainable') else 'NOT attainable'}")
     L += ["", "## Steps per second, beam-impact N = 5, protocol h = 1e-4 s / 1e-6 s in contact", "",
           "| integrator | status | t_final | steps | wall [s] | steps/s |", "|---|---|---|---|---|---|"]
     for x in r["step_rates"]:
@@ -427,5 +484,18 @@ def markdown(r: dict[str, Any]) -> str:
         for x in a["rows"]:
             L.append(f"| {x['integrator']} | {x['rtol']:g} | {x['status']} | {x['steps']} | {_f(x['wall_s'])} | "
                      f"{_f(x['theta_err_max_rad'])} |")
+    if bd.get("available"):
+        sr = bd["spectrum_run"]
+        L += ["", "## Resolution bound (target 4): tones of θ above 1e-6 rad in free flight", "",
+              f"Spectrum of θ about its slow trend per free-flight window ({sr['integrator']} α = {sr['alpha']:g}, "
+              f"h = {sr['h']:g} s, sampled every {sr['output_dt']:g} s). A stepper with h > π/ω cannot follow a "
+              f"tone at ω, so each window needs ≥ ω_top T / π steps.", "",
+              "| window [s] | highest tone > 1e-6 rad: ω [rad/s], amplitude [rad] | steps ≥ "
+              "| highest tone > 1e-4 rad: ω, amplitude | steps ≥ | largest amplitude [rad] |",
+              "|---|---|---|---|---|---|"]
+        for x in bd["windows"]:
+            L.append(f"| {x['t0']:.4f}–{x['t1']:.4f} | {x['omega_top']:.0f}, {_f(x['amplitude_top'])} | "
+                     f"{x['steps_min']:.0f} | {x['omega_top_100x']:.0f}, {_f(x['amplitude_top_100x'])} | "
+                     f"{x['steps_min_100x']:.0f} | {_f(x['amplitude_max'])} |")
     L.append(provenance.markdown_footer(r["provenance"]))
     return "\n".join(L) + "\n"

@@ -125,3 +125,34 @@ def test_time_call_takes_minimum_and_respects_cap():
     import time
     tm = metrics.time_call(lambda: time.sleep(0.05), repeats=5, time_cap=0.01)
     assert tm.repeats == 1
+
+
+@pytest.mark.parametrize("w1, w2", [(1100.0, 9000.0), (1103.7, 9011.3)])  # on and off the FFT bins
+def test_oscillation_spectrum_recovers_tones_about_a_trend(w1, w2):
+    """Two tones of known amplitude on a large smooth trend: amplitudes to 1 %, the
+    highest tone above a level found at its frequency, the strong tone's sidelobes not
+    mistaken for tones."""
+    from daebench.metrics import highest_frequency_above, oscillation_spectrum
+
+    t = np.arange(0.0, 0.4, 2.5e-5)
+    x = 0.3 + 2.0 * t - t**2 + np.sin(3.0 * t) + 3e-3 * np.sin(w1 * t + 0.3) + 5e-6 * np.sin(w2 * t + 1.0)
+    om, amp = oscillation_spectrum(t, x)
+    for w, a in ((w1, 3e-3), (w2, 5e-6)):
+        near = (om > 0.95 * w) & (om < 1.05 * w)
+        assert amp[near].max() == pytest.approx(a, rel=1e-2)
+    bin_ = 2 * np.pi / 0.4
+    w_top, a_top = highest_frequency_above(om, amp, 1e-6, 0.4)
+    assert abs(w_top - w2) < bin_ and a_top == pytest.approx(5e-6, rel=1e-2)
+    w_top, a_top = highest_frequency_above(om, amp, 1e-5, 0.4)   # only the strong tone is above
+    assert abs(w_top - w1) < bin_ and a_top == pytest.approx(3e-3, rel=1e-2)
+    assert highest_frequency_above(om, amp, 1e-2, 0.4) == (0.0, 0.0)
+
+
+def test_free_windows_split_at_closed_phases_and_impacts():
+    from daebench.metrics import free_windows
+
+    t = np.round(np.arange(0.0, 1.0 + 1e-9, 0.01), 10)
+    hist = pd.DataFrame({"t": t, "n_active": [0] * 30 + [1] * 5 + [0] * 66})
+    assert free_windows(hist, 0.1) == [(0.0, 0.28), (0.36, 1.0)]
+    assert free_windows(hist, 0.1, breaks=[0.705]) == [(0.0, 0.28), (0.36, 0.68), (0.73, 1.0)]
+    assert free_windows(hist, 0.33, breaks=[0.705]) == []

@@ -17,4 +17,6 @@ def test_perf_quick_writes_the_figures(tmp_path, monkeypatch):
         assert k in data
     assert {r["integrator"] for r in data["step_rates"]} == {"hht", "baumgarte", "newmark+hertz", "ida"}
     assert all(r["steps"] > 0 for r in data["step_rates"])
+    bound = data["adaptive"]["bound"]
+    assert bound["available"] and bound["steps_lower_bound"] >= 0.0 and len(bound["windows"]) == 1
     assert "growth / N²" in res.output and "Steps per second" in res.output
