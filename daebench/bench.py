@@ -399,14 +399,25 @@ def _run_local(specs, scene, jobs, kw, tick) -> list[dict[str, Any]]:
     return rows
 
 
-def _run_dask(specs, scene, scheduler, kw, tick) -> list[dict[str, Any]]:
+def _run_dask(specs, scene, scheduler, jobs, kw, tick) -> list[dict[str, Any]]:
+    """Runs as Dask futures. ``scheduler``: a ``Client``, an address (tcp://host:8786), or
+    None / "local" for a local cluster of ``jobs`` single-threaded worker processes (a
+    run's wall-time cap needs the main thread of its process, which Dask workers are not:
+    under Dask a hanging run is bounded by the worker, not by ``run_cap``)."""
     try:
-        from dask.distributed import Client, as_completed as dask_completed
+        from dask.distributed import Client, LocalCluster, as_completed as dask_completed
     except ImportError:
         raise SweepError("the Dask executor needs dask.distributed: pip install 'daebench[dask]' "
                          "(or pip install \"dask[distributed]\")") from None
     rows = []
-    client = Client(scheduler) if isinstance(scheduler, str) else scheduler
+    owned = scheduler is None or isinstance(scheduler, str)
+    if scheduler is None or scheduler == "local":
+        client = Client(LocalCluster(n_workers=max(1, int(jobs)), threads_per_worker=1, processes=True,
+                                     dashboard_address=None))
+    elif isinstance(scheduler, str):
+        client = Client(scheduler)
+    else:
+        client = scheduler
     try:
         futs = [client.submit(execute, s, scene, pure=False, **kw) for s in specs]
         by_key = {f.key: s for f, s in zip(futs, specs)}
@@ -417,8 +428,11 @@ def _run_dask(specs, scene, scheduler, kw, tick) -> list[dict[str, Any]]:
                 rows.append(_failed_row(by_key[f.key], scene, exc))
             tick(rows[-1])
     finally:
-        if isinstance(scheduler, str):
+        if owned:
+            cluster = client.cluster
             client.close()
+            if cluster is not None and (scheduler is None or scheduler == "local"):
+                cluster.close()
     return rows
 
 
@@ -440,7 +454,7 @@ def run_specs(specs: Sequence[RunSpec], scene: Scene, jobs: int = 1, executor: s
         bar.start()
     try:
         if executor == "dask" or scheduler is not None:
-            rows = _run_dask(specs, scene, scheduler, kw, tick)
+            rows = _run_dask(specs, scene, scheduler, jobs, kw, tick)
         elif executor == "process":
             rows = _run_local(specs, scene, int(jobs), kw, tick)
         else:
@@ -491,8 +505,9 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
     grid : {key: values}; integrator settings (checked first) or scene keys
     steps, tols : fixed steps ``h`` or tolerances (adaptive runs); at most one
     jobs : local worker processes (1: in this process)
-    executor, scheduler : 'process' (default) or 'dask'; a scheduler address (or a
-        ``dask.distributed.Client``) selects Dask
+    executor, scheduler : 'process' (default) or 'dask'; a scheduler address, "local"
+        (a local Dask cluster of ``jobs`` workers) or a ``dask.distributed.Client``
+        selects Dask
     options : fixed integrator settings for every run that has them
     name : table name under results/bench/ (default ``<scene>-<hash8>``)
     reference_mode : 'auto' | 'require' | 'compute' | 'none'

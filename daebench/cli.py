@@ -195,7 +195,9 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
           opt: list[str] = typer.Option([], "--opt", help="fixed integrator setting name=value for every run"),
           set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
           jobs: int = typer.Option(1, "--jobs", "-j", help="local worker processes"),
-          scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786)"),
+          scheduler: Optional[str] = typer.Option(
+              None, "--scheduler",
+              help="run on Dask: a scheduler address (tcp://host:8786), or 'local' for a local cluster of --jobs workers"),
           ref_mode: str = typer.Option("require", "--reference",
                                        help="require (error if missing) | compute | auto (score if cached) | none"),
           repeats: int = typer.Option(1, "--repeats", help="timed repeats (min taken; > 1 adds a warm-up run)"),

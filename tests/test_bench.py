@@ -172,3 +172,28 @@ def test_cli_bench_reference_plot_and_clear_errors(registry, tmp_path):
     assert (tmp_path / "wp.png").exists() and (tmp_path / "wp.svg").exists()
     r = run(app, ["plot", "wp", str(tmp_path / "bench" / "t.parquet"), "--y", "nope"])
     assert r.exit_code == 2 and "column 'nope'" in r.output
+
+
+def test_dask_executor_gives_the_rows_of_the_process_pool(registry, pendulum):
+    """The scale-out executor: a local Dask cluster of worker processes returns the same
+    scored rows as the process pool (same steps, same errors to round-off), and a run
+    that raises or diverges is still a row with its reason (in-process threaded cluster,
+    where the test-only integrators are registered)."""
+    pytest.importorskip("dask.distributed")
+    from dask.distributed import Client, LocalCluster
+
+    bench.compute_reference(pendulum, rtol=1e-10, atol=1e-12)
+    kw = dict(steps=[1e-2, 5e-3], reference_mode="require", progress=False, write=False)
+    local = bench.run_sweep(pendulum, ["hht", "newmark"], jobs=2, **kw)
+    dask = bench.run_sweep(pendulum, ["hht", "newmark"], jobs=2, scheduler="local", **kw)
+    assert list(dask["label"]) == list(local["label"]) and (dask["status"] == "completed").all()
+    assert list(dask["steps"]) == list(local["steps"])
+    np.testing.assert_allclose(dask["err_theta_max"], local["err_theta_max"], rtol=1e-9)
+
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        df = bench.run_sweep(pendulum, ["boom", "explode", "hht"], steps=[1e-2], scheduler=client,
+                             reference_mode="none", progress=False, write=False)
+    by = df.set_index("integrator")
+    assert by.loc["boom", "status"] == "failed" and "deliberate bug" in by.loc["boom", "message"]
+    assert by.loc["explode", "status"] == "diverged" and by.loc["hht", "steps"] == 20
