@@ -7,7 +7,10 @@ from typing import ClassVar
 import numpy as np
 from scipy.linalg.lapack import dgesv
 
-from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Setting, State, StepFailure
+from daebench.integrators import _compiled_abm as _ca
+from daebench.integrators import _compiled_models as _cm
+from daebench.integrators.base import STEP_SETTINGS, BatchWatch, Capabilities, Integrator, Setting, State, StepFailure
+from daebench.system import Problem
 
 SNAP = 1e-6            # stretch a step by up to this fraction of h to land exactly on t_stop
 BLOWUP = 1e10          # |y| above BLOWUP·max(1, |y_start|) is divergence
@@ -58,6 +61,14 @@ class BaumgarteABM4(Integrator):
     state or one beyond ``BLOWUP`` times its start size raises
     ``StepFailure("diverged: …")``.
 
+    Compiled path: when the model exposes compiled kernels
+    (:func:`daebench.integrators._compiled_models.descriptor`), the right-hand side,
+    the step and a fixed-step phase runner (:meth:`advance`, many quiet steps per call)
+    run in numba (:mod:`daebench.integrators._compiled_abm`), with the f history in
+    arrays owned by the integrator. Same operations in the same order; the two paths
+    differ by round-off only (the LU's summation order). ``DAEBENCH_COMPILED=0`` forces
+    the Python path.
+
     References
     ----------
     Baumgarte (1972), "Stabilization of constraints and integrals of motion in
@@ -79,6 +90,11 @@ class BaumgarteABM4(Integrator):
         Setting("epsilon", float, 0.0, "Baumgarte stiffness ε in C̈ + 2δĊ + ε²C = 0 (Baumgarte's β) [rad/s]",
                 low=0.0, high=1e9),
     )
+
+    # compiled path: the model descriptor of the current phase (None → Python path) and the
+    # history arrays (see daebench.integrators._compiled_abm), set by _start
+    _md: tuple | None = None
+    _c_hist: np.ndarray | None = None
 
     # -- the right-hand side -------------------------------------------------------
     def _rhs(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -114,8 +130,11 @@ class BaumgarteABM4(Integrator):
 
     def _check(self, t: float, y: np.ndarray) -> None:
         if not np.isfinite(y).all() or float(np.abs(y).max()) > self._blowup:
-            raise StepFailure(f"diverged: state {'not finite' if not np.isfinite(y).all() else 'exploded'} "
-                              f"at t = {t:.9g} (h = {self.h:.3g}; explicit ABM4 needs h·ω_max < 1)")
+            raise StepFailure(self._diverged_message(not np.isfinite(y).all(), t))
+
+    def _diverged_message(self, not_finite: bool, t: float) -> str:
+        return (f"diverged: state {'not finite' if not_finite else 'exploded'} "
+                f"at t = {t:.9g} (h = {self.h:.3g}; explicit ABM4 needs h·ω_max < 1)")
 
     # -- start / step ----------------------------------------------------------------
     def _start(self) -> None:
@@ -123,11 +142,33 @@ class BaumgarteABM4(Integrator):
         self._delta = float(self.settings["delta"])
         self._eps = float(self.settings["epsilon"])
         self._blowup = BLOWUP * max(1.0, float(np.abs(s.q).max(initial=0.0)), float(np.abs(s.v).max(initial=0.0)))
+        # compiled path (daebench.integrators._compiled_abm) when the model exposes kernels;
+        # the history lives in arrays (kept across phases while n is unchanged) so that
+        # single steps and the phase runner interleave
+        p = self.problem
+        self._md = _cm.descriptor(p.system)
+        if self._md is not None:
+            n = p.n
+            if self._c_hist is None or self._c_hist.shape != (4, 2 * n):
+                self._c_hist = np.zeros((4, 2 * n))
+                self._c_hn = np.zeros(1, dtype=np.int64)
+                self._c_cnt = np.zeros(2, dtype=np.int64)
+                self._c_cnt0 = np.zeros(2, dtype=np.int64)
+            self._c_active = np.array(p.active, dtype=np.int64)
         self._restart()
 
     def _restart(self) -> None:
         """Forget the history: the next N_START steps are RK4 steps."""
         s = self.state
+        if self._md is not None:
+            lam = np.empty(self.problem.m)
+            status = _ca.restart(self._md, self._c_active, float(s.t), np.concatenate([s.q, s.v]), lam,
+                                 self._c_hist, self._c_hn, self._delta, self._eps, self._c_cnt)
+            self._sync_compiled()
+            if status:
+                raise StepFailure(self._fail_message(status, s.t))
+            self._lam = lam
+            return
         f, lam = self._rhs(s.t, np.concatenate([s.q, s.v]))
         self._hist = [f]  # f_n last
         self._lam = lam
@@ -137,6 +178,8 @@ class BaumgarteABM4(Integrator):
         return State(t, y[:n].copy(), y[n:].copy(), f[n:].copy(), lam)
 
     def _step_impl(self, t_stop: float) -> State:
+        if self._md is not None:
+            return self._step_compiled(t_stop)
         s = self.state
         remaining = t_stop - s.t
         h = self.h
@@ -172,3 +215,59 @@ class BaumgarteABM4(Integrator):
         k3, _ = self._rhs(t + 0.5 * h, y + (0.5 * h) * k2)
         k4, _ = self._rhs(t + h, y + h * k3)
         return y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+    # -- compiled path -------------------------------------------------------------------
+    def _sync_compiled(self) -> None:
+        """Move the compiled counters into the integrator's and the problem's counters
+        (one force evaluation and one LU per right-hand side, as in :meth:`_rhs`)."""
+        d = self._c_cnt - self._c_cnt0
+        self._c_cnt0[:] = self._c_cnt
+        self.problem.counters.residual_evals += int(d[_ca.C_RES])
+        self.counters.lu_factorizations += int(d[_ca.C_LU])
+
+    def _fail_message(self, status: int, t: float) -> str:
+        if status == _ca.ST_SINGULAR:
+            return f"singular augmented mass matrix at t = {t:.9g}"
+        return self._diverged_message(status == _ca.ST_NOT_FINITE, t)
+
+    def _step_compiled(self, t_stop: float) -> State:
+        s = self.state
+        n = self.problem.n
+        y = np.concatenate([s.q, s.v])
+        lam = np.empty(self.problem.m)
+        status, t_new, t_fail = _ca.step_once(
+            self._md, self._c_active, float(s.t), float(t_stop), float(self.h), y, lam, self._c_hist, self._c_hn,
+            self._delta, self._eps, self._blowup, self._c_cnt)
+        self._sync_compiled()
+        if status:
+            raise StepFailure(self._fail_message(status, t_fail))
+        return State(t_new, y[:n].copy(), y[n:].copy(), self._c_hist[self._c_hn[0] - 1, n:].copy(), lam)
+
+    def can_advance(self, problem: Problem) -> bool:
+        return self._md is not None and problem is self.problem
+
+    def advance(self, t_stop: float, watch: BatchWatch | None = None) -> State:
+        """Fixed-step phase runner (:func:`daebench.integrators._compiled_abm.run_fixed`):
+        many steps per call, stopping after the first step the driver must see."""
+        if watch is None or not self.can_advance(self.problem):
+            return self.step(t_stop)
+        s = self.state
+        if t_stop <= s.t:
+            raise ValueError(f"t_stop = {t_stop} is not after t = {s.t}")
+        n, m = self.problem.n, self.problem.m
+        y = np.concatenate([s.q, s.v])
+        a, lam = s.a.copy(), s.lam.copy()
+        py, pa, plam = np.empty(2 * n), np.empty(n), np.empty(m)
+        status, k, t_prev, t_now, t_fail = _ca.run_fixed(
+            self._md, self._c_active, watch.inactive, watch.lam_rows, watch.armed, bool(watch.continuous),
+            bool(watch.track), watch.cmax, float(s.t), y, a, lam, float(self.h), float(t_stop),
+            float(watch.t_out_next), float(watch.t_end), int(watch.max_steps), self._delta, self._eps,
+            self._blowup, self._c_hist, self._c_hn, self._c_cnt, py, pa, plam)
+        self._sync_compiled()
+        if k:
+            self.counters.steps += k
+            self.prev = State(t_prev, py[:n].copy(), py[n:].copy(), pa, plam)
+            self.state = State(t_now, y[:n].copy(), y[n:].copy(), a, lam)
+        if status:
+            raise StepFailure(self._fail_message(status, t_fail))
+        return self.state
