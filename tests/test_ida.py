@@ -369,3 +369,31 @@ def test_compiled_and_python_residual_give_the_same_beam_impact(monkeypatch):
     assert abs(fast.impacts[0]["t"] - slow.impacts[0]["t"]) < 1e-10
     for k in ("theta_deg", "tip_x", "tip_y"):
         assert fast.observables[k] == pytest.approx(slow.observables[k], rel=1e-7, abs=1e-9)
+
+
+def test_batch_advance_equals_stepping_through_the_driver(monkeypatch):
+    """IDA.advance (many steps per driver call, compiled quiet-step checks) takes the same
+    steps as the driver's one-step loop: identical histories, impacts, counters and
+    constraint maxima, through impacts, a closed phase and its release."""
+    from daebench.runner import run_scene
+    from daebench.scene import load_scene
+
+    scene = load_scene("beam-impact", ["t_end=0.3815", "discretization.n=3"])
+    calls, real_advance = [], IDA.advance
+
+    def spy(self, t_stop, watch=None):
+        calls.append(watch is not None)
+        return real_advance(self, t_stop, watch)
+
+    monkeypatch.setattr(IDA, "advance", spy)
+    fast_rec, fast = run_scene(scene, "ida", {}, write=False)
+    assert sum(calls) > 0 and fast_rec.counters["steps"] > 10 * len(calls)  # many steps per call
+    monkeypatch.setattr(IDA, "can_advance", lambda self, problem: False)
+    slow_rec, slow = run_scene(scene, "ida", {}, write=False)
+    assert len(fast.impacts) == len(slow.impacts) >= 3
+    assert [i.t for i in fast.impacts] == [i.t for i in slow.impacts]
+    assert fast_rec.counters == slow_rec.counters
+    np.testing.assert_array_equal(fast.history[["theta_deg", "tip_x", "tip_y"]].to_numpy(),
+                                  slow.history[["theta_deg", "tip_x", "tip_y"]].to_numpy())
+    for k, x in slow.constraint_max.items():
+        assert fast.constraint_max[k] == pytest.approx(x, rel=1e-12, abs=1e-18)

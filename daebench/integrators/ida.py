@@ -325,6 +325,32 @@ class IDA(Integrator):
         self._ida_t = t_new
         return self._unpack(t_new, y, yp)
 
+    # -- many steps per call (the driver's fast path) ---------------------------------
+    def can_advance(self, problem) -> bool:
+        return self._md is not None and problem is self.problem
+
+    def advance(self, t_stop: float, watch=None) -> State:
+        """Take IDA steps until one the driver must see (:class:`BatchWatch`): the quiet
+        steps' checks, re-arming and constraint maxima run compiled
+        (:func:`daebench.integrators._compiled_ida.quiet`). Same steps, same states as
+        stepping through the driver one at a time."""
+        if watch is None or not self.can_advance(self.problem):
+            return self.step(t_stop)
+        n, m = self._n, self._m
+        k = max(int(watch.armed.shape[0]), 1)
+        g, zeros = np.empty(k), np.zeros(n)
+        mm = max(m, 1)
+        C, Cq, Ct, gam = np.empty(mm), np.empty((mm, n)), np.empty(mm), np.empty(mm)
+        t_end_tol = 1e-15 * max(1.0, float(t_stop))
+        for _ in range(int(watch.max_steps)):
+            new = self.step(t_stop)
+            if new.t >= t_stop - t_end_tol or not _ci.quiet(
+                    self._md, self._c_active, watch.inactive, watch.lam_rows, watch.armed, bool(watch.continuous),
+                    bool(watch.track), watch.cmax, float(new.t), new.q, new.v, new.a, new.lam,
+                    float(watch.t_out_next), float(watch.t_end), g, zeros, C, Cq, Ct, gam):
+                return new
+        return new
+
     def dense(self, t: float) -> State:
         """State at t within the last step from IDA's own interpolating polynomial
         (the BDF predictor polynomial of the current order; q, v, v̇ and λ)."""
