@@ -334,7 +334,7 @@ def adaptive(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
 
 
 def resolution_bound(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
-    """A lower bound on the steps ANY integrator needs to hold θ to 1e-6 rad on beam-impact.
+    """A lower bound on the steps an integrator needs to hold θ to 1e-6 rad on beam-impact.
 
     θ itself oscillates at the beam's mode frequencies (with J_h = 0 the rod is pinned–free,
     and its top mode moves the hinge angle). A time stepper with steps longer than π/ω
@@ -344,6 +344,12 @@ def resolution_bound(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]
     and the history before its first window add more) this bounds the count from below,
     whatever the order or the error control. (At order p the phase error of such a tone
     grows like ω T (hω)^p, which asks far more; the bound uses the aliasing limit only.)
+
+    Scope: steppers whose update is a polynomial/rational function of h·J — Runge–Kutta,
+    linear multistep and BDF, the Newmark family: every integrator here and in the paper.
+    Trigonometric/exponential integrators that propagate the linearized fast modes exactly
+    (Gautschi-type, modal superposition) are not bound by it; on this model the fast modes
+    are coupled nonlinearly to the rotation, which such methods only approximate.
 
     The spectrum is taken from an ``hht`` run with α = 0 (no numerical damping, so the
     tones keep their amplitude) at ``bound_h``, sampled every ``bound_dt``."""
