@@ -481,7 +481,7 @@ def markdown(r: dict[str, Any]) -> str:
     bd = a.get("bound") or {}
     if bd.get("available"):
         top = max(bd["windows"], key=lambda x: x["omega_top_100x"], default=None)
-        L.append(f"   lower bound for any integrator (aliasing, see below): ≥ {bd['steps_lower_bound']:.0f} steps = "
+        L.append(f"   lower bound for Runge–Kutta, multistep and Newmark-type steppers (aliasing, see below): ≥ {bd['steps_lower_bound']:.0f} steps = "
                  f"{_f(bd.get('fraction_of_protocol'))} of the protocol; counting only tones 100× above the "
                  f"target: ≥ {bd['steps_lower_bound_100x']:.0f} = {_f(bd.get('fraction_of_protocol_100x'))}"
                  + (f" (θ carries a {_f(top['amplitude_top_100x'])} rad tone at ω = "
