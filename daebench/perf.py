@@ -18,8 +18,9 @@
    here, and tightening them to 1e-10 cost 35–73 s per 0.3 s run (measured once, by hand).
 4. **Adaptivity**: the fewest steps of adaptive ``hht`` / ``ida`` that keep the max θ
    error over the beam-impact run below 1e-6 rad (against the cached IDA reference),
-   as a fraction of the paper protocol's steps; beside it a lower bound for *any*
-   integrator from the tones θ carries in free flight (:func:`resolution_bound`).
+   as a fraction of the paper protocol's steps; beside it a lower bound for every
+   Runge–Kutta, multistep or Newmark-type integrator from the tones θ carries in free
+   flight (:func:`resolution_bound`).
 
 Plus steps per second of every integrator on beam-impact N = 5 under the protocol.
 Compile time (numba, first call in a process; loaded from the on-disk cache after the
@@ -481,7 +482,8 @@ def markdown(r: dict[str, Any]) -> str:
     bd = a.get("bound") or {}
     if bd.get("available"):
         top = max(bd["windows"], key=lambda x: x["omega_top_100x"], default=None)
-        L.append(f"   lower bound for Runge–Kutta, multistep and Newmark-type steppers (aliasing, see below): ≥ {bd['steps_lower_bound']:.0f} steps = "
+        L.append(f"   lower bound for Runge–Kutta, multistep and Newmark-type steppers (aliasing, see below): "
+                 f"≥ {bd['steps_lower_bound']:.0f} steps = "
                  f"{_f(bd.get('fraction_of_protocol'))} of the protocol; counting only tones 100× above the "
                  f"target: ≥ {bd['steps_lower_bound_100x']:.0f} = {_f(bd.get('fraction_of_protocol_100x'))}"
                  + (f" (θ carries a {_f(top['amplitude_top_100x'])} rad tone at ω = "
