@@ -63,3 +63,19 @@ def test_unknown_integrator_refused_with_suggestion(plugin_site):
     out = daebench(plugin_site, "run", "pendulum", "--integrator", "verlett")
     assert out.returncode == 2
     assert "unknown integrator 'verlett'" in out.stderr and "did you mean 'verlet'" in out.stderr
+
+
+def test_registry_is_cached_per_sys_path_and_sees_a_plugin_added_to_it(plugin_site, monkeypatch):
+    """In-process: the entry-point scan is kept while sys.path is unchanged, and a plugin
+    directory added to sys.path is found without an explicit refresh."""
+    from daebench.integrators import base
+
+    calls = []
+    real = base.entry_points
+    monkeypatch.setattr(base, "entry_points", lambda **kw: calls.append(1) or real(**kw))
+    first = base.registry(refresh=True)
+    assert base.registry() == first and len(calls) == 1 and "verlet" not in first
+    monkeypatch.syspath_prepend(str(plugin_site))
+    with_plugin = base.registry()
+    assert len(calls) == 2 and "verlet" in with_plugin and with_plugin["verlet"].cls is not None
+    assert base.registry(refresh=True) == with_plugin and len(calls) == 3
