@@ -33,7 +33,8 @@ import numpy as np
 from numba import njit
 
 from daebench.integrators import _compiled_models as cm
-from daebench.integrators._compiled_newmark import GAP_BAND, lu_factor, lu_solve
+from daebench.integrators import _compiled_watch as cw
+from daebench.integrators._compiled_newmark import lu_factor, lu_solve
 
 # the constants of the Python path (kept equal by tests/test_compiled_baumgarte.py)
 SNAP = 1e-6
@@ -254,8 +255,6 @@ def run_fixed(md, active, inactive, lam_rows, armed, continuous, track, cmax,
     Cq = np.empty((max(m, 1), n))
     nsteps = 0
     t_prev = t
-    out_tol = 1e-12 * max(1.0, t_end)
-    end_tol = 1e-15 * max(1.0, t_end)
     while True:
         for i in range(nn):
             py[i] = y[i]
@@ -274,41 +273,8 @@ def run_fixed(md, active, inactive, lam_rows, armed, continuous, track, cmax,
             a[i] = hist[last, n + i]
         q = y[:n]
         v = y[n:]
-        # -- does the driver need to see this step? ------------------------------------
-        stop = False
-        for i in range(nn):
-            if not math.isfinite(y[i]):
-                stop = True
-        if inactive.shape[0]:
-            cm.gaps(md, q, zeros, g)
-            for i in inactive:
-                off = 0.0 if armed[i] else GAP_BAND
-                if (continuous and g[i] < 0.0) or g[i] < -off:
-                    stop = True
-                elif g[i] > GAP_BAND:
-                    armed[i] = True
-        for r in lam_rows:
-            if lam[r] < 0.0:
-                stop = True
-        if t_out_next <= t + out_tol or t >= t_end - end_tol or nsteps >= max_steps:
-            stop = True
-        if stop:
+        # -- does the driver need to see this step? (else: the quiet step's bookkeeping)
+        if nsteps >= max_steps or not cw.quiet(md, active, inactive, lam_rows, armed, continuous, track, cmax,
+                                               t, q, v, a, lam, t_out_next, t_end, g, zeros, C, Cq, Ct, gam):
             break
-        if track and m:
-            cm.constraints(md, t, q, v, active, C, Cq, Ct, gam)
-            c0 = 0.0
-            c1 = 0.0
-            c2 = 0.0
-            for k in range(m):
-                cv = 0.0
-                ca = 0.0
-                for j in range(n):
-                    cv += Cq[k, j] * v[j]
-                    ca += Cq[k, j] * a[j]
-                c0 = max(c0, abs(C[k]))
-                c1 = max(c1, abs(cv + Ct[k]))
-                c2 = max(c2, abs(ca - gam[k]))
-            cmax[0] = max(cmax[0], c0)
-            cmax[1] = max(cmax[1], c1)
-            cmax[2] = max(cmax[2], c2)
     return ST_OK, nsteps, t_prev, t, t_fail

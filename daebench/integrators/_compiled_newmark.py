@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit
 
 from daebench.integrators import _compiled_models as cm
+from daebench.integrators import _compiled_watch as cw
 
 # the constants of the Python path (kept equal by tests/test_compiled.py)
 NEWTON_RATE_REFRESH = 0.1
@@ -46,7 +47,7 @@ VEL_TOL_FACTOR = 10.0
 ROUNDOFF = 50.0 * np.finfo(float).eps
 SNAP = 1e-6
 FD_REL_STEP = 1e-7
-GAP_BAND = 1e-9
+GAP_BAND = cw.GAP_BAND
 
 ST_LU, ST_LUH, ST_PREV, ST_HOLD = range(4)
 C_NEWTON, C_LU, C_RES, C_JAC = range(4)
@@ -476,8 +477,6 @@ def run_fixed(md, active, inactive, lam_rows, armed, continuous, track, cmax,
     Cq = np.empty((max(m, 1), n))
     nsteps = 0
     t_prev = t
-    out_tol = 1e-12 * max(1.0, t_end)
-    end_tol = 1e-15 * max(1.0, t_end)
     while True:
         remaining = t_stop - t
         hh = remaining if h_fix * (1.0 + SNAP) >= remaining else h_fix
@@ -504,41 +503,8 @@ def run_fixed(md, active, inactive, lam_rows, armed, continuous, track, cmax,
         t_prev = t
         t = t_new
         nsteps += 1
-        # -- does the driver need to see this step? ------------------------------------
-        stop = False
-        for i in range(n):
-            if not (math.isfinite(q[i]) and math.isfinite(v[i])):
-                stop = True
-        if inactive.shape[0]:
-            cm.gaps(md, q, zeros, g)
-            for i in inactive:
-                off = 0.0 if armed[i] else GAP_BAND
-                if (continuous and g[i] < 0.0) or g[i] < -off:
-                    stop = True
-                elif g[i] > GAP_BAND:
-                    armed[i] = True
-        for r in lam_rows:
-            if lam[r] < 0.0:
-                stop = True
-        if t_out_next <= t + out_tol or t >= t_end - end_tol or nsteps >= max_steps:
-            stop = True
-        if stop:
+        # -- does the driver need to see this step? (else: the quiet step's bookkeeping)
+        if nsteps >= max_steps or not cw.quiet(md, active, inactive, lam_rows, armed, continuous, track, cmax,
+                                               t, q, v, a, lam, t_out_next, t_end, g, zeros, C, Cq, Ct, gam):
             break
-        if track and m:
-            cm.constraints(md, t, q, v, active, C, Cq, Ct, gam)
-            c0 = 0.0
-            c1 = 0.0
-            c2 = 0.0
-            for k in range(m):
-                cv = 0.0
-                ca = 0.0
-                for j in range(n):
-                    cv += Cq[k, j] * v[j]
-                    ca += Cq[k, j] * a[j]
-                c0 = max(c0, abs(C[k]))
-                c1 = max(c1, abs(cv + Ct[k]))
-                c2 = max(c2, abs(ca - gam[k]))
-            cmax[0] = max(cmax[0], c0)
-            cmax[1] = max(cmax[1], c1)
-            cmax[2] = max(cmax[2], c2)
     return 0, nsteps, t_prev, t, hh

@@ -61,7 +61,7 @@ residual is one numba call (:mod:`daebench.integrators._compiled_ida`) through t
 kernels the Python path uses; ``DAEBENCH_COMPILED=0`` restores the Python residual. The
 Jacobian stays in Python (one per ~40 steps). :meth:`IDA.advance` lets the driver hand
 over many steps per call, with each quiet step checked by one compiled call
-(:func:`daebench.integrators._compiled_ida.quiet`). Measured on beam-impact (t_end 0.5 s,
+(:func:`daebench.integrators._compiled_watch.quiet`). Measured on beam-impact (t_end 0.5 s,
 default tolerances, 87.6e3 steps): 17.5 s → 9.5 s (compiled residual, cheaper driver
 checks) → 5.9 s (advance); SUNDIALS' own step is now about half of the time. Results agree
 with the Python residual to round-off, and advance() takes exactly the steps of the
@@ -108,6 +108,7 @@ from sksundae.ida import IDA as _SundaeIDA
 
 from daebench.integrators import _compiled_ida as _ci
 from daebench.integrators import _compiled_models as _cm
+from daebench.integrators import _compiled_watch as _cw
 from daebench.integrators.base import (
     STEP_SETTINGS,
     Capabilities,
@@ -336,7 +337,7 @@ class IDA(Integrator):
     def advance(self, t_stop: float, watch=None) -> State:
         """Take IDA steps until one the driver must see (:class:`BatchWatch`): the quiet
         steps' checks, re-arming and constraint maxima run compiled
-        (:func:`daebench.integrators._compiled_ida.quiet`). Same steps, same states as
+        (:func:`daebench.integrators._compiled_watch.quiet`). Same steps, same states as
         stepping through the driver one at a time."""
         if watch is None or not self.can_advance(self.problem):
             return self.step(t_stop)
@@ -348,7 +349,7 @@ class IDA(Integrator):
         t_end_tol = 1e-15 * max(1.0, float(t_stop))
         for _ in range(int(watch.max_steps)):
             new = self.step(t_stop)
-            if new.t >= t_stop - t_end_tol or not _ci.quiet(
+            if new.t >= t_stop - t_end_tol or not _cw.quiet(
                     self._md, self._c_active, watch.inactive, watch.lam_rows, watch.armed, bool(watch.continuous),
                     bool(watch.track), watch.cmax, float(new.t), new.q, new.v, new.a, new.lam,
                     float(watch.t_out_next), float(watch.t_end), g, zeros, C, Cq, Ct, gam):
