@@ -17,34 +17,9 @@ from daebench.integrators import baumgarte as bg
 from daebench.integrators.base import BatchWatch
 from daebench.integrators.baumgarte import BaumgarteABM4
 from daebench.models import build_system
-from daebench.runner import run_scene
 from daebench.scene import load_scene
 from daebench.system import Problem, State
-
-
-def both(monkeypatch, scene, integrator, opts):
-    """(record, result) of the Python path (DAEBENCH_COMPILED=0), then of the compiled one."""
-    out = {}
-    for flag in ("0", "1"):
-        monkeypatch.setenv("DAEBENCH_COMPILED", flag)
-        out[flag] = run_scene(scene, integrator, opts, write=False)
-    return out["0"], out["1"]
-
-
-# C̈ = C_q a − γ and λ are differences of accelerations ~1e5 (beam impact): their round-off
-# is ~1e-10 of that size, not of O(1) (as in tests/test_compiled.py)
-LOOSE = ("Cddot", "lambda_")
-
-
-def assert_same_history(h0, h1, tol):
-    assert list(h0.columns) == list(h1.columns)
-    assert len(h0) == len(h1)
-    for c in h0.columns:
-        a, b = h0[c].to_numpy(float), h1[c].to_numpy(float)
-        scale = max(1.0, float(np.nanmax(np.abs(a))) if np.isfinite(a).any() else 1.0)
-        if c.startswith(LOOSE):
-            scale = max(scale, 1e5)
-        assert np.allclose(a, b, rtol=0.0, atol=tol * scale, equal_nan=True), (c, np.nanmax(np.abs(a - b)))
+from _paths import assert_same_history, both  # tests/_paths.py
 
 
 def test_constants_match_the_python_path():
