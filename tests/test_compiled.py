@@ -20,7 +20,8 @@ from _paths import assert_same_history, both  # tests/_paths.py
 
 
 def test_constants_match_the_python_path():
-    for k in ("NEWTON_RATE_REFRESH", "NEWTON_RATE_DIVERGE", "JAC_H_RATIO", "VEL_TOL_FACTOR", "ROUNDOFF", "SNAP"):
+    for k in ("NEWTON_RATE_REFRESH", "NEWTON_RATE_DIVERGE", "JAC_H_RATIO", "VEL_TOL_FACTOR", "ROUNDOFF", "SNAP",
+              "SAFETY", "FAC_MIN", "FAC_MAX", "FAC_NEWTON_FAIL", "ZX_MIN_COEFF"):
         assert getattr(cn, k) == getattr(nf, k), k
     from daebench import simulate as S
     from daebench import system
@@ -75,6 +76,63 @@ def test_pendulum_fixed_and_adaptive_compiled_equals_python(monkeypatch):
         assert r0.status == r1.status == "completed", (integ, opts)
         assert r0.counters == r1.counters, (integ, opts)
         assert_same_history(s0.history, s1.history, 1e-12)
+
+
+def test_adaptive_phase_runner_equals_python_and_single_steps(monkeypatch):
+    """Adaptive HHT on beam-impact through the first impact: the compiled phase runner
+    (step-size control in numba) agrees with the Python path to round-off, and takes
+    exactly the steps of compiled single steps through the driver."""
+    from daebench.integrators.hht import HHT
+
+    sc = load_scene("beam-impact", ["discretization.n=3", "t_end=0.3705", "output.dt=1e-3"])
+    opts = {"adaptive": True, "rtol": 1e-6, "atol": 1e-8, "alpha": -0.15}
+    (r0, s0), (r1, s1) = both(monkeypatch, sc, "hht", opts)
+    assert r0.status == r1.status == "completed" and len(s0.impacts) == len(s1.impacts) == 1
+    assert r1.counters["rejected"] > 0  # the controller did reject steps
+    for k, v in r0.counters.items():
+        assert abs(r1.counters[k] - v) <= max(3, 1e-3 * v), (k, v, r1.counters[k])
+    assert abs(s0.impacts[0].t - s1.impacts[0].t) < 1e-11
+    # round-off (5e-11 in θ̇ before the impact) is amplified ~1e4 by the impact (see above)
+    before = s0.history["t"] < s0.impacts[0].t
+    assert_same_history(s0.history[before], s1.history[before], 1e-9)
+    assert_same_history(s0.history, s1.history, 1e-6)
+    monkeypatch.setattr(HHT, "can_advance", lambda self, problem: False)
+    r2, s2 = both(monkeypatch, sc, "hht", opts)[1]
+    assert r2.counters == r1.counters and s2.impacts[0].t == s1.impacts[0].t
+    assert_same_history(s1.history, s2.history, 1e-13)
+
+
+def test_adaptive_newton_failures_take_the_same_path_both_ways(monkeypatch):
+    """Thousands of Newton failures, each cutting the step, and error rejections: the
+    compiled adaptive runner repeats the Python controller decision for decision."""
+    sc = load_scene("pendulum", ["t_end=0.1"])
+    (r0, s0), (r1, s1) = both(monkeypatch, sc, "hht", {"adaptive": True, "newton_maxiter": 1, "newton_tol": 1e-14})
+    assert r0.status == r1.status == "completed" and r0.counters["rejected"] > 1000
+    assert r0.counters == r1.counters
+    assert_same_history(s0.history, s1.history, 1e-12)
+
+
+@pytest.mark.parametrize("compiled", ["0", "1"])
+def test_adaptive_step_underflow_message_is_the_same_on_both_paths(monkeypatch, compiled):
+    """A state that makes every Newton attempt fail: the step is cut ×0.25 until it falls
+    below H_MIN_REL; both paths stop with the same message."""
+    from daebench.integrators.base import BatchWatch, StepFailure
+    from daebench.integrators.hht import HHT
+    from daebench.system import Problem, State
+
+    monkeypatch.setenv("DAEBENCH_COMPILED", compiled)
+    system = build_system(load_scene("pendulum"))
+    problem = Problem(system)
+    q0, v0 = system.initial_state()
+    a0, lam0 = problem.acceleration(0.0, q0, v0)
+    integ = HHT(adaptive=True)
+    integ.start(problem, State(0.0, q0, v0, a0, lam0), 1e-3)
+    integ.state.v[0] = np.nan
+    watch = BatchWatch(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(1, bool), False, True,
+                       np.zeros(3), 1.0, 1.0)
+    with pytest.raises(StepFailure, match=r"^step size underflow after Newton failure: non-finite .* \(t = 0\)$"):
+        integ.advance(1.0, watch)
+    assert integ.counters.rejected == 15 and integ.counters.steps == 0  # 1e-3 · 0.25^15 < 1e-12
 
 
 def test_python_models_keep_the_python_path(monkeypatch):

@@ -1,5 +1,6 @@
 """Compiled (numba) core of the Newmark family: the scaled Newton iteration of one step
-and a fixed-step *phase runner* that takes many steps in one call.
+and a *phase runner* that takes many steps in one call, at fixed step or with the
+Zienkiewicz–Xie step-size control of the adaptive mode.
 
 This is the same algorithm as :meth:`NewmarkFamily._newton` / ``_factor`` /
 ``_constraints_ok`` in :mod:`daebench.integrators._newmark_family` — the same
@@ -17,8 +18,9 @@ the integrator (so that single compiled steps and the phase runner interleave):
 
 Status codes (0 = converged) map to the messages of the Python path in ``FAIL_MESSAGES``.
 
-Phase runner (:func:`run_fixed`): steps at fixed h until something the event-driven
-driver must see happens — a gap of an open contact below its closing threshold (−0, or
+Phase runner (:func:`run_phase`): steps (fixed h, or adaptive with the same rejections,
+Newton-failure cuts and step-size factors as ``NewmarkFamily._step_impl``) until
+something the event-driven driver must see happens — a gap of an open contact below its closing threshold (−0, or
 −GAP_BAND while the contact is not re-armed; any negative gap with a continuous law),
 a closed contact's λ < 0, an output time reached, t_end reached, non-finite state,
 or ``max_steps`` (which keeps the driver's wall-time cap responsive). The step that
@@ -49,7 +51,16 @@ SNAP = 1e-6
 FD_REL_STEP = 1e-7
 GAP_BAND = cw.GAP_BAND
 
+SAFETY = 0.9
+FAC_MIN, FAC_MAX = 0.2, 5.0
+FAC_NEWTON_FAIL = 0.25
+ZX_MIN_COEFF = 1.0 / 24.0
+
 ST_LU, ST_LUH, ST_PREV, ST_HOLD = range(4)
+# step-size control of run_phase: ctl = [adaptive (0/1), rtol, atol, h_min, h_next, rejected,
+# Newton status of the last failure, local error of the last rejection]
+CTL_ADAPTIVE, CTL_RTOL, CTL_ATOL, CTL_HMIN, CTL_HNEXT, CTL_REJECTED, CTL_NEWTON, CTL_ERR = range(8)
+UNDERFLOW_NEWTON, UNDERFLOW_ERROR = 100, 101  # run_phase statuses beyond the Newton ones
 C_NEWTON, C_LU, C_RES, C_JAC = range(4)
 
 FAIL_MESSAGES = {
@@ -460,13 +471,32 @@ def newton_once(md, active, t, q, v, a, lam, F_old, h, al, be, ga, ggl, tol, max
 
 
 @njit(cache=True)
-def run_fixed(md, active, inactive, lam_rows, armed, continuous, track, cmax,
+def error_norm(be, h, q_new, q_old, a_new, a_old, rtol, atol):
+    """Zienkiewicz–Xie local error estimate in the weighted RMS norm (as
+    ``NewmarkFamily._error_norm``)."""
+    c = abs(be - 1.0 / 6.0)
+    if c < 1e-3:
+        c = ZX_MIN_COEFF
+    n = q_new.shape[0]
+    acc = 0.0
+    for i in range(n):
+        e = (c * h * h) * (a_new[i] - a_old[i])
+        w = atol + rtol * max(abs(q_new[i]), abs(q_old[i]))
+        acc += (e / w) ** 2
+    return math.sqrt(acc / n)
+
+
+@njit(cache=True)
+def run_phase(md, active, inactive, lam_rows, armed, continuous, track, cmax,
               t, q, v, a, lam, F, h_fix, t_stop, t_out_next, t_end, max_steps,
               al, be, ga, ggl, tol, maxiter, reuse, st, LU, piv, a_old, l_old, cnt,
-              pq, pv, pa, plam):
-    """Fixed-step phase runner (module docstring). (q, v, a, λ, F) hold the current state
-    and are advanced in place; (pq, pv, pa, plam) receive the state before the last step.
-    Returns (status, steps taken, t before the last step, t now, h of the failed step)."""
+              pq, pv, pa, plam, ctl):
+    """Phase runner (module docstring): fixed steps h_fix, or with ``ctl[CTL_ADAPTIVE]``
+    the Zienkiewicz–Xie step-size control of ``NewmarkFamily._step_impl`` (rejections,
+    Newton-failure cuts, ``ctl[CTL_HNEXT]`` carried in and out). (q, v, a, λ, F) hold the
+    current state and are advanced in place; (pq, pv, pa, plam) receive the state before
+    the last step. Returns (status, steps taken, t before the last step, t now, h of the
+    failed step); status UNDERFLOW_* leaves the Newton status / local error in ``ctl``."""
     n = q.shape[0]
     m = lam.shape[0]
     ws = workspace(n, m, n + 2 * m)
@@ -475,15 +505,39 @@ def run_fixed(md, active, inactive, lam_rows, armed, continuous, track, cmax,
     zeros = np.zeros(n)
     C, Ct, gam = np.empty(max(m, 1)), np.empty(max(m, 1)), np.empty(max(m, 1))
     Cq = np.empty((max(m, 1), n))
+    adaptive = ctl[CTL_ADAPTIVE] != 0.0
     nsteps = 0
     t_prev = t
+    hh = h_fix
     while True:
-        remaining = t_stop - t
-        hh = remaining if h_fix * (1.0 + SNAP) >= remaining else h_fix
-        status = newton(md, active, t, q, v, a, lam, F, hh, al, be, ga, ggl, tol, maxiter, reuse,
-                        st, LU, piv, a_old, l_old, cnt, ws, nq, nv, na, nl, nF)
-        if status != 0:
-            return status, nsteps, t_prev, t, hh
+        h_min = ctl[CTL_HMIN] * max(1.0, abs(t))
+        while True:  # attempts of one step (one, at fixed step)
+            remaining = t_stop - t
+            h_try = ctl[CTL_HNEXT] if adaptive else h_fix
+            hh = remaining if h_try * (1.0 + SNAP) >= remaining else h_try
+            status = newton(md, active, t, q, v, a, lam, F, hh, al, be, ga, ggl, tol, maxiter, reuse,
+                            st, LU, piv, a_old, l_old, cnt, ws, nq, nv, na, nl, nF)
+            if status != 0:
+                if not adaptive:
+                    return status, nsteps, t_prev, t, hh
+                ctl[CTL_REJECTED] += 1.0
+                ctl[CTL_HNEXT] = FAC_NEWTON_FAIL * hh
+                if ctl[CTL_HNEXT] < h_min:
+                    ctl[CTL_NEWTON] = status
+                    return UNDERFLOW_NEWTON, nsteps, t_prev, t, hh
+                continue
+            if adaptive:
+                err = error_norm(be, hh, nq, q, na, a, ctl[CTL_RTOL], ctl[CTL_ATOL])
+                if err > 1.0:
+                    ctl[CTL_REJECTED] += 1.0
+                    ctl[CTL_HNEXT] = hh * max(FAC_MIN, SAFETY * err ** (-1.0 / 3.0))
+                    if ctl[CTL_HNEXT] < h_min:
+                        ctl[CTL_ERR] = err
+                        return UNDERFLOW_ERROR, nsteps, t_prev, t, hh
+                    continue
+                fac = FAC_MAX if err == 0.0 else min(FAC_MAX, SAFETY * err ** (-1.0 / 3.0))
+                ctl[CTL_HNEXT] = max(hh * fac, h_try) if hh < h_try else hh * fac
+            break
         t_new = t_stop if hh == remaining else t + hh
         for i in range(n):
             a_old[i] = a[i]

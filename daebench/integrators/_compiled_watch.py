@@ -24,7 +24,7 @@ GAP_BAND = 1e-9  # = daebench.simulate.GAP_BAND (kept equal by tests/test_compil
 def quiet(md, active, inactive, lam_rows, armed, continuous, track, cmax, t, q, v, a, lam,
           t_out_next, t_end, g, zeros, C, Cq, Ct, gam):
     """Whether the step that ended in (t, q, v, a, λ) needs no driver attention — the rule
-    of :class:`daebench.integrators.base.BatchWatch`, as in ``_compiled_newmark.run_fixed``:
+    of :class:`daebench.integrators.base.BatchWatch`, as in ``_compiled_newmark.run_phase``:
     re-arms gaps that left the band and, for a quiet step, raises the constraint maxima."""
     n = q.shape[0]
     m = lam.shape[0]

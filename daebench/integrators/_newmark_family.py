@@ -233,11 +233,12 @@ class NewmarkFamily(Integrator):
         return out
 
     def can_advance(self, problem) -> bool:
-        return self._md is not None and not self.adaptive and problem is self.problem
+        return self._md is not None and problem is self.problem
 
     def advance(self, t_stop: float, watch=None) -> State:
-        """Fixed-step phase runner (:func:`daebench.integrators._compiled_newmark.run_fixed`):
-        many steps per call, stopping after the first step the driver must see."""
+        """Phase runner (:func:`daebench.integrators._compiled_newmark.run_phase`), fixed
+        or adaptive step: many steps per call, stopping after the first step the driver
+        must see."""
         if watch is None or not self.can_advance(self.problem):
             return self.step(t_stop)
         s = self.state
@@ -246,18 +247,28 @@ class NewmarkFamily(Integrator):
         n, m = self.problem.n, self.problem.m
         q, v, a, lam = s.q.copy(), s.v.copy(), s.a.copy(), s.lam.copy()
         pq, pv, pa, plam = np.empty(n), np.empty(n), np.empty(n), np.empty(m)
-        status, k, t_prev, t_now, h_fail = _cn.run_fixed(
+        ctl = np.array([float(self.adaptive), self.settings["rtol"], self.settings["atol"], H_MIN_REL,
+                        self._h_next, 0.0, 0.0, 0.0])
+        status, k, t_prev, t_now, h_fail = _cn.run_phase(
             self._md, self._c_active, watch.inactive, watch.lam_rows, watch.armed, bool(watch.continuous),
             bool(watch.track), watch.cmax, float(s.t), q, v, a, lam, self._F, float(self.h), float(t_stop),
             float(watch.t_out_next), float(watch.t_end), int(watch.max_steps), *self._coeff_args(),
-            self._c_st, self._c_LU, self._c_piv, self._c_aold, self._c_lold, self._c_cnt, pq, pv, pa, plam)
+            self._c_st, self._c_LU, self._c_piv, self._c_aold, self._c_lold, self._c_cnt, pq, pv, pa, plam, ctl)
         self._sync_compiled()
+        self._h_next = float(ctl[_cn.CTL_HNEXT])
+        self.counters.rejected += int(ctl[_cn.CTL_REJECTED])
         if k:
             self.counters.steps += k
             self.prev = State(t_prev, pq, pv, pa, plam)
             self.state = State(t_now, q, v, a, lam)
+        t_fail = self.state.t
+        if status == _cn.UNDERFLOW_NEWTON:
+            raise StepFailure(f"step size underflow after Newton failure: "
+                              f"{self._fail_message(int(ctl[_cn.CTL_NEWTON]))} (t = {t_fail:.9g})")
+        if status == _cn.UNDERFLOW_ERROR:
+            raise StepFailure(f"step size underflow (t = {t_fail:.9g}, local error {ctl[_cn.CTL_ERR]:.3g})")
         if status:
-            raise StepFailure(f"{self._fail_message(status)} (t = {self.state.t:.9g}, h = {h_fail:.3g})")
+            raise StepFailure(f"{self._fail_message(status)} (t = {t_fail:.9g}, h = {h_fail:.3g})")
         return self.state
 
     # -- the Newton iteration ----------------------------------------------------------
