@@ -252,15 +252,19 @@ class HubBeam(MechanicalSystem):
     # -- compiled kernels ------------------------------------------------------
     def kernels(self) -> tuple:
         """Model descriptor for compiled integrator loops
-        (:mod:`daebench.integrators._compiled_models`; built once, tables shared)."""
+        (:mod:`daebench.integrators._compiled_models`; built once, tables shared). The
+        contact law's state in it is filled by ``_compiled_models.descriptor``, not here."""
         md = getattr(self, "_md", None)
         if md is None:
             from daebench.integrators import _compiled_models as cm
 
             prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy_bar, Hbar = self.kernel_args
             xp, phx_p, phy_p, Hp = self._pt[1]
+            # the continuous contact law's state (refreshed by cm.descriptor) and its scratch
+            law_state, law_work = cm.contact_law_slots(self.n, self.n_contacts)
             md = cm.pack(cm.KIND_HUBBEAM, prm, [fore, self.n_contacts, 0, int(self.power_free)],
-                         [xs, wm, phx_bar, phy_bar, phx_p, phy_p, [xp], np.zeros(self.n), np.zeros(self.n)],
+                         [xs, wm, phx_bar, phy_bar, phx_p, phy_p, [xp], np.zeros(self.n), np.zeros(self.n),
+                          law_state, law_work],
                          [phx, phy, Mc, K1, K2, Hbar, Hp, np.zeros_like(self._work)],
                          H)
             self._md = md
