@@ -144,13 +144,3 @@ def test_python_models_keep_the_python_path(monkeypatch):
     integ = HHT(h=1e-5)
     res = simulate(system, integ, 0.001, 1e-4)
     assert res.status == "completed" and integ._md is None
-
-
-def test_hertz_contact_engaged_uses_python_path():
-    sc = load_scene("beam-impact", ["contact.law=hertz", "discretization.n=3"])
-    system = build_system(sc)
-    from daebench.integrators import _compiled_models as cm
-    system.contact_law.engaged[:] = False
-    assert cm.descriptor(system) is not None
-    system.contact_law.engaged[:] = True
-    assert cm.descriptor(system) is None
