@@ -232,28 +232,20 @@ def _hb_contact_jacobian(prm, fore, a1, a2, cl, q, v, Kq, Kv):
     g0, _ = _hb_contact(prm, fore, a1, a2, cl, q, v, gp)
     if not g0 < 0.0:
         return  # open: the Python path adds nothing either
-    for j in range(n):
-        dx = FD_REL_STEP * max(1.0, abs(q[j]))
-        xp[:] = q
-        xp[j] = q[j] + dx
-        g1, F1 = _hb_contact(prm, fore, a1, a2, cl, xp, v, gp)
-        xp[j] = q[j] - dx
-        g2, F2 = _hb_contact(prm, fore, a1, a2, cl, xp, v, gm)
-        for i in range(n):
-            fp = gp[i] * F1 if g1 < 0.0 else 0.0
-            fm = gm[i] * F2 if g2 < 0.0 else 0.0
-            Kq[i, j] = Kq[i, j] + (fp - fm) / (2.0 * dx)
-    for j in range(n):
-        dx = FD_REL_STEP * max(1.0, abs(v[j]))
-        xp[:] = v
-        xp[j] = v[j] + dx
-        g1, F1 = _hb_contact(prm, fore, a1, a2, cl, q, xp, gp)
-        xp[j] = v[j] - dx
-        g2, F2 = _hb_contact(prm, fore, a1, a2, cl, q, xp, gm)
-        for i in range(n):
-            fp = gp[i] * F1 if g1 < 0.0 else 0.0
-            fm = gm[i] * F2 if g2 < 0.0 else 0.0
-            Kv[i, j] = Kv[i, j] + (fp - fm) / (2.0 * dx)
+    for wrt_v in (False, True):  # ∂/∂q into Kq, then ∂/∂v into Kv
+        x = v if wrt_v else q
+        K = Kv if wrt_v else Kq
+        for j in range(n):
+            dx = FD_REL_STEP * max(1.0, abs(x[j]))
+            xp[:] = x
+            xp[j] = x[j] + dx
+            g1, F1 = _hb_contact(prm, fore, a1, a2, cl, q if wrt_v else xp, xp if wrt_v else v, gp)
+            xp[j] = x[j] - dx
+            g2, F2 = _hb_contact(prm, fore, a1, a2, cl, q if wrt_v else xp, xp if wrt_v else v, gm)
+            for i in range(n):
+                fp = gp[i] * F1 if g1 < 0.0 else 0.0
+                fm = gm[i] * F2 if g2 < 0.0 else 0.0
+                K[i, j] = K[i, j] + (fp - fm) / (2.0 * dx)
 
 
 @njit(cache=True)
