@@ -285,7 +285,7 @@ def paper(quick: bool = typer.Option(False, "--quick", help="reduced grid for CI
                                                   help="wall-time cap of one run [s] (default 60 with --quick)")) -> None:
     """Regenerate the beam-impact study: Table 1 beside the published seconds, one figure
     and one computed verdict per claim (CASES.md)."""
-    from daebench import paper as P
+    from daebench.studies import paper as P
 
     res = P.run_paper(quick=quick, jobs=jobs, out=out, run_cap=run_cap)
     console.print(res.table_md)
@@ -302,7 +302,7 @@ def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke te
          out: Optional[str] = typer.Option(None, "--out", help="output folder (default results/perf)")) -> None:
     """Speed figures in one run (Table 1 grid vs the published seconds, per-step scaling in N,
     Exudyn side by side, adaptive steps), steps/s per integrator; writes results/perf/."""
-    from daebench import perf as P
+    from daebench.studies import perf as P
 
     s = P.PerfSettings.quick() if quick else P.PerfSettings(jobs=jobs)
     if not table:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 from typer.testing import CliRunner
 
-from daebench import paper
+from daebench.studies import paper
 from daebench.cli import app
 
 
