@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
@@ -48,6 +48,7 @@ REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes 
 DIVERGENCE_ENERGY = 1e3  # energy residual beyond this × energy scale means the run diverged
 MAX_STALLED_PHASES = 100 # consecutive phases that do not advance time: the event logic is stuck
 PROJECTION_ITERS = 3     # Newton iterations of the position projection onto C(q) = 0
+PROGRESS_EVERY = 0.25    # s of wall time between two progress reports
 
 
 @dataclass
@@ -95,7 +96,8 @@ class Driver:
     """Runs one integrator on one system from t = 0 to ``t_end``."""
 
     def __init__(self, system: MechanicalSystem, integrator: Integrator, t_end: float,
-                 output_dt: float, observables: list[str] | None = None):
+                 output_dt: float, observables: list[str] | None = None,
+                 progress: Callable[[float], None] | None = None):
         if t_end <= 0:
             raise ValueError(f"t_end must be positive, got {t_end}")
         if output_dt <= 0:
@@ -107,6 +109,8 @@ class Driver:
         self.t_out = np.linspace(0.0, t_end, n_out + 1) if abs(n_out * output_dt - t_end) < 1e-9 * t_end \
             else np.append(np.arange(0.0, t_end, output_dt), t_end)
         self.observables = observables
+        self.progress = progress
+        self._progress_wall = 0.0
         law = system.contact_law
         self.constraint_contacts = law is not None and not law.continuous and system.n_contacts > 0
         self.continuous_contacts = law is not None and law.continuous and system.n_contacts > 0
@@ -211,6 +215,7 @@ class Driver:
                 new = self.integ.step(self.t_end)
             self._t_last = new.t
             self._last_state = new
+            self._report_progress(new.t)
             self._check_finite(new)
             event = self._find_event(prev, new, problem)
             end = new if event is None else self.integ.dense(event[0])
@@ -224,6 +229,15 @@ class Driver:
                 return self._apply_event(event, end, problem)
             if new.t >= self.t_end - 1e-15 * max(1.0, self.t_end):
                 return new
+
+    def _report_progress(self, t: float) -> None:
+        """Tell the caller the simulated time, at most every PROGRESS_EVERY seconds of wall time."""
+        if self.progress is None:
+            return
+        now = time.perf_counter()
+        if now - self._progress_wall >= PROGRESS_EVERY:
+            self._progress_wall = now
+            self.progress(t)
 
     # -- fast path: many quiet steps per call ----------------------------------------------
     def _batch_ok(self, problem: Problem) -> bool:
@@ -470,6 +484,10 @@ def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[n
 
 
 def simulate(system: MechanicalSystem, integrator: Integrator, t_end: float, output_dt: float,
-             observables: list[str] | None = None) -> RunResult:
-    """Run ``integrator`` on ``system`` over [0, t_end] with events; see :class:`Driver`."""
-    return Driver(system, integrator, t_end, output_dt, observables).run()
+             observables: list[str] | None = None,
+             progress: Callable[[float], None] | None = None) -> RunResult:
+    """Run ``integrator`` on ``system`` over [0, t_end] with events; see :class:`Driver`.
+
+    ``progress(t)`` is called with the simulated time reached, at most every
+    ``PROGRESS_EVERY`` seconds of wall time (for progress bars)."""
+    return Driver(system, integrator, t_end, output_dt, observables, progress).run()
