@@ -7,6 +7,7 @@ for unknown keys the closest valid one.
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass
 from typing import Any, Iterable
 
@@ -20,24 +21,34 @@ def did_you_mean(key: str, valid: Iterable[str]) -> str:
     return f"; did you mean '{close[0]}'?" if close else ""
 
 
-def coerce(value: Any, typ: type, what: str) -> Any:
-    """Convert to the declared type (command-line strings included); refuse anything else.
-    ``typ`` is one of bool, int, float, str, list (of str)."""
+def coerce(value: Any, typ: type, what: str, strict: bool = False, finite: bool = True) -> Any:
+    """Convert ``value`` to the declared type or refuse it with a message naming ``what``.
+
+    ``typ`` is one of bool, int, float, str, list (of str). A string is parsed as
+    command-line text (``"1e-3"``, ``"true"``, ``"a,b"``) unless ``strict`` (values from a
+    typed source such as a TOML file, where ``"1e-3"`` in quotes is a mistake). Numbers must
+    be finite unless ``finite`` is False: this is the one non-finite check of the package
+    (NaN passes every ``<``/``>`` range test, so it must be refused before them).
+    """
+    text = isinstance(value, str) and not strict
     if typ is bool:
         if isinstance(value, bool):
             return value
-        if isinstance(value, str) and value.lower() in ("true", "false", "1", "0", "yes", "no", "on", "off"):
+        if text and value.lower() in ("true", "false", "1", "0", "yes", "no", "on", "off"):
             return value.lower() in ("true", "1", "yes", "on")
         raise ParamError(f"{what} must be true or false, got {value!r}")
     if typ in (float, int):
-        if isinstance(value, bool):
-            raise ParamError(f"{what} must be a number, got {value!r}")
+        if isinstance(value, bool) or (isinstance(value, str) and not text):
+            raise ParamError(f"{what} must be a number, got {value!r}"
+                             + (" (a quoted string: write the number without quotes)" if isinstance(value, str) else ""))
         try:
             f = float(value)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ParamError(f"{what} must be a number, got {value!r}") from None
+        if finite and not math.isfinite(f):
+            raise ParamError(f"{what} must be a finite number, got {value!r}")
         if typ is int:
-            if f != int(f):
+            if not math.isfinite(f) or f != int(f):
                 raise ParamError(f"{what} must be an integer, got {value!r}")
             return int(f)
         return f
@@ -46,10 +57,10 @@ def coerce(value: Any, typ: type, what: str) -> Any:
             raise ParamError(f"{what} must be a string, got {value!r}")
         return value
     if typ is list:
-        if isinstance(value, str):
+        if text:
             value = [v.strip() for v in value.split(",") if v.strip()]
-        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
-            raise ParamError(f"{what} must be a list of names, got {value!r}")
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) and v for v in value):
+            raise ParamError(f"{what} must be a list of names, e.g. [\"theta_deg\", \"tip_y\"]; got {value!r}")
         return list(value)
     raise TypeError(f"unsupported parameter type {typ}")
 
@@ -66,10 +77,13 @@ class Param:
     high: float | None = None
     choices: tuple | None = None
     unit: str = ""
+    allow_nonfinite: bool = False  # True: NaN/±inf are meaningful values of this key
 
-    def validate(self, value: Any, where: str) -> Any:
+    def validate(self, value: Any, where: str, strict: bool = False) -> Any:
+        """The value converted to this parameter's type and checked against its range or
+        choices (see :func:`coerce` for ``strict``); raises :class:`ParamError`."""
         what = f"{where} '{self.name}'"
-        value = coerce(value, self.type, what)
+        value = coerce(value, self.type, what, strict=strict, finite=not self.allow_nonfinite)
         if self.choices is not None:
             items = value if isinstance(value, list) else [value]
             for v in items:

@@ -108,10 +108,19 @@ class Scene:
         return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
     def with_overrides(self, overrides: Iterable[str] | dict[str, Any]) -> "Scene":
-        """A copy with ``key=value`` overrides applied and validated."""
+        """A copy with ``key=value`` overrides applied and validated.
+
+        Strings are parsed as command-line text; other values (from Python) must have
+        the key's type. ``model`` cannot be overridden: a scene's keys belong to its model.
+        """
         pairs = parse_overrides(overrides) if not isinstance(overrides, dict) else dict(overrides)
         values = dict(self.values)
         for key, raw in pairs.items():
+            if key == "model" and raw != self.model:
+                raise SceneError(
+                    f"scene key 'model' cannot be overridden (scene '{self.name}' is a '{self.model}' scene and "
+                    f"its keys belong to that model); pick a scene of the other model instead "
+                    f"(`daebench list` shows the cases)")
             values[key] = validate_key(key, raw, self.schema, "--set")
         return checked(Scene(self.name, self.model, values, self.schema, self.source))
 
@@ -126,14 +135,15 @@ def parse_overrides(items: Iterable[str]) -> dict[str, str]:
         raise SceneError(str(exc)) from None
 
 
-def validate_key(key: str, raw: Any, schema: dict[str, Param], where: str) -> Any:
-    if key not in schema:
+def validate_key(key: str, raw: Any, schema: dict[str, Param], where: str, strict: bool = False) -> Any:
+    """One key's value, validated by its declared :class:`Param` (``strict``: typed source)."""
+    if not isinstance(key, str) or key not in schema:
         raise SceneError(
             f"unknown scene key '{key}' ({where}){did_you_mean(key, schema)} "
             f"Valid keys are listed by `daebench show SCENE --keys`."
         )
     try:
-        return schema[key].validate(raw, "scene key")
+        return schema[key].validate(raw, "scene key", strict=strict)
     except ParamError as exc:
         raise SceneError(str(exc)) from None
 
@@ -145,29 +155,49 @@ def model_schema(model: str) -> dict[str, Param]:
 
 
 def resolve_path(name_or_path: str | os.PathLike) -> Path:
+    """The scene file of a case name (case-insensitive) or a path to a .toml file."""
     p = Path(name_or_path)
+    if p.is_dir():
+        raise SceneError(f"'{p}' is a folder, not a scene file; give a case name (`daebench list`) "
+                         f"or a path to a .toml file")
     if p.suffix == ".toml" or p.exists():
         if not p.exists():
             raise SceneError(f"scene file '{p}' does not exist")
         return p
-    cand = cases_dir() / f"{p.name}.toml"
-    if cand.exists():
-        return cand
     names = [n for n, _ in list_scenes()]
+    match = [n for n in names if n.lower() == p.name.lower()]
+    if match:
+        return cases_dir() / f"{match[0]}.toml"
     raise SceneError(
-        f"unknown scene '{name_or_path}'{did_you_mean(str(name_or_path), names)} "
+        f"unknown scene '{name_or_path}'{did_you_mean(str(name_or_path).lower(), names)} "
         f"Known scenes: {', '.join(names)} (see `daebench list`)."
     )
 
 
 def load_scene(name_or_path: str | os.PathLike, overrides: Iterable[str] | dict[str, Any] = ()) -> Scene:
-    """Load, validate and apply overrides. Raises :class:`SceneError` on any problem."""
+    """Load, validate and apply overrides.
+
+    Parameters
+    ----------
+    name_or_path : a case name from ``cases/`` (``"beam-impact"``, case-insensitive) or a
+        path to a TOML scene file
+    overrides : ``["key=value", ...]`` as on the command line, or ``{key: value}``
+
+    Raises
+    ------
+    SceneError
+        On any problem, with a message that names the key and the fix.
+    """
     path = resolve_path(name_or_path)
     try:
         with open(path, "rb") as fh:
             raw = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise SceneError(f"{path}: not a text file (a scene is a UTF-8 TOML file)") from None
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot be read: {exc.strerror or exc}") from None
     return scene_from_dict(raw, name=path.stem, source=str(path)).with_overrides(overrides)
 
 
@@ -178,6 +208,9 @@ def scene_from_dict(raw: dict[str, Any], name: str = "scene", source: str = "") 
     model = flat.get("model")
     if model is None:
         raise SceneError(f"{source or name}: the scene must name its model, e.g. model = \"hub-beam\"")
+    if not isinstance(model, str):
+        raise SceneError(f"{source or name}: 'model' must be one model name (a string), e.g. model = \"hub-beam\"; "
+                         f"got {model!r}")
     if model not in MODELS:
         raise SceneError(
             f"{source or name}: unknown model '{model}'{did_you_mean(str(model), MODELS)} "
@@ -186,7 +219,7 @@ def scene_from_dict(raw: dict[str, Any], name: str = "scene", source: str = "") 
     schema = model_schema(model)
     values = {k: p.default for k, p in schema.items()}
     for key, v in flat.items():
-        values[key] = validate_key(key, v, schema, source or name)
+        values[key] = validate_key(key, v, schema, source or name, strict=True)
     values["name"] = values.get("name") or name
     return checked(Scene(values["name"], model, values, schema, source))
 
