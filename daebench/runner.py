@@ -1,5 +1,7 @@
-"""One run from a scene: build the system and the integrator, simulate, write the
-history, and return a JSON-ready record. Used by `daebench run` and by sweeps."""
+"""One run from a scene: build the system and the integrator, check the run before its
+first step (:mod:`daebench.guards`), simulate, write the history (with a JSON sidecar
+naming the scene, integrator and settings, for figure legends), and return a JSON-ready
+record. Used by the Python API, `daebench run` and sweeps."""
 
 from __future__ import annotations
 
@@ -9,10 +11,11 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
+from daebench import guards
 from daebench.integrators.base import Integrator, IntegratorError, get_integrator
 from daebench.models import build_system
 from daebench.params import ParamError, parse_pairs
@@ -28,8 +31,15 @@ def results_dir() -> Path:
 
 
 def make_integrator(name: str, options: Iterable[str] | dict[str, Any] = ()) -> Integrator:
-    """An integrator from its registered name and ``name=value`` options (validated)."""
-    cls = get_integrator(name)
+    """An integrator from its registered name (case-insensitive) and ``name=value``
+    options (validated).
+
+    Raises
+    ------
+    IntegratorError
+        For an unknown name or setting, a bad value, or a plugin whose constructor raises.
+    """
+    cls = get_integrator(guards.resolve_integrator(name))
     if isinstance(options, dict):
         opts = dict(options)
     else:
@@ -37,7 +47,13 @@ def make_integrator(name: str, options: Iterable[str] | dict[str, Any] = ()) -> 
             opts = parse_pairs(options, "--opt", "h=1e-4")
         except ParamError as exc:
             raise IntegratorError(str(exc)) from None
-    return cls(**opts)
+    try:
+        return cls(**opts)
+    except IntegratorError:
+        raise
+    except Exception as exc:  # a plugin's own bug: still a clean refusal before any step
+        raise IntegratorError(f"integrator '{cls.name}' raised while being configured: "
+                              f"{type(exc).__name__}: {exc}") from None
 
 
 @dataclass
@@ -80,13 +96,40 @@ def _jsonable(x: Any) -> Any:
 
 def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
               options: Iterable[str] | dict[str, Any] = (), out_dir: str | Path | None = None,
-              write: bool = True) -> tuple[RunRecord, RunResult]:
-    """Run ``scene`` with ``integrator`` (an instance, or a name plus ``options``)."""
+              write: bool = True, *, force: bool = False, run_cap: float | None = None,
+              progress: Callable[[float], None] | None = None,
+              on_system: Callable[[Any], None] | None = None) -> tuple[RunRecord, RunResult]:
+    """Run ``scene`` with ``integrator`` (an instance, or a name plus ``options``).
+
+    Parameters
+    ----------
+    scene, integrator, options : what to run
+    out_dir, write : where the history goes (default results/runs), and whether it is written
+    force : run even when the step count or history size is beyond :mod:`daebench.guards`' limits
+    run_cap : wall-time cap in seconds (:class:`daebench.guards.RunTimeout` beyond it)
+    progress : called with the simulated time, at most every 0.25 s of wall time
+    on_system : called with the built system before the run (e.g. to record states)
+
+    Raises
+    ------
+    ParamError
+        (GuardError, IntegratorError) before the first step: bad settings, an output
+        folder that cannot be written, an unknown observable, a run beyond the limits.
+    """
     integ = integrator if isinstance(integrator, Integrator) else make_integrator(integrator, options)
+    guards.check_contacts_fit(scene, type(integ))
+    if not force:
+        guards.check_size(scene, integ)
+    if write:
+        guards.ensure_writable_dir(history_dir(out_dir), "history folder")
     system = build_system(scene)
+    guards.check_observables(scene, system)
+    if on_system is not None:
+        on_system(system)
     # the history keeps every observable (modal participations included); the scene's
     # output.observables are the ones scored (see bench)
-    result = simulate(system, integ, scene.t_end, scene["output.dt"])
+    with guards.deadline(run_cap):
+        result = simulate(system, integ, scene.t_end, scene["output.dt"], progress=progress)
     path = None
     if write:
         path = write_history(result, scene, integ, out_dir)
@@ -111,13 +154,27 @@ def run_id(scene: Scene, integ: Integrator) -> str:
     return hashlib.sha256(body.encode()).hexdigest()[:10]
 
 
+def history_dir(out_dir: str | Path | None) -> Path:
+    """The folder histories go to: ``out_dir`` or results/runs."""
+    return Path(out_dir) if out_dir is not None else results_dir() / "runs"
+
+
 def write_history(result: RunResult, scene: Scene, integ: Integrator, out_dir: str | Path | None) -> Path:
-    out = Path(out_dir) if out_dir is not None else results_dir() / "runs"
+    """<folder>/<scene>-<integrator>-<run id>.<csv|parquet>, written atomically, plus a
+    .json sidecar (scene, integrator, settings, status) that figures use for legends."""
+    out = history_dir(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     fmt = scene.get("output.format", "csv")
     path = out / f"{scene.name}-{integ.name}-{run_id(scene, integ)}.{fmt}"
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     if fmt == "parquet":
-        result.history.to_parquet(path, index=False)
+        result.history.to_parquet(tmp, index=False)
     else:
-        result.history.to_csv(path, index=False, float_format="%.17g")
+        result.history.to_csv(tmp, index=False, float_format="%.17g")
+    os.replace(tmp, path)
+    side = {"scene": scene.name, "scene_hash": scene.hash, "integrator": integ.name,
+            "settings": _jsonable(dict(integ.settings)), "status": result.status, "message": result.message}
+    side_tmp = tmp.with_suffix(".json.tmp")
+    side_tmp.write_text(json.dumps(side, indent=2))
+    os.replace(side_tmp, path.with_suffix(".json"))
     return path

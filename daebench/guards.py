@@ -1,0 +1,201 @@
+"""Checks made before a run takes its first step, and the wall-time cap while it runs.
+
+Everything a run would only discover late — an output folder it cannot write, an
+observable the model does not have, ~1e10 steps, an integrator that cannot handle the
+scene's contacts — is refused here, before any step, with a message that says what to
+change (:class:`GuardError`, a :class:`~daebench.params.ParamError`: exit code 2 on the
+command line).
+
+The wall-time cap (:func:`deadline`) raises :class:`RunTimeout` in the thread that runs
+the simulation, from a watchdog thread. It works in any thread (a Dask worker runs tasks
+in threads, where SIGALRM cannot reach) and takes effect at the next Python bytecode of
+the run; the driver returns to Python at least every compiled batch of steps.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import tempfile
+import threading
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Iterator
+
+from daebench.integrators import base
+from daebench.integrators.base import Integrator, IntegratorError
+from daebench.params import ParamError, did_you_mean
+
+MAX_STEPS = 1e8          # fixed steps a run may plan without force (≈ 3 min compiled, hours in Python)
+MAX_OUTPUT_ROWS = 1e7    # history rows (each ~30 floats: ~2.4 GB at this size)
+
+
+class GuardError(ParamError):
+    """A run refused before its first step; the message says what to change."""
+
+
+class RunTimeout(BaseException):
+    """A run exceeded its wall-time cap (a BaseException so that a plugin's broad
+    ``except Exception`` cannot swallow it)."""
+
+
+# ---- the wall-time cap ------------------------------------------------------------------
+def _raise_in(thread_id: int, exc: type[BaseException] | None) -> None:
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread_id),
+                                               ctypes.py_object(exc) if exc is not None else None)
+
+
+@contextmanager
+def deadline(seconds: float | None) -> Iterator[None]:
+    """Raise :class:`RunTimeout` in the calling thread once ``seconds`` of wall time have
+    passed inside the ``with`` block (None or 0: no cap).
+
+    Raises
+    ------
+    GuardError
+        If ``seconds`` is negative or not finite.
+    """
+    if seconds is None or seconds == 0:
+        yield
+        return
+    check_run_cap(seconds)
+    target = threading.get_ident()
+    lock = threading.Lock()
+    state = {"active": True, "fired": False}
+
+    def fire() -> None:
+        with lock:
+            if state["active"]:
+                state["fired"] = True
+                _raise_in(target, RunTimeout)
+
+    timer = threading.Timer(float(seconds), fire)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    except RunTimeout:
+        raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s") from None
+    finally:
+        timer.cancel()
+        with lock:
+            state["active"] = False
+            pending = state["fired"]
+        if pending:
+            _raise_in(target, None)  # the block ended just as the timer fired: drop the pending one
+    if pending:
+        raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s")
+
+
+def check_run_cap(seconds: Any) -> float | None:
+    """A run cap in seconds: None, or a finite number > 0."""
+    if seconds is None:
+        return None
+    try:
+        s = float(seconds)
+    except (TypeError, ValueError):
+        raise GuardError(f"the run cap must be a number of seconds, got {seconds!r}") from None
+    if not math.isfinite(s) or s <= 0:
+        raise GuardError(f"the run cap must be a finite number of seconds > 0, got {seconds!r} "
+                         f"(e.g. --run-cap 600; leave it out for no cap)")
+    return s
+
+
+# ---- before the first step -------------------------------------------------------------------
+def resolve_integrator(name: str) -> str:
+    """The registered name of an integrator, matched case-insensitively.
+
+    Raises
+    ------
+    IntegratorError
+        For an unknown name, with the closest registered one.
+    """
+    reg = base.registry()  # looked up on the module: tests and plugins may replace it
+    if not isinstance(name, str) or not name.strip():
+        raise IntegratorError(f"an integrator name is needed, e.g. hht; available: {', '.join(reg)}")
+    if name in reg:
+        return name
+    lower = {n.lower(): n for n in reg}
+    if name.strip().lower() in lower:
+        return lower[name.strip().lower()]
+    raise IntegratorError(f"unknown integrator '{name}'{did_you_mean(name.lower(), reg)} "
+                          f"Available: {', '.join(reg)} (see `daebench list`).")
+
+
+def estimated_steps(scene: Any, integ: Integrator) -> float:
+    """Steps a fixed-step run plans over the scene (t_end / h); 0 when the integrator
+    chooses its own steps (adaptive, or no ``h`` setting)."""
+    h = integ.settings.get("h")
+    if integ.adaptive or not h:
+        return 0.0
+    return scene.t_end / float(h)
+
+
+def check_size(scene: Any, integ: Integrator) -> None:
+    """Refuse a run whose step count or history size is beyond reason (pass ``force``
+    to the caller to run it anyway)."""
+    n = estimated_steps(scene, integ)
+    if n > MAX_STEPS:
+        raise GuardError(
+            f"h = {integ.settings['h']:g} s over t_end = {scene.t_end:g} s is ≈ {n:.2g} steps, beyond the limit of "
+            f"{MAX_STEPS:.0e}; use a larger h (e.g. --opt h=1e-4) or a shorter t_end, or pass --force to run it anyway")
+    rows = scene.t_end / float(scene["output.dt"])
+    if rows > MAX_OUTPUT_ROWS:
+        raise GuardError(
+            f"output.dt = {scene['output.dt']:g} s over t_end = {scene.t_end:g} s is ≈ {rows:.2g} history rows, beyond "
+            f"the limit of {MAX_OUTPUT_ROWS:.0e}; use a larger output.dt (e.g. --set output.dt=1e-3), or pass --force")
+
+
+def check_observables(scene: Any, system: Any) -> None:
+    """Every scored observable of the scene (``output.observables``) must be one the model
+    computes."""
+    wanted = list(scene.get("output.observables") or [])
+    if not wanted:
+        return
+    q, v = system.initial_state()
+    have = list(system.observables(0.0, q, v))
+    unknown = [o for o in wanted if o not in have]
+    if unknown:
+        raise GuardError(
+            f"scene key 'output.observables': '{unknown[0]}' is not an observable of model '{scene.model}'"
+            f"{did_you_mean(unknown[0], have)} Observables: {', '.join(have)}.")
+
+
+def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
+    """An integrator that resolves contacts itself needs a scene whose contacts are left to
+    it; name a scene key value the scene accepts, or the scenes that offer one."""
+    if not cls.capabilities.contacts:
+        return
+    law = scene.schema.get("contact.law")
+    if scene.get("contact.law") == "complementarity":
+        return
+    if law is not None and law.choices and "complementarity" in law.choices:
+        raise GuardError(f"integrator '{cls.name}' resolves contacts itself; run it with "
+                         f"`--set contact.law=complementarity` (scene '{scene.name}' uses '{scene['contact.law']}')")
+    from daebench.scene import list_scenes, load_scene
+
+    offer = []
+    for name, _ in list_scenes():
+        p = load_scene(name).schema.get("contact.law")
+        if p is not None and p.choices and "complementarity" in p.choices:
+            offer.append(name)
+    hint = (f"scenes that offer it: {', '.join(offer)} (with --set contact.law=complementarity)" if offer
+            else "no installed scene offers it")
+    raise GuardError(f"integrator '{cls.name}' resolves contacts itself (contact law 'complementarity'), which "
+                     f"scene '{scene.name}' (model {scene.model}) does not offer; {hint}")
+
+
+def ensure_writable_dir(path: str | Path, what: str = "output folder") -> Path:
+    """Create ``path`` if needed and prove it writable (a file is made and removed), so
+    that a run never finishes only to fail when it writes."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise GuardError(f"{what} '{p}' is a file, not a folder; give a folder (it is created if missing)")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=p, prefix=".write-test-"):
+            pass
+    except OSError as exc:
+        raise GuardError(f"cannot write to {what} '{p}': {exc.strerror or exc}; choose a writable folder "
+                         f"(--out, or the DAEBENCH_RESULTS environment variable)") from None
+    return p
