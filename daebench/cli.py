@@ -1,25 +1,34 @@
-"""The `daebench` command."""
+"""The `daebench` command: a thin layer over :mod:`daebench.api`.
+
+Exit codes: 0 done; 1 a run did not complete (diverged, failed, timed out) or a sweep
+has rows that failed for a reason other than the integrator's verdict (error, timeout,
+crashed); 2 the input was refused (nothing ran, the message says what to change);
+130 interrupted (finished sweep rows are kept). Results go to stdout (``--json``:
+machine-only), progress and errors to stderr; no line is wrapped inside a number.
+"""
 
 from __future__ import annotations
 
 import json
+import shlex
 import sys
-from typing import Optional
+from typing import Any, NoReturn, Optional
 
 import typer
-from rich.console import Console
-from rich.table import Table
 
+from daebench import textout
 from daebench.params import ParamError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Benchmark time integrators for constrained mechanical systems with impact.")
-console = Console()
-err = Console(stderr=True, soft_wrap=True)  # never wrap an error: keys in it get copied
 
 
-def fail(msg: str, code: int = 2) -> None:
-    err.print(f"[bold red]error:[/] {msg}", highlight=False)
+def out(line: str = "") -> None:
+    sys.stdout.write(line + "\n")
+
+
+def fail(msg: str, code: int = 2) -> NoReturn:
+    sys.stderr.write(f"error: {msg}\n")
     raise typer.Exit(code)
 
 
@@ -32,115 +41,181 @@ def _load(scene: str, sets: list[str]):
         fail(str(exc))
 
 
+def _print_table(columns: list[str], rows: list[list[Any]], title: str = "") -> None:
+    for line in textout.table_lines(columns, rows, title=title):
+        out(line)
+
+
 @app.command("list")
 def list_cmd() -> None:
     """Cases (scene files) and integrators (built-in and plugins)."""
-    from daebench.integrators.base import registry
+    from daebench import api
     from daebench.scene import list_scenes
 
-    t = Table(title="cases", show_lines=False)
-    t.add_column("scene")
-    t.add_column("description")
-    for name, desc in list_scenes():
-        t.add_row(name, desc)
-    console.print(t)
-    t = Table(title="integrators")
-    for col in ("name", "order", "steps", "constraints", "from", "description"):
-        t.add_column(col)
-    for name, reg in registry().items():
-        if reg.cls is None:
-            t.add_row(name, "", "", "", reg.distribution, f"[red]cannot be loaded: {reg.error}[/]")
+    _print_table(["case", "description"], [[n, d] for n, d in list_scenes()], "cases")
+    out()
+    rows = []
+    for name, info in api.integrators().items():
+        if info.capabilities is None:
+            rows.append([name, "", "", "", info.distribution, f"cannot be loaded: {info.error}"])
             continue
-        cap = reg.cls.capabilities
+        cap = info.capabilities
         steps = "/".join(x for x, ok in (("fixed", cap.fixed_step), ("adaptive", cap.adaptive)) if ok)
         cons = f"index {cap.index}" if cap.constraints else "ODE only"
         if cap.contacts:
             cons += ", resolves contacts"
-        t.add_row(name, str(cap.order), steps, cons, reg.distribution, reg.cls.description)
-    console.print(t)
+        rows.append([name, cap.order, steps, cons, info.distribution, info.description])
+    _print_table(["name", "order", "steps", "constraints", "from", "description"], rows, "integrators")
+    out("settings of an integrator: daebench show NAME")
+
+
+def _show_integrator(name: str) -> None:
+    from daebench import api
+
+    info = api.integrator_info(name)
+    out(f"{info.name} — {info.description} (from {info.distribution})")
+    cap = info.capabilities
+    if cap is None:
+        fail(f"integrator '{info.name}' cannot be loaded: {info.error}")
+    steps = ", ".join(x for x, ok in (("fixed", cap.fixed_step), ("adaptive", cap.adaptive)) if ok)
+    out(f"capabilities: order {cap.order}; steps: {steps}; "
+        + (f"constraints at index {cap.index}" if cap.constraints else "ODE only (no constraints)")
+        + ("; resolves contacts itself" if cap.contacts else "")
+        + ("; own dense output" if cap.dense_output else ""))
+    _print_table(["setting", "type / range", "default", "meaning"],
+                 [[p.name, p.describe(), repr(p.default), p.doc] for p in info.settings], "settings (--opt name=value)")
 
 
 @app.command()
-def show(scene: str = typer.Argument(..., help="scene name or path to a .toml file"),
+def show(name: str = typer.Argument(..., help="an integrator, a case name or a path to a .toml file"),
          set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
          keys: bool = typer.Option(False, "--keys", help="list every valid key with its type and range")) -> None:
-    """Resolved parameters of a scene, the effects on/off and the problem size."""
+    """An integrator's settings and capabilities, or a scene's resolved parameters, effects and size."""
+    from daebench import guards
+    from daebench.integrators.base import IntegratorError
     from daebench.models import build_system
+    from daebench.scene import SceneError, list_scenes
 
-    sc = _load(scene, set_)
-    console.print(f"[bold]{sc.name}[/] — {sc.description}  (model {sc.model}, hash {sc.hash})")
+    try:
+        guards.resolve_integrator(name)
+        is_integrator = not set_ and not keys and name.lower() not in {n.lower() for n, _ in list_scenes()}
+    except IntegratorError:
+        is_integrator = False
+    if is_integrator:
+        try:
+            return _show_integrator(name)
+        except ParamError as exc:
+            fail(str(exc))
+    try:
+        sc = _load(name, set_)
+    except typer.Exit:
+        raise
+    except SceneError as exc:  # pragma: no cover - _load handles it
+        fail(str(exc))
+    out(f"{sc.name} — {sc.description}  (model {sc.model}, hash {sc.hash})")
     eff = sc.effects()
     if eff:
-        console.print("effects: " + ", ".join(f"{k} [{'green' if v else 'dim'}]{'on' if v else 'off'}[/]"
-                                               for k, v in eff.items()))
-    t = Table()
-    t.add_column("key", no_wrap=True)  # keys are copied into --set: never truncate them
-    for col in ("value",) + (("type / range", "meaning") if keys else ()):
-        t.add_column(col, overflow="fold")
+        out("effects: " + ", ".join(f"{k} {'on' if v else 'off'}" for k, v in eff.items()))
+    rows = []
     for k, v in sc.values.items():
         if k.startswith("effects."):
             continue
-        row = [k, repr(v)]
-        if keys:
-            p = sc.schema[k]
-            row += [p.describe(), f"{p.doc}{f' [{p.unit}]' if p.unit else ''}"]
-        t.add_row(*row)
-    console.print(t)
+        p = sc.schema[k]
+        rows.append([k, repr(v)] + ([p.describe(), f"{p.doc}{f' [{p.unit}]' if p.unit else ''}"] if keys else []))
+    _print_table(["key", "value"] + (["type / range", "meaning"] if keys else []), rows)
     try:
         system = build_system(sc)
     except ParamError as exc:
         fail(str(exc))
-    console.print(f"size: n = {system.n} coordinates, {system.n_bilateral} bilateral constraints, "
-                  f"{system.n_contacts} contact point(s)"
-                  + (f", contact law {system.contact_law.name}" if system.contact_law else ""))
+    out(f"size: n = {system.n} coordinates, {system.n_bilateral} bilateral constraints, "
+        f"{system.n_contacts} contact point(s)"
+        + (f", contact law {system.contact_law.name}" if system.contact_law else ""))
+
+
+def _settings_text(settings: dict[str, Any]) -> str:
+    return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in settings.items())
+
+
+def run_summary(r: Any) -> list[tuple[str, str]]:
+    """(label, text) lines of a run's summary: what ran, how it ended, what the numbers mean."""
+    pairs = [("run", f"{r.scene.name} with integrator {r.integrator}"),
+             ("settings", _settings_text(r.settings) or "(none)"),
+             ("status", f"{r.status}{' — ' + r.message if r.message else ''} ({r.wall_s:.3g} s wall)")]
+    obs = r.record.observables
+    for k in ("t", "theta_deg", "tip_w2", "tip_y", "x", "y"):
+        if k in obs:
+            unit = {"t": "s", "theta_deg": "deg", "tip_w2": "m", "tip_y": "m", "x": "m", "y": "m"}[k]
+            pairs.append((f"final {k} [{unit}]", f"{obs[k]:.10g}"))
+    pairs.append(("energy balance", f"max |E − E0 − W_nc + D_impacts| = {r.energy_residual:.3e} J "
+                                    f"(bookkeeping error of the run; 0 is exact)"))
+    if r.impacts:
+        pairs.append(("impacts", f"{len(r.impacts)}; first at t = {r.impacts[0]['t']:.12g} s"))
+    c = r.constraint_max
+    if any(c.values()):
+        pairs.append(("constraints", f"max while closed |C| {c['C']:.2e} m, |Ċ| {c['Cdot']:.2e} m/s, "
+                                     f"|C̈| {c['Cddot']:.2e} m/s²"))
+    pairs.append(("work", ", ".join(f"{k} {v}" for k, v in r.counters.items())))
+    if r.error:
+        errs = [f"{k.removeprefix('err_').removesuffix('_max')} {v:.3e}" for k, v in r.error.items()
+                if k.startswith("err_") and k.endswith("_max")]
+        pairs.append((f"error vs {r.error['against']} (max over the run; θ in deg, positions in m)", ", ".join(errs)))
+    else:
+        pairs.append(("error", f"no exact solution or cached reference for this scene "
+                               f"(`daebench reference {r.scene.name}` makes one)"))
+    if r.history_path:
+        pairs.append(("history", r.history_path))
+    return pairs
 
 
 @app.command()
 def run(scene: str = typer.Argument(..., help="scene name or path to a .toml file"),
-        integrator: str = typer.Option("ida", "--integrator", "-i", help="integrator name (see `daebench list`)"),
+        integrator: str = typer.Option("ida", "--integrator", "-i",
+                                       help="integrator name (see `daebench list`; settings: `daebench show NAME`)"),
         set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
         opt: list[str] = typer.Option([], "--opt", help="integrator setting: name=value (e.g. h=1e-4)"),
-        out: Optional[str] = typer.Option(None, "--out", help="folder for the history file (default results/runs)"),
-        as_json: bool = typer.Option(False, "--json", help="print one JSON record")) -> None:
+        out_dir: Optional[str] = typer.Option(None, "--out", help="folder for the history file (default results/runs)"),
+        as_json: bool = typer.Option(False, "--json", help="print one JSON record (stdout holds nothing else)"),
+        run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of the run [s]"),
+        force: bool = typer.Option(False, "--force", help="run even beyond the step-count / history-size limits")) -> None:
     """Run a scene with one integrator; write the time history; print a summary."""
-    from daebench.runner import make_integrator, run_scene
+    from daebench import api
+    from daebench.guards import RunTimeout
+    from daebench.params import parse_pairs
+    from daebench.progress import RunProgress
 
     sc = _load(scene, set_)
     try:
-        integ = make_integrator(integrator, opt)
-        rec, _ = run_scene(sc, integ, out_dir=out)
+        settings = parse_pairs(opt, "--opt", "h=1e-4")
+        from daebench.guards import check_run_cap, resolve_integrator
+
+        check_run_cap(run_cap)
+        label = f"{sc.name} with {resolve_integrator(integrator)}"
+        with RunProgress(label, sc.t_end) as bar:
+            r = api.run(sc, integrator, settings=settings, write=True, out_dir=out_dir, run_cap=run_cap,
+                        force=force, progress=bar)
     except ParamError as exc:
         fail(str(exc))
+    except RunTimeout as exc:
+        fail(f"{exc}; nothing was written (raise --run-cap, or use a larger step)", 1)
+    except Exception as exc:  # a plugin's bug during the run: say so, no traceback
+        fail(f"the run raised {type(exc).__name__}: {exc} (a bug in integrator '{integrator}' or the model?)", 1)
     if as_json:
-        sys.stdout.write(rec.to_json() + "\n")
+        sys.stdout.write(r.record.to_json() + "\n")
     else:
-        colour = {"completed": "green", "diverged": "red", "failed": "red"}[rec.status]
-        console.print(f"[bold]{rec.scene}[/] with [bold]{rec.integrator}[/]: [{colour}]{rec.status}[/] "
-                      f"{rec.message} in {rec.wall_s:.3g} s")
-        o = rec.observables
-        shown = {k: o[k] for k in ("t", "theta_deg", "tip_w2", "tip_y") if k in o}
-        console.print("final: " + ", ".join(f"{k} = {v:.10g}" for k, v in shown.items()))
-        console.print(f"energy residual (max |.|): {rec.energy_residual:.3e} J")
-        if rec.impacts:
-            console.print(f"impacts: {len(rec.impacts)}; first at t = {rec.impacts[0]['t']:.12g} s")
-        if any(rec.constraint_max.values()):
-            c = rec.constraint_max
-            console.print(f"max while closed: |C| {c['C']:.2e}, |Ċ| {c['Cdot']:.2e}, |C̈| {c['Cddot']:.2e}")
-        console.print("counters: " + ", ".join(f"{k} {v}" for k, v in rec.counters.items()))
-        console.print(f"history: {rec.history}")
-    if rec.status != "completed":
+        for line in textout.kv_lines(run_summary(r)):
+            out(line)
+    if r.status != "completed":
         raise typer.Exit(1)
 
 
-# ---- harness: references, sweeps, figures, the paper ------------------------------------
-def _floats(text: str | None, what: str) -> list[float] | None:
-    if not text:
+# ---- harness: references, sweeps, the paper ------------------------------------------------
+def _floats(text: str | None, what: str) -> list[str] | None:
+    if text is None:
         return None
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        fail(f"{what} must be comma-separated numbers, e.g. 1e-3,5e-4; got '{text}'")
-    return None
+    vals = [x.strip() for x in text.split(",") if x.strip()]
+    if not vals:
+        fail(f"{what} needs comma-separated numbers, e.g. {what} 1e-3,5e-4; got '{text}'")
+    return vals
 
 
 def _grid(items: list[str]) -> dict[str, list[str]]:
@@ -152,6 +227,8 @@ def _grid(items: list[str]) -> dict[str, list[str]]:
         vals = [x.strip() for x in v.split(",") if x.strip()]
         if not vals:
             fail(f"--grid {k.strip()} has no values")
+        if k.strip() in grid:
+            fail(f"--grid {k.strip()} is given twice; put all its values in one --grid")
         grid[k.strip()] = vals
     return grid
 
@@ -163,27 +240,21 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
               atol: Optional[float] = typer.Option(None, "--atol", help="IDA atol (default rtol·1e-2)"),
               force: bool = typer.Option(False, "--force", help="recompute even if cached")) -> None:
     """Compute (or show) the cached IDA reference of a scene, checked against a 10× looser run."""
-    from daebench import bench
+    from daebench import api
 
     sc = _load(scene, set_)
-    if not force:
-        try:
-            ref = bench.load_reference(sc)
-            console.print(f"cached: {ref.path} (rtol {ref.rtol:g}); use --force to recompute")
-            console.print_json(json.dumps(ref.meta.get("agreement", {})))
-            return
-        except bench.ReferenceMissing:
-            pass
     try:
-        ref = bench.compute_reference(sc, rtol=rtol, atol=atol)
-    except (ParamError, RuntimeError) as exc:
+        ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True)
+    except ParamError as exc:
         fail(str(exc))
-    console.print(f"reference: {ref.path}  (IDA rtol {ref.rtol:g}, {ref.meta['wall_s']:.3g} s, "
-                  f"{len(ref.impacts)} impacts)")
+    except RuntimeError as exc:
+        fail(str(exc), 1)
+    out(f"reference: {ref.path}")
+    out(f"IDA rtol {ref.rtol:g}, {ref.meta['wall_s']:.3g} s, {len(ref.impacts)} impacts")
     agr = ref.meta.get("agreement", {})
-    worst = {k: v for k, v in agr.items() if k.startswith("err_") and k.endswith("_max")}
-    console.print("agreement with the 10× looser check run: "
-                  + ", ".join(f"{k} {v:.2e}" for k, v in worst.items() if v == v))
+    worst = [f"{k} {v:.2e}" for k, v in agr.items() if k.startswith("err_") and k.endswith("_max") and v == v]
+    if worst:
+        out("agreement with the 10× looser check run: " + ", ".join(worst))
 
 
 @app.command()
@@ -194,104 +265,73 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
           tols: Optional[str] = typer.Option(None, "--tols", help="tolerances (adaptive runs), e.g. 1e-4,1e-6"),
           opt: list[str] = typer.Option([], "--opt", help="fixed integrator setting name=value for every run"),
           set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
-          jobs: int = typer.Option(1, "--jobs", "-j", help="local worker processes"),
+          jobs: int = typer.Option(1, "--jobs", "-j", help="worker processes (a crashing run costs only its row)"),
           scheduler: Optional[str] = typer.Option(
               None, "--scheduler",
               help="run on Dask: a scheduler address (tcp://host:8786), or 'local' for a local cluster of --jobs workers"),
           ref_mode: str = typer.Option("require", "--reference",
                                        help="require (error if missing) | compute | auto (score if cached) | none"),
           repeats: int = typer.Option(1, "--repeats", help="timed repeats (min taken; > 1 adds a warm-up run)"),
-          name: Optional[str] = typer.Option(None, "--name", help="table name under results/bench/"),
-          run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]")) -> None:
-    """Sweep integrators × grid × steps/tols on a scene; one scored row per run."""
+          name: Optional[str] = typer.Option(None, "--name", help="table name under results/bench/ (default: unique)"),
+          resume: bool = typer.Option(False, "--resume", help="complete the interrupted sweep --name (same arguments)"),
+          overwrite: bool = typer.Option(False, "--overwrite", help="replace the existing table --name"),
+          run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
+          force: bool = typer.Option(False, "--force", help="allow runs beyond the step-count limit")) -> None:
+    """Sweep integrators × grid × steps/tols on a scene; one scored row per run, stored as it finishes."""
+    from daebench import api
     from daebench import bench as B
     from daebench.params import parse_pairs
 
     sc = _load(scene, set_)
     try:
         options = parse_pairs(opt, "--opt", "h_contact=1e-6") if opt else {}
-        names = [x.strip() for x in integrators.split(",") if x.strip()]
-        df = B.run_sweep(sc, names, _grid(grid), _floats(steps, "--steps"), _floats(tols, "--tols"),
-                         jobs=jobs, scheduler=scheduler, options=options, name=name,
-                         reference_mode=ref_mode, repeats=repeats, warmup=repeats > 1, run_cap=run_cap)
-    except (ParamError, B.ReferenceMissing) as exc:
+        df = api.bench(sc, integrators, grid=_grid(grid), steps=_floats(steps, "--steps"),
+                       tols=_floats(tols, "--tols"), jobs=jobs, scheduler=scheduler, options=options, name=name,
+                       reference=ref_mode, repeats=repeats, run_cap=run_cap, resume=resume, overwrite=overwrite,
+                       force=force, progress=True)
+    except ParamError as exc:
         fail(str(exc))
+    except B.SweepInterrupted as exc:
+        done = int((exc.table["status"] != "interrupted").sum())
+        again = shlex.join(["daebench", *sys.argv[1:]] + ([] if name else ["--name", exc.name or "?"])
+                           + ([] if resume else ["--resume"]))
+        sys.stderr.write(f"interrupted: {done} of {len(exc.table)} runs finished; their rows are in {exc.path}\n"
+                         f"continue with: {again}\n")
+        raise typer.Exit(130)
+    _bench_report(df, sc.name)
+    bad = df[df["status"].isin(B.HARNESS_FAILURES)]
+    if len(bad):
+        sys.stderr.write(f"{len(bad)} run(s) gave no verdict ({', '.join(sorted(set(bad['status'])))}); "
+                         f"see the 'message' column\n")
+        raise typer.Exit(1)
+
+
+def _bench_report(df: Any, scene_name: str) -> None:
     cols = [c for c in ("label", "h", "tol", "status", "wall_s", "steps", "err_theta_max", "err_tip_max",
                         "energy_resid_max", "Cdot_max") if c in df.columns]
-    t = Table(title=f"{sc.name} ({len(df)} runs)")
-    for c in cols:
-        t.add_column(c)
-    for _, r in df.iterrows():
-        t.add_row(*[f"{r[c]:.3g}" if isinstance(r[c], float) else str(r[c]) for c in cols])
-    console.print(t)
-    console.print(f"table: {B.results_dir() / 'bench' / ((name or f'{sc.name}-{sc.hash[:8]}') + '.parquet')}")
-
-
-plot_app = typer.Typer(no_args_is_help=True, help="Figures from sweep tables and run histories.")
-app.add_typer(plot_app, name="plot")
-
-
-@plot_app.command("wp")
-def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv)"),
-            x: str = typer.Option("wall_s", "--x", help="cost column (wall_s, cpu_s, steps, ...)"),
-            y: str = typer.Option("err_theta_max", "--y", help="error column"),
-            group: str = typer.Option("label", "--group", help="one line per value of this column"),
-            out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
-    """Work-precision diagram (log–log, Pareto front marked) as PNG and SVG."""
-    from pathlib import Path
-
-    from daebench import bench as B
-    from daebench import plots, provenance
-
-    p = Path(table)
-    if not p.exists():
-        fail(f"table '{table}' does not exist (sweeps write results/bench/<name>.parquet)")
-    df = B.read_table(p)
-    side = p.with_suffix(".json")
-    prov = json.loads(side.read_text())["provenance"] if side.exists() else provenance.collect()
-    stem = Path(out) if out else p.with_name(f"{p.stem}-wp-{y}-vs-{x}")
-    try:
-        _, files = plots.work_precision(df, x, y, group, stem, prov, title=p.stem)
-    except KeyError as exc:
-        fail(str(exc.args[0]))
-    console.print("wrote " + ", ".join(map(str, files)))
-
-
-@plot_app.command("history")
-def plot_history(files: list[str] = typer.Argument(..., help="history files written by `daebench run`"),
-                 out: str = typer.Option("results/figures/history", "--out", help="output stem"),
-                 modal: bool = typer.Option(True, "--modal/--no-modal", help="also W_i(t) if present")) -> None:
-    """θ, energy residual and constraint residuals against t (and modal participation)."""
-    from pathlib import Path
-
-    from daebench import plots, provenance
-
-    try:
-        hists = {Path(f).stem: plots.read_history(f) for f in files}
-    except FileNotFoundError as exc:
-        fail(str(exc))
-    prov = provenance.collect()
-    written = plots.history(hists, out, prov)[1]
-    if modal and any(c.startswith("W") and c[1:].isdigit() for h in hists.values() for c in h.columns):
-        written += plots.modal_participation(hists, f"{out}-modal", prov)[1]
-    console.print("wrote " + ", ".join(map(str, written)))
+    _print_table(cols, [[r[c] for c in cols] for _, r in df.iterrows()], f"{scene_name}: {len(df)} runs")
+    if "path" in df.attrs:
+        out(f"table: {df.attrs['path']}")
 
 
 @app.command()
 def paper(quick: bool = typer.Option(False, "--quick", help="reduced grid for CI (N=3, t_end 0.5 s, h_contact 1e-5)"),
-          jobs: int = typer.Option(1, "--jobs", "-j", help="local worker processes"),
-          out: Optional[str] = typer.Option(None, "--out", help="output folder (default results/paper)"),
+          jobs: int = typer.Option(1, "--jobs", "-j", help="worker processes"),
+          out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/paper)"),
           run_cap: Optional[float] = typer.Option(None, "--run-cap",
                                                   help="wall-time cap of one run [s] (default 60 with --quick)")) -> None:
-    """Regenerate the beam-impact study: Table 1 beside the published seconds, one figure
-    and one computed verdict per claim (CASES.md)."""
+    """Regenerate the beam-impact study (HHT-α vs Baumgarte, Acta Physica Sinica 2017): Table 1
+    beside the published seconds, one figure and one computed verdict per claim."""
     from daebench.studies import paper as P
 
-    res = P.run_paper(quick=quick, jobs=jobs, out=out, run_cap=run_cap)
-    console.print(res.table_md)
+    try:
+        res = P.run_paper(quick=quick, jobs=jobs, out=out_dir, run_cap=run_cap)
+    except ParamError as exc:
+        fail(str(exc))
+    out(res.table_md)
     for v in res.verdicts:
-        console.print(v)
-    console.print(f"outputs in {res.folder}")
+        out(v)
+    out(f"outputs in {res.folder}")
 
 
 @app.command()
@@ -299,7 +339,7 @@ def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke te
          jobs: int = typer.Option(2, "--jobs", "-j", help="worker processes for the Table 1 grid"),
          table: bool = typer.Option(True, "--table/--no-table", help="time the 24-run Table 1 grid"),
          exudyn: bool = typer.Option(True, "--exudyn/--no-exudyn", help="compare with Exudyn when installed"),
-         out: Optional[str] = typer.Option(None, "--out", help="output folder (default results/perf)")) -> None:
+         out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/perf)")) -> None:
     """Speed figures in one run (Table 1 grid vs the published seconds, per-step scaling in N,
     Exudyn side by side, adaptive steps), steps/s per integrator; writes results/perf/."""
     from daebench.studies import perf as P
@@ -308,13 +348,22 @@ def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke te
     if not table:
         s.table = False
     s.exudyn = exudyn
-    res = P.run_perf(s, out)
-    console.print(P.markdown(res), highlight=False, markup=False)
-    console.print(f"written: {res['folder']}/perf.json, perf.md")
+    res = P.run_perf(s, out_dir)
+    out(P.markdown(res))
+    out(f"written: {res['folder']}/perf.json, perf.md")
+
+
+from daebench import cli_plot  # noqa: E402  (registers `daebench plot …`)
+
+app.add_typer(cli_plot.plot_app, name="plot")
 
 
 def main() -> None:  # pragma: no cover
-    app()
+    try:
+        app()
+    except KeyboardInterrupt:
+        sys.stderr.write("interrupted\n")
+        sys.exit(130)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -4,6 +4,7 @@ of θ, energy residual and constraint residuals, modal participation W_i(t)."""
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -16,6 +17,11 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from daebench import provenance  # noqa: E402
+from daebench.params import ParamError  # noqa: E402
+
+#: units of the constraint residual columns (the driver writes them while a contact is
+#: closed; C is then a gap or a joint position error)
+RESIDUALS = {"C": ("|C|", "m"), "Cdot": ("|Ċ|", "m/s"), "Cddot": ("|C̈|", "m/s²")}
 
 LABELS = {"wall_s": "wall time [s]", "cpu_s": "CPU time [s]", "steps": "steps",
           "residual_evals": "residual evaluations", "lu_factorizations": "LU factorizations",
@@ -99,37 +105,31 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str = "err_theta_max"
     return fig, (save(fig, stem, prov) if stem is not None else [])
 
 
-def _constraint_axes(ax: Any, hists: Mapping[str, pd.DataFrame]) -> None:
-    styles = {"C": "-", "Cdot": "--", "Cddot": ":"}
-    for i, (lab, h) in enumerate(hists.items()):
-        for c, ls in styles.items():
-            if c in h.columns and h[c].notna().any():
-                ax.semilogy(h["t"], np.abs(h[c]) + 1e-300, ls, color=f"C{i}", lw=0.9,
-                            label=f"{lab}: |{ {'C': 'C', 'Cdot': 'Ċ', 'Cddot': 'C̈'}[c]}|")
-    ax.set_ylabel("constraint residual")
-    if ax.lines:
-        ax.legend(fontsize=6, ncol=2)
-
-
 def history(hists: Mapping[str, pd.DataFrame], stem: str | Path | None = None,
             prov: dict[str, Any] | None = None, title: str = "") -> tuple[Any, list[Path]]:
-    """θ(t), energy residual(t) and constraint residuals |C|, |Ċ|, |C̈| (while closed),
-    one colour per history."""
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.0), sharex=True)
-    for i, (lab, h) in enumerate(hists.items()):
-        th = "theta_deg" if "theta_deg" in h.columns else next(
-            (c for c in h.columns if c not in ("t",)), None)
-        if th is not None:
-            axes[0].plot(h["t"], h[th], color=f"C{i}", lw=1.0, label=lab)
-        if "energy_residual" in h.columns:
-            axes[1].plot(h["t"], h["energy_residual"], color=f"C{i}", lw=1.0, label=lab)
-    axes[0].set_ylabel(label_of("theta_deg"))
-    axes[1].set_ylabel(label_of("energy_residual"))
-    _constraint_axes(axes[2], hists)
-    axes[2].set_xlabel("t [s]")
-    for ax in axes:
+    """θ(t), the energy-balance residual(t) and each constraint residual |C|, |Ċ|, |C̈|
+    (while a contact is closed) on its own axis with its unit; one colour per history,
+    labelled in the legend of the first panel."""
+    panels = [("theta_deg", label_of("theta_deg"), False), ("energy_residual", label_of("energy_residual"), False)]
+    panels += [(c, f"{sym} [{unit}]", True) for c, (sym, unit) in RESIDUALS.items()
+               if any(c in h.columns and h[c].notna().any() for h in hists.values())]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(7.5, 2.3 * len(panels) + 0.8), sharex=True, squeeze=False)
+    axes = axes[:, 0]
+    for ax, (col, ylabel, logy) in zip(axes, panels):
+        for i, (lab, h) in enumerate(hists.items()):
+            if col not in h.columns:
+                continue
+            y = np.abs(h[col].to_numpy(float)) if logy else h[col].to_numpy(float)
+            if logy:
+                y = np.where(y > 0, y, np.nan)  # a log axis has no zero; gaps while no contact is closed
+                ax.semilogy(h["t"], y, color=f"C{i % 10}", lw=0.9, label=lab)
+            else:
+                ax.plot(h["t"], y, color=f"C{i % 10}", lw=1.0, label=lab)
+        ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
-    axes[0].legend(fontsize=7)
+    axes[-1].set_xlabel("t [s]")
+    if axes[0].lines:
+        axes[0].legend(fontsize=7)
     if title:
         axes[0].set_title(title)
     fig.tight_layout(rect=(0, 0.03, 1, 1))
@@ -179,9 +179,61 @@ def series(hists: Mapping[str, pd.DataFrame], column: str, stem: str | Path | No
     return fig, (save(fig, stem, prov) if stem is not None else [])
 
 
+class HistoryError(ParamError):
+    """A file that is not a readable run history; the message says what it is instead."""
+
+
 def read_history(path: str | Path) -> pd.DataFrame:
-    """A history file (.csv or .parquet) as written by `daebench run`."""
+    """A history file (.csv or .parquet) as written by `daebench run`.
+
+    Raises
+    ------
+    HistoryError
+        Missing, a folder, unreadable, or not a history (e.g. a sweep table).
+    """
     p = Path(path)
     if not p.exists():
-        raise FileNotFoundError(f"history file '{p}' does not exist")
-    return pd.read_parquet(p) if p.suffix == ".parquet" else pd.read_csv(p)
+        raise HistoryError(f"history file '{p}' does not exist (`daebench run` writes results/runs/…)")
+    if p.is_dir():
+        raise HistoryError(f"'{p}' is a folder; give history files, e.g. {p}/*.csv")
+    try:
+        h = pd.read_parquet(p) if p.suffix == ".parquet" else pd.read_csv(p)
+    except Exception as exc:  # pyarrow / the csv parser raise many types for a damaged file
+        raise HistoryError(f"cannot read '{p}': {type(exc).__name__} (truncated, or not a history file?)") from None
+    if "t" not in h.columns:
+        hint = " — it is a sweep table: plot it with `daebench plot wp`" if "label" in h.columns else ""
+        raise HistoryError(f"'{p}' is not a run history (no column 't'){hint}")
+    return h
+
+
+def history_label(path: str | Path, taken: set[str] = frozenset()) -> str:
+    """Legend label of a history file: integrator and the settings that differ from its
+    defaults, from the sidecar `daebench run` writes (else the file name)."""
+    p = Path(path)
+    try:
+        meta = json.loads(p.with_suffix(".json").read_text())
+        name, settings = str(meta["integrator"]), dict(meta["settings"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return p.stem
+    try:
+        from daebench.integrators.base import get_integrator
+
+        defaults = {s.name: s.default for s in get_integrator(name).settings_spec}
+    except Exception:  # an integrator no longer installed: show every setting
+        defaults = {}
+    diff = {k: v for k, v in settings.items() if defaults.get(k, object()) != v}
+    label = name + (" (" + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                     for k, v in diff.items()) + ")" if diff else " (default settings)")
+    if label in taken:
+        label += f" — {meta.get('scene', p.stem)}"
+    return label if label not in taken else f"{label} [{p.stem}]"
+
+
+def sweep_title(df: pd.DataFrame) -> str:
+    """Title of a work–precision figure: the case, how many runs, and the scene overrides
+    shared by every run."""
+    case = str(df["case"].iloc[0]) if "case" in df.columns and len(df) else "sweep"
+    over = ""
+    if "overrides" in df.columns and df["overrides"].nunique() == 1 and str(df["overrides"].iloc[0]) not in ("{}", "nan"):
+        over = " " + ", ".join(f"{k}={v}" for k, v in json.loads(df["overrides"].iloc[0]).items())
+    return f"work–precision, {case}{over} ({len(df)} runs)"

@@ -74,7 +74,7 @@ def test_raise_diverge_succeed_give_three_rows(registry, pendulum, tmp_path, job
                          reference_mode="none", progress=False, name="three")
     assert len(df) == 3
     by = df.set_index("integrator")
-    assert by.loc["boom", "status"] == "failed" and "deliberate bug" in by.loc["boom", "message"]
+    assert by.loc["boom", "status"] == "error" and "deliberate bug" in by.loc["boom", "message"]
     assert by.loc["explode", "status"] == "diverged" and by.loc["explode", "verdict"] == "diverged"
     assert by.loc["hht", "status"] == "completed"
     assert by.loc["hht", "verdict_t"] == pytest.approx(0.2)
@@ -146,7 +146,7 @@ def test_hanging_run_is_a_failed_row(registry, pendulum, monkeypatch):
     df = bench.run_sweep(pendulum, ["hang", "hht"], steps=[1e-2], reference_mode="none", progress=False,
                          write=False, run_cap=0.5)
     by = df.set_index("integrator")
-    assert by.loc["hang", "status"] == "failed" and "wall-time cap" in by.loc["hang", "message"]
+    assert by.loc["hang", "status"] == "timeout" and "wall-time cap" in by.loc["hang", "message"]
     assert by.loc["hht", "status"] == "completed"
 
 
@@ -195,5 +195,5 @@ def test_dask_executor_gives_the_rows_of_the_process_pool(registry, pendulum):
         df = bench.run_sweep(pendulum, ["boom", "explode", "hht"], steps=[1e-2], scheduler=client,
                              reference_mode="none", progress=False, write=False)
     by = df.set_index("integrator")
-    assert by.loc["boom", "status"] == "failed" and "deliberate bug" in by.loc["boom", "message"]
+    assert by.loc["boom", "status"] == "error" and "deliberate bug" in by.loc["boom", "message"]
     assert by.loc["explode", "status"] == "diverged" and by.loc["hht", "steps"] == 20

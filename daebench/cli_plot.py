@@ -1,0 +1,76 @@
+"""`daebench plot …`: figures from sweep tables and run histories."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from daebench.params import ParamError
+
+plot_app = typer.Typer(no_args_is_help=True, help="Figures from sweep tables and run histories.")
+
+
+def _fail(msg: str) -> None:
+    from daebench.cli import fail
+
+    fail(msg)
+
+
+@plot_app.command("wp")
+def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv)"),
+            x: str = typer.Option("wall_s", "--x", help="cost column (wall_s, cpu_s, steps, ...)"),
+            y: str = typer.Option("err_theta_max", "--y", help="error column"),
+            group: str = typer.Option("label", "--group", help="one line per value of this column"),
+            out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
+    """Work-precision diagram (log–log, Pareto front marked) as PNG and SVG."""
+    from daebench import plots, provenance
+    from daebench.sweepstore import read_table
+
+    p = Path(table)
+    try:
+        df = read_table(p)
+    except ParamError as exc:
+        _fail(str(exc))
+    if "label" not in df.columns or "status" not in df.columns:
+        _fail(f"'{p}' is not a sweep table (no 'label'/'status' columns); `daebench plot history` plots run histories")
+    side = p.with_suffix(".json")
+    try:
+        prov = json.loads(side.read_text())["provenance"]
+    except (OSError, ValueError, KeyError, TypeError):
+        prov = provenance.collect()
+    stem = Path(out) if out else p.with_name(f"{p.stem}-wp-{y}-vs-{x}")
+    try:
+        _, files = plots.work_precision(df, x, y, group, stem, prov, title=plots.sweep_title(df))
+    except KeyError as exc:
+        _fail(str(exc.args[0]))
+    except OSError as exc:
+        _fail(f"cannot write the figure at {stem}: {exc.strerror or exc}")
+    typer.echo("wrote " + ", ".join(map(str, files)))
+
+
+@plot_app.command("history")
+def plot_history(files: list[str] = typer.Argument(..., help="history files written by `daebench run`"),
+                 out: str = typer.Option("results/figures/history", "--out", help="output stem"),
+                 modal: bool = typer.Option(True, "--modal/--no-modal", help="also W_i(t) if present")) -> None:
+    """θ, energy residual and constraint residuals |C|, |Ċ|, |C̈| against t, one panel each
+    (and modal participation), one line per run labelled by integrator and settings."""
+    from daebench import plots, provenance
+
+    try:
+        hists = {}
+        for f in files:
+            h = plots.read_history(f)
+            hists[plots.history_label(f, set(hists))] = h
+    except ParamError as exc:
+        _fail(str(exc))
+    prov = provenance.collect()
+    try:
+        written = plots.history(hists, out, prov)[1]
+        if modal and any(c.startswith("W") and c[1:].isdigit() for h in hists.values() for c in h.columns):
+            written += plots.modal_participation(hists, f"{out}-modal", prov)[1]
+    except OSError as exc:
+        _fail(f"cannot write the figure at {out}: {exc.strerror or exc}")
+    typer.echo("wrote " + ", ".join(map(str, written)))
