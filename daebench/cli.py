@@ -91,10 +91,11 @@ def show(name: str = typer.Argument(..., help="an integrator, a case name or a p
          set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
          keys: bool = typer.Option(False, "--keys", help="list every valid key with its type and range")) -> None:
     """An integrator's settings and capabilities, or a scene's resolved parameters, effects and size."""
-    from daebench import guards
+    from daebench import api, guards
     from daebench.integrators.base import IntegratorError
     from daebench.models import build_system
-    from daebench.scene import SceneError, list_scenes
+    from daebench.params import did_you_mean
+    from daebench.scene import SceneError, list_scenes, load_scene
 
     try:
         guards.resolve_integrator(name)
@@ -107,10 +108,12 @@ def show(name: str = typer.Argument(..., help="an integrator, a case name or a p
         except ParamError as exc:
             fail(str(exc))
     try:
-        sc = _load(name, set_)
-    except typer.Exit:
-        raise
-    except SceneError as exc:  # pragma: no cover - _load handles it
+        sc = load_scene(name, set_)
+    except SceneError as exc:
+        if str(exc).startswith("unknown scene"):
+            known = list(api.integrators()) + [n for n, _ in list_scenes()]
+            fail(f"'{name}' is neither an integrator nor a scene{did_you_mean(name.lower(), known)} "
+                 f"Integrators and cases: `daebench list`.")
         fail(str(exc))
     out(f"{sc.name} — {sc.description}  (model {sc.model}, hash {sc.hash})")
     eff = sc.effects()

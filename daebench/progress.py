@@ -154,6 +154,7 @@ class SweepProgress(_Ticker):
         self._bar = None
 
     def start(self) -> None:
+        self._last_line = time.monotonic()
         if self.terminal:
             from rich.console import Console
             from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn

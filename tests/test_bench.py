@@ -143,8 +143,9 @@ class Hang(Boom):
 def test_hanging_run_is_a_failed_row(registry, pendulum, monkeypatch):
     reg = {**base.registry(), "hang": Registered("hang", Hang, "tests")}
     monkeypatch.setattr(base, "registry", lambda: dict(reg))
+    bench.run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded (workers fork from here)
     df = bench.run_sweep(pendulum, ["hang", "hht"], steps=[1e-2], reference_mode="none", progress=False,
-                         write=False, run_cap=0.5)
+                         write=False, run_cap=2.0)
     by = df.set_index("integrator")
     assert by.loc["hang", "status"] == "timeout" and "wall-time cap" in by.loc["hang", "message"]
     assert by.loc["hht", "status"] == "completed"

@@ -1,0 +1,236 @@
+"""Sweeps lose nothing: Ctrl-C keeps finished rows and resume completes the table with
+bit-identical rows; a crashing plugin costs only its own row; a damaged reference is
+caught in every mode; concurrent sweeps keep every row; the run cap works under Dask."""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import ClassVar
+
+import pandas as pd
+import pytest
+
+from daebench import bench, references
+from daebench.integrators import base
+from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+from daebench.scene import load_scene
+
+pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
+
+
+class _Stepper(Integrator):
+    description: ClassVar[str] = "test only"
+    capabilities: ClassVar[Capabilities] = Capabilities(order=1, constraints=True, index=3)
+    settings_spec = STEP_SETTINGS
+
+    def _start(self) -> None:
+        pass
+
+    def _step_impl(self, t_stop: float) -> State:
+        self.misbehave()
+        s = self.state
+        return State(min(s.t + self.h, t_stop), s.q.copy(), s.v.copy(), s.a.copy(), s.lam.copy())
+
+
+class Segv(_Stepper):
+    name: ClassVar[str] = "segv"
+
+    def misbehave(self) -> None:
+        ctypes.string_at(0)  # reads address 0: SIGSEGV
+
+
+class Exit3(_Stepper):
+    name: ClassVar[str] = "exit3"
+
+    def misbehave(self) -> None:
+        os._exit(3)
+
+
+class CtrlC(_Stepper):
+    name: ClassVar[str] = "ctrlc"
+
+    def misbehave(self) -> None:
+        raise KeyboardInterrupt
+
+
+class Hang(_Stepper):
+    name: ClassVar[str] = "hang"
+
+    def misbehave(self) -> None:
+        while True:
+            time.sleep(0.01)
+
+
+@pytest.fixture()
+def plugins(monkeypatch, tmp_path):
+    reg = {**base.registry(), **{c.name: Registered(c.name, c, "tests") for c in (Segv, Exit3, CtrlC, Hang)}}
+    monkeypatch.setattr(base, "registry", lambda refresh=False: dict(reg))
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    return tmp_path
+
+
+@pytest.fixture()
+def pendulum():
+    return load_scene("pendulum", ["t_end=0.2", "output.dt=1e-2"])
+
+
+def test_crashing_plugins_cost_only_their_own_rows(plugins, pendulum):
+    df = bench.run_sweep(pendulum, ["segv", "hht", "exit3", "ctrlc"], steps=[1e-2, 5e-3], jobs=2,
+                         reference_mode="none", progress=False, name="crash")
+    by = {(r.integrator, r.h): r for r in df.itertuples()}
+    for h, steps in ((1e-2, 20), (5e-3, 40)):
+        assert by["hht", h].status == "completed" and by["hht", h].steps == steps
+        assert by["segv", h].status == "crashed" and "SIGSEGV" in by["segv", h].message
+        assert by["exit3", h].status == "crashed" and "exited with code 3" in by["exit3", h].message
+        assert by["ctrlc", h].status == "error" and "KeyboardInterrupt" in by["ctrlc", h].message
+    # every row is on disk, and the command reports the failures with a non-zero exit code
+    assert len(pd.read_parquet(plugins / "bench" / "crash.parquet")) == 8
+    from typer.testing import CliRunner
+
+    from daebench.cli import app
+
+    r = CliRunner().invoke(app, ["bench", "pendulum", "-i", "segv,hht", "--steps", "1e-2", "--set", "t_end=0.2",
+                                 "--reference", "none", "-j", "2"])
+    assert r.exit_code == 1 and "gave no verdict (crashed)" in r.output
+
+
+def test_run_cap_under_dask_leaves_a_timeout_row_and_the_sweep_goes_on(plugins, pendulum):
+    pytest.importorskip("dask.distributed")
+    from dask.distributed import Client, LocalCluster
+
+    from daebench.runner import run_scene
+
+    run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded: the cap measures the run alone
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        df = bench.run_sweep(pendulum, ["hang", "hht"], steps=[1e-2], scheduler=client, reference_mode="none",
+                             progress=False, write=False, run_cap=2.0)
+    by = df.set_index("integrator")
+    assert by.loc["hang", "status"] == "timeout" and "wall-time cap of 2 s" in by.loc["hang", "message"]
+    assert by.loc["hht", "status"] == "completed"
+
+
+def _damage_truncate_rows(path: Path) -> None:
+    pd.read_parquet(path).head(10).to_parquet(path, index=False)
+
+
+def _damage_truncate_bytes(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+def _damage_empty_sidecar(path: Path) -> None:
+    path.with_suffix(".json").write_text("")
+
+
+def _damage_drop_column(path: Path) -> None:
+    pd.read_parquet(path).drop(columns=["x"]).to_parquet(path, index=False)
+
+
+@pytest.mark.parametrize("damage", [_damage_truncate_rows, _damage_truncate_bytes, _damage_empty_sidecar,
+                                    _damage_drop_column])
+def test_damaged_reference_is_caught_in_every_mode(plugins, pendulum, damage):
+    good = references.compute_reference(pendulum, rtol=1e-9, atol=1e-11, check=False)
+    truth = bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode="require", progress=False,
+                            write=False)["err_theta_max"].iloc[0]
+    damage(good.path)
+    with pytest.raises(references.ReferenceDamaged, match="daebench reference pendulum --force"):
+        bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode="require", progress=False, write=False)
+    for i, mode in enumerate(("auto", "compute")):  # recomputed (default tolerance), then scored as before
+        if i:
+            damage(references.reference_path(pendulum))
+        df = bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode=mode, progress=False, write=False)
+        assert df["err_theta_max"].iloc[0] == pytest.approx(truth, rel=1e-3)
+        references.validate(pendulum, references.reference_path(pendulum))  # valid again
+    damage(references.reference_path(pendulum))
+    df = bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode="none", progress=False, write=False)
+    assert "err_theta_max" not in df.columns
+
+
+# ---- the command line, in real processes ------------------------------------------------------
+SLOW_SWEEP = ["bench", "pendulum", "-i", "hht", "--steps", "1e-5", "--grid", "alpha=0,-0.05,-0.1,-0.15,-0.2",
+              "--set", "t_end=2", "--reference", "none", "-j", "1"]
+
+
+def daebench(*args: str, results: Path) -> subprocess.Popen:
+    env = dict(os.environ, DAEBENCH_RESULTS=str(results), COLUMNS="100")
+    return subprocess.Popen([sys.executable, "-m", "daebench.cli", *args], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def stored_rows(results: Path, name: str) -> int:
+    db = results / "bench" / f"{name}.rows.sqlite"
+    if not db.exists():
+        return 0
+    try:
+        with sqlite3.connect(db, timeout=5) as con:
+            return con.execute("SELECT COUNT(*) FROM rows").fetchone()[0]
+    except sqlite3.OperationalError:  # the table is being created
+        return 0
+
+
+def wait_for(cond, proc: subprocess.Popen, what: str, limit: float = 300.0) -> None:
+    """Poll until ``cond()``; fail (not hang) if the process ends first or after ``limit`` s."""
+    t0 = time.monotonic()
+    while not cond():
+        assert proc.poll() is None, f"process ended before {what}: {proc.communicate()}"
+        assert time.monotonic() - t0 < limit, f"no {what} after {limit} s"
+        time.sleep(0.05)
+
+
+def test_sigint_keeps_finished_rows_and_resume_completes_them_bit_identically(tmp_path):
+    res = tmp_path / "results"
+    p = daebench(*SLOW_SWEEP, "--name", "s", results=res)
+    wait_for(lambda: stored_rows(res, "s") >= 2, p, "two finished rows")
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert "continue with: daebench bench" in err and "--resume" in err
+    partial = pd.read_parquet(res / "bench" / "s.parquet")
+    kept = partial[partial.status == "completed"]
+    assert len(partial) == 5 and len(kept) >= 2
+    assert set(partial.status) <= {"completed", "interrupted"}
+
+    p = daebench(*SLOW_SWEEP, "--name", "s", "--resume", results=res)
+    out, err = p.communicate(timeout=300)
+    assert p.returncode == 0, err
+    full = pd.read_parquet(res / "bench" / "s.parquet")
+    assert len(full) == 5 and (full.status == "completed").all()
+    # the rows finished before Ctrl-C are the stored ones, bit for bit (timings included; the
+    # partial table's integer columns are float there, padded with NaN for the unfinished runs)
+    pd.testing.assert_frame_equal(full.loc[kept.index, kept.columns].reset_index(drop=True),
+                                  kept.reset_index(drop=True), check_exact=True, check_dtype=False)
+    # and the whole table equals an uninterrupted sweep's, but for the timings
+    p = daebench(*SLOW_SWEEP, "--name", "whole", results=res)
+    assert p.wait(timeout=300) == 0
+    whole = pd.read_parquet(res / "bench" / "whole.parquet")
+    drop = [c for c in bench.TIMING_COLUMNS if c in whole.columns]
+    pd.testing.assert_frame_equal(full.drop(columns=drop), whole.drop(columns=drop), check_exact=True)
+
+
+def test_concurrent_sweeps_lose_no_row(tmp_path):
+    res = tmp_path / "results"
+    quick = ["bench", "pendulum", "-i", "hht,newmark", "--steps", "1e-2,5e-3", "--set", "t_end=0.2",
+             "--reference", "none", "-j", "1"]
+    a, b = daebench(*quick, results=res), daebench(*quick, results=res)
+    assert a.wait(timeout=300) == 0 and b.wait(timeout=300) == 0, (a.communicate(), b.communicate())
+    tables = sorted((res / "bench").glob("pendulum-*.parquet"))
+    assert len(tables) == 2  # unique default names: neither replaced the other
+    for t in tables:
+        assert (pd.read_parquet(t).status == "completed").sum() == 4
+    # one name, two sweeps at once: the second is refused while the first writes
+    first = daebench(*SLOW_SWEEP, "--name", "same", results=res)
+    wait_for(lambda: stored_rows(res, "same") >= 1, first, "a first row")
+    second = daebench(*quick, "--name", "same", results=res)
+    _, err = second.communicate(timeout=120)
+    assert second.returncode == 2 and "being written by another sweep" in err
+    first.send_signal(signal.SIGINT)
+    first.communicate(timeout=60)
+    assert stored_rows(res, "same") >= 1
