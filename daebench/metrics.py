@@ -83,6 +83,12 @@ def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] |
     A history that stops before the reference ends (a diverged or failed run) gets
     NaN errors: a partial trajectory has no comparable error.
 
+    Raises
+    ------
+    ValueError
+        If an observable asked for is not in the reference (a silently dropped score
+        would read as "not measured").
+
     Returns
     -------
     dict
@@ -90,7 +96,11 @@ def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] |
         ``theta``, in degrees) and ``err_<point>_{final,max,l2}`` for the Euclidean
         error of a position pair (``tip``: tip_x/tip_y; ``pos``: x/y).
     """
-    cols = [c for c in (observables or observable_columns(ref)) if c in ref.columns]
+    if observables:
+        absent = [c for c in observables if c not in ref.columns]
+        if absent:  # a score silently missing from a row reads as "not measured", not as an error
+            raise ValueError(f"the reference has no column {', '.join(absent)}; it cannot score this run")
+    cols = list(observables) if observables else observable_columns(ref)
     grid = uniform_grid(float(ref["t"].iloc[0]), float(ref["t"].iloc[-1]), n_grid)
     reaches = len(hist) > 0 and float(hist["t"].iloc[-1]) >= grid[-1] - 1e-9 * max(1.0, abs(grid[-1]))
     out: dict[str, float] = {}

@@ -76,11 +76,12 @@ class RunProgress(_Ticker):
     instead of time lines. ``notice_after``/``tick`` are for tests."""
 
     def __init__(self, label: str, t_end: float, write: Callable[[str], None] | None = None,
-                 terminal: bool | None = None, notice_after: float = NOTICE_AFTER, tick: float = TICK_S) -> None:
+                 terminal: bool | None = None, notice_after: float | None = None, tick: float | None = None) -> None:
         super().__init__()
         self.label, self.t_end = label, float(t_end)
-        self.notice_after, self.tick = notice_after, tick
-        self.poll = min(POLL_S, tick / 2)
+        self.notice_after = NOTICE_AFTER if notice_after is None else notice_after
+        self.tick = TICK_S if tick is None else tick
+        self.poll = min(POLL_S, self.tick / 2)
         self.t: float | None = None
         self.noticed = False
         self._last_line = 0.0

@@ -78,7 +78,7 @@ def table_lines(columns: Sequence[str], rows: Sequence[Sequence[Any]], max_width
 
 def kv_lines(pairs: Sequence[tuple[str, str]], max_width: int | None = None) -> list[str]:
     """'label: value' lines, one per pair; a value that does not fit after its label goes
-    on its own indented line (whole)."""
+    on indented lines of its own, wrapped between words (a number is never split)."""
     w = max_width or width()
     out = []
     for k, v in pairs:
@@ -87,5 +87,6 @@ def kv_lines(pairs: Sequence[tuple[str, str]], max_width: int | None = None) -> 
             out.append(line)
         else:
             out.append(f"{k}:")
-            out.append(f"    {v}")
+            out += textwrap.wrap(str(v), w, initial_indent="    ", subsequent_indent="    ",
+                                 break_long_words=False, break_on_hyphens=False)
     return out

@@ -156,3 +156,11 @@ def test_free_windows_split_at_closed_phases_and_impacts():
     assert free_windows(hist, 0.1) == [(0.0, 0.28), (0.36, 1.0)]
     assert free_windows(hist, 0.1, breaks=[0.705]) == [(0.0, 0.28), (0.36, 0.68), (0.73, 1.0)]
     assert free_windows(hist, 0.33, breaks=[0.705]) == []
+
+
+def test_accuracy_refuses_a_reference_without_a_requested_observable():
+    """A missing column must not silently drop its score."""
+    t = np.linspace(0.0, 1.0, 11)
+    ref = pd.DataFrame({"t": t, "theta_deg": t})
+    with pytest.raises(ValueError, match="no column x"):
+        metrics.accuracy(ref, ref, ["theta_deg", "x"])

@@ -1,0 +1,104 @@
+"""One run of a sweep → one scored row (:func:`execute`), and the row of a run that could
+not report itself (:func:`outcome_row`). A row never raises out of here: an exception is
+an ``error`` row, a run over its wall-time cap a ``timeout`` row."""
+
+from __future__ import annotations
+
+import json
+import math
+import traceback
+from pathlib import Path
+from typing import Any
+
+from daebench import metrics
+from daebench.guards import RunTimeout
+from daebench.integrators import base
+from daebench.references import ReferenceMissing, load_reference
+from daebench.runner import run_scene
+from daebench.scene import Scene
+
+
+def _nan_errors(row: dict[str, Any]) -> None:
+    for k in list(row):
+        if k.startswith("err_"):
+            row[k] = math.nan
+
+
+def base_row(spec: Any, scene: Scene) -> dict[str, Any]:
+    """The columns every row has, whatever happened to the run."""
+    return {"run": spec.index, "case": scene.name, "integrator": spec.integrator, "label": spec.label,
+            **spec.varied, "settings": json.dumps(spec.options, sort_keys=True, default=str),
+            "overrides": json.dumps(spec.scene_overrides, sort_keys=True, default=str)}
+
+
+def outcome_row(spec: Any, scene: Scene, status: str, message: str) -> dict[str, Any]:
+    """The row of a run that gave no verdict (error, timeout, crashed, interrupted)."""
+    return {**base_row(spec, scene), "status": status, "message": message, "verdict": status,
+            "verdict_reason": message}
+
+
+def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int = 1,
+            warmup: bool = False, time_cap: float = 600.0, history_dir: str | Path | None = None,
+            run_cap: float | None = None) -> dict[str, Any]:
+    """Run one spec and score it; never raises for a failure of the run — an exception is
+    an 'error' row, a run over ``run_cap`` seconds a 'timeout' row.
+
+    ``reference_mode``: 'auto' (score if a valid cached reference exists), 'require' or
+    'compute' (the caller made sure it exists: :func:`prepare_references`), 'none'. With
+    ``history_dir`` the history is kept as ``<history_dir>/<run>-<integrator>.parquet``
+    and its path is the row's ``history``.
+    """
+    row = base_row(spec, scene)
+    try:
+        sc = scene.with_overrides(spec.scene_overrides) if spec.scene_overrides else scene
+        row["scene_hash"] = sc.hash
+        if spec.skip:
+            row.update(status="skipped", message=spec.skip, verdict="skipped", verdict_reason=spec.skip)
+            return row
+        cls = base.get_integrator(spec.integrator)  # entry-point loading stays out of the timing
+
+        def one_run():
+            return run_scene(sc, cls(**spec.options), write=False, force=True, run_cap=run_cap)
+
+        timing = metrics.time_call(one_run, repeats=repeats, warmup=warmup, time_cap=time_cap)
+        rec, res = timing.result
+        row.update(status=res.status, message=res.message, wall_s=timing.wall_s, cpu_s=timing.cpu_s,
+                   repeats=timing.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
+        row.update(res.counters)
+        row.update(metrics.stability_verdict(res.status, res.message, res.t_final, sc.t_end))
+        hist = res.history
+        impacts = [float(i.t) for i in res.impacts]
+        row["impact_times"] = json.dumps(impacts)
+        if history_dir is not None and len(hist):
+            hp = Path(history_dir) / f"{spec.index:04d}-{spec.integrator}.parquet"
+            hp.parent.mkdir(parents=True, exist_ok=True)
+            hist.to_parquet(hp, index=False)
+            row["history"] = str(hp)
+        if len(hist):
+            row.update(metrics.energy_balance(hist))
+        row.update({f"{k}_max": float(v) for k, v in res.constraint_max.items()})
+        ref = None
+        if reference_mode != "none":
+            try:
+                ref = load_reference(sc, mode="auto" if reference_mode == "auto" else "require")
+            except ReferenceMissing:
+                if reference_mode != "auto":
+                    raise
+        if ref is not None and len(hist):
+            row["ref_rtol"] = ref.rtol
+            row.update(metrics.accuracy(hist, ref.history, sc.get("output.observables") or None))
+            row.update(metrics.event_errors(hist, impacts, ref.history, ref.impacts))
+        else:
+            row.update(metrics.impact_time_errors(impacts, []))
+        if res.status != "completed":
+            _nan_errors(row)
+    except RunTimeout as exc:
+        row.update(outcome_row(spec, scene, "timeout", str(exc) or "run exceeded its wall-time cap"))
+        _nan_errors(row)
+    except Exception as exc:  # never lose a row
+        row.update(outcome_row(spec, scene, "error", f"{type(exc).__name__}: {exc}"))
+        row["traceback"] = traceback.format_exc(limit=4)
+        _nan_errors(row)
+    return row
+
+

@@ -1,0 +1,128 @@
+"""The command line as a newcomer meets it: nothing silent for long, output readable in a
+pipe and an 80-column terminal, an integrator's settings one command away."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from typing import ClassVar
+
+import pytest
+from typer.testing import CliRunner
+
+from daebench import progress
+from daebench.cli import app
+from daebench.integrators import base
+from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+
+runner = CliRunner()
+LINES: list[str] = []
+
+
+class SlowStart(Integrator):
+    """Reports no step until the progress reporter has written the compile notice and two
+    elapsed-time lines (as a first run does while the kernels compile)."""
+
+    name: ClassVar[str] = "slowstart"
+    description: ClassVar[str] = "test only: silent start"
+    capabilities: ClassVar[Capabilities] = Capabilities(order=1, constraints=True, index=3)
+    settings_spec = STEP_SETTINGS
+
+    def _start(self) -> None:
+        give_up = time.monotonic() + 60.0  # a safety net, not a timed assertion
+        while sum("still compiling" in line for line in LINES) < 2 and time.monotonic() < give_up:
+            time.sleep(0.01)
+
+    def _step_impl(self, t_stop: float) -> State:
+        s = self.state
+        return State(min(s.t + self.h, t_stop), s.q.copy(), s.v.copy(), s.a.copy(), s.lam.copy())
+
+
+def test_compile_notice_then_a_line_every_tick_until_the_first_step(monkeypatch, tmp_path):
+    reg = {**base.registry(), "slowstart": Registered("slowstart", SlowStart, "tests")}
+    monkeypatch.setattr(base, "registry", lambda refresh=False: dict(reg))
+    monkeypatch.setattr(progress, "NOTICE_AFTER", 0.05)
+    monkeypatch.setattr(progress, "TICK_S", 0.05)
+    real = progress.RunProgress.line
+    monkeypatch.setattr(progress.RunProgress, "line", lambda self, text: (LINES.append(text), real(self, text)))
+    LINES.clear()
+    r = runner.invoke(app, ["run", "pendulum", "-i", "slowstart", "--opt", "h=1e-2", "--set", "t_end=0.05",
+                            "--out", str(tmp_path), "--json"])
+    assert r.exit_code == 0, r.output
+    assert "numerical kernels are being compiled for their first use" in LINES[0]
+    assert "cached for later runs" in LINES[0]
+    assert sum("still compiling" in line for line in LINES) >= 2
+    assert json.loads(r.stdout)["status"] == "completed"  # stdout: the record only; progress went to stderr
+
+
+def test_run_progress_reports_simulated_time():
+    lines: list[str] = []
+    bar = progress.RunProgress("case", 2.0, write=lines.append, terminal=False, notice_after=100.0, tick=0.0)
+    with bar:
+        bar(0.5)
+        give_up = time.monotonic() + 30.0
+        while not lines and time.monotonic() < give_up:
+            time.sleep(0.01)
+    assert lines and "t = 0.5 of 2 s (25 %)" in lines[0]
+
+
+def _cli(*args: str, columns: int = 80) -> subprocess.CompletedProcess:
+    env = dict(os.environ, COLUMNS=str(columns))
+    return subprocess.run([sys.executable, "-m", "daebench.cli", *args], capture_output=True, text=True, env=env)
+
+
+def test_piped_80_columns_never_breaks_a_number(tmp_path):
+    """`daebench run … | cat` with COLUMNS=80: every number of the summary is whole on one line,
+    and every line fits 80 columns unless it is one unbreakable token (a file path)."""
+    r = _cli("run", "beam-impact", "-i", "hht", "--set", "discretization.n=3", "--set", "t_end=0.05",
+             "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    for line in lines:
+        assert len(line) <= 80 or " " not in line.strip(), line
+    rec = json.loads(_cli("run", "beam-impact", "-i", "hht", "--set", "discretization.n=3", "--set",
+                          "t_end=0.05", "--out", str(tmp_path), "--json").stdout)
+    for k in ("theta_deg", "tip_w2", "tip_y"):
+        number = f"{rec['observables'][k]:.10g}"
+        assert any(number in line for line in lines), (k, number)
+    assert f"{rec['energy_residual']:.3e}" in r.stdout
+    assert "run: beam-impact with integrator hht" in r.stdout and "settings:" in r.stdout
+
+
+def test_narrow_bench_table_keeps_every_value_whole(tmp_path, monkeypatch):
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    monkeypatch.setenv("COLUMNS", "60")
+    r = runner.invoke(app, ["bench", "pendulum", "-i", "hht,newmark", "--steps", "1e-2,5e-3", "--set", "t_end=0.2",
+                            "--reference", "compute", "--name", "n"])
+    assert r.exit_code == 0, r.output
+    import pandas as pd
+
+    df = pd.read_parquet(tmp_path / "bench" / "n.parquet")
+    for v in df["err_theta_max"]:
+        assert re.search(rf"(^|\s){re.escape(f'{v:.3g}')}(\s|$)", r.stdout), v
+    assert "complet…" not in r.stdout and "err_th…" not in r.stdout
+
+
+def test_show_integrator_lists_settings_and_capabilities():
+    r = runner.invoke(app, ["show", "HHT"])
+    assert r.exit_code == 0, r.output
+    for fragment in ("capabilities: order 2", "constraints at index 3", "alpha", "float [-0.333333, 0]",
+                     "HHT numerical damping", "newton_maxiter", "int [1, 100]"):
+        assert fragment in r.stdout, fragment
+
+
+def test_run_summary_names_integrator_settings_and_exact_error(tmp_path):
+    r = runner.invoke(app, ["run", "pendulum", "--opt", "rtol=1e-8", "--set", "t_end=0.2", "--out", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    assert "pendulum with integrator ida" in r.stdout and "rtol=1e-08" in r.stdout
+    assert re.search(r"error vs exact solution .*\n\s+theta \d\.\d{3}e-\d+, pos", r.stdout)
+
+
+@pytest.mark.parametrize("cmd", [["paper", "--help"], ["bench", "--help"], ["run", "--help"]])
+def test_help_points_nowhere_missing(cmd):
+    r = runner.invoke(app, cmd)
+    assert r.exit_code == 0 and "CASES.md" not in r.output
