@@ -43,5 +43,25 @@ def test_paper_quick_writes_table_figures_verdicts(tmp_path, monkeypatch):
     verdicts = (out / "verdicts.md").read_text()
     for k in range(1, 8):
         assert f"claim {k}:" in verdicts
+    # N = 3 only: claims 4 and 7 have untestable parts, and their verdicts say so
+    lines = [ln for ln in verdicts.splitlines() if ln.startswith("- claim")]
+    for v in lines:
+        assert "nan" not in v, v
+        word = v.rsplit("→", 1)[1].strip()
+        assert word in ("supported", "not supported", "not testable here") or word.startswith("supported by the"), v
+    assert "N = 9 not run" in lines[3] and "not testable here" in lines[3].rsplit("→", 1)[1]
+    assert "one N only" in lines[6]
+    assert "CASES.md" not in r.output
     assert (out / "claim7.png").exists() and (out / "claim7.svg").exists()
     assert len(list(out.glob("claim*.png"))) >= 6
+
+
+def test_verdict_wording_cannot_contradict_itself():
+    from daebench.studies.paper_claims import _num, _verdict
+
+    assert _verdict([("a", True), ("b", True)]) == "a; b → supported"
+    assert _verdict([("a", True), ("b", False)]).endswith("→ not supported")
+    assert _verdict([("a", None), ("b", None)]).endswith("→ not testable here")
+    mixed = _verdict([("ratio 2", True), ("one N only", None)])
+    assert mixed.endswith("→ supported by the 1 testable part(s); 1 part(s) not testable here")
+    assert _num(float("nan"), ".3g", " mm") == "n/a" and _num(1.5, ".3g", " mm") == "1.5 mm"

@@ -1,10 +1,13 @@
-"""Reproduce the beam-impact study (CASES.md): Table 1 beside the published seconds,
+"""Reproduce the beam-impact study (HHT-α vs Baumgarte for a contact-constraint DAE, Acta
+Physica Sinica 2017): Table 1 beside the published seconds,
 and one figure plus one computed verdict per claim 1–7.
 
 The runs are ordinary sweep rows (:func:`daebench.bench.execute`), so they are scored
 and never lost; their histories are kept under ``<out>/runs/`` for the figures. Each
 verdict is a sentence with the number it rests on, computed from this run's data —
-"supported", "not supported" or "not testable here" (e.g. N = 9 is not in --quick).
+"supported", "not supported" or "not testable here" (e.g. N = 9 is not in --quick), or
+supported by the parts that could be tested, naming how many could not
+(:mod:`daebench.studies.paper_claims`).
 """
 
 from __future__ import annotations
@@ -15,10 +18,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
-from daebench import bench, metrics, plots, provenance
+from daebench import bench, provenance
 from daebench.runner import results_dir
 from daebench.scene import Scene, load_scene
 
@@ -141,6 +143,8 @@ def report(df: pd.DataFrame, p: Protocol, folder: Path, scene: Scene) -> PaperRe
     table.to_csv(folder / "table1.csv", index=False)
     (folder / "table1.md").write_text(md)
     hists = _load_histories(df)
+    from daebench.studies.paper_claims import CLAIMS
+
     verdicts, figs = [], []
     for k, fn in enumerate(CLAIMS, start=1):
         try:
@@ -203,285 +207,3 @@ def table1_markdown(t: pd.DataFrame, p: Protocol) -> str:
     return "\n".join(lines) + "\n"
 
 
-# ==== claim helpers =================================================================
-def _pick(df: pd.DataFrame, **kw: Any) -> pd.DataFrame:
-    sel = np.ones(len(df), bool)
-    for k, v in kw.items():
-        sel &= (df[k] == v).to_numpy()
-    return df[sel]
-
-
-def _hist(df, hists, **kw) -> tuple[str, pd.DataFrame | None, pd.Series | None]:
-    rows = _pick(df, **kw)
-    if not len(rows):
-        return "", None, None
-    r = rows.iloc[0]
-    # a run that did not complete is no data point (its row still tells the status)
-    h = hists.get(int(r["run"])) if r["status"] == "completed" else None
-    return str(r["setting"]), h, r
-
-
-def _maxdiff(a: pd.DataFrame, b: pd.DataFrame, col: str = "theta_deg") -> float:
-    """max |a − b| of a column on a uniform grid over the common span (NaN if either
-    is missing)."""
-    if a is None or b is None or col not in a or col not in b:
-        return math.nan
-    t1 = min(a["t"].iloc[-1], b["t"].iloc[-1])
-    g = metrics.uniform_grid(0.0, float(t1), 2001)
-    return float(np.nanmax(np.abs(metrics.interpolate(a, col, g) - metrics.interpolate(b, col, g))))
-
-
-def _spread(hs: list[pd.DataFrame], col: str = "theta_deg") -> float:
-    d = [_maxdiff(a, b, col) for i, a in enumerate(hs) for b in hs[i + 1:]]
-    d = [x for x in d if math.isfinite(x)]
-    return max(d) if d else math.nan
-
-
-def _status_note(rows: pd.DataFrame) -> str:
-    bad = rows[rows["status"] != "completed"]
-    return "" if not len(bad) else " [" + "; ".join(f"{r['setting']} {r['status']}" for _, r in bad.iterrows()) + "]"
-
-
-def _word(ok: bool | None) -> str:
-    return "not testable here" if ok is None else ("supported" if ok else "not supported")
-
-
-def _impacts(row: pd.Series | None) -> list[float]:
-    if row is None or not isinstance(row.get("impact_times"), str):
-        return []
-    return json.loads(row["impact_times"])
-
-
-def _label(r: pd.Series) -> str:
-    extra = "" if r["status"] == "completed" else f" — {r['status']}"
-    return f"{r['setting']} N={int(r['N'])} e={r['e']:g}{' Hertz' if r['law'] == 'hertz' else ''}{extra}"
-
-
-def _hmap(df: pd.DataFrame, hists: dict[int, pd.DataFrame]) -> dict[str, pd.DataFrame]:
-    return {_label(r): hists[int(r["run"])] for _, r in df.iterrows() if int(r["run"]) in hists}
-
-
-# ==== claims =======================================================================
-def claim1(df, hists, p, stem, prov):
-    """α barely changes θ(t); (δ, ε) changes it a lot (rebound and second impact at e = 0.3)."""
-    parts, ok = [], []
-    for tag, e, N in (("table", p.e_table, p.n_main if p.n_main in p.Ns else p.Ns[0]), ("rebound", p.e_rebound, p.n_main)):
-        rows = _pick(df, set=tag, N=N)
-        done = rows[rows.status == "completed"]  # a diverged run's partial history is no data point
-        hh = [hists.get(int(r["run"])) for _, r in done[done.integrator == "hht"].iterrows()]
-        bb = [hists.get(int(r["run"])) for _, r in done[done.integrator == "baumgarte"].iterrows()]
-        hh, bb = [h for h in hh if h is not None], [h for h in bb if h is not None]
-        sa, sb = _spread(hh), _spread(bb)
-        parts.append(f"e={e:g}: max |Δθ| across α = {sa:.3g}°, across (δ,ε) = {sb:.3g}°{_status_note(rows)}")
-        # judged only when every setting of both families completed
-        ok.append(sa < 0.2 * sb if len(hh) == len(HHT_ALPHAS) and len(bb) == len(BAUMGARTE) else None)
-        if tag == "rebound":
-            apex, imp2 = {}, {}
-            for _, r in rows.iterrows():
-                h = hists.get(int(r["run"]))
-                imps = _impacts(r)
-                if h is not None:
-                    apex[r["setting"]] = metrics.rebound_apex(h, imps)[1]
-                    imp2[r["setting"]] = imps[1] if len(imps) > 1 else math.nan
-
-            def rng(d, pre):
-                v = [x for k, x in d.items() if k.startswith(pre) and math.isfinite(x)]
-                return (max(v) - min(v)) if len(v) > 1 else math.nan
-            parts.append(f"rebound apex spread α {rng(apex, 'HHT') * 1e3:.3g} mm vs (δ,ε) "
-                         f"{rng(apex, 'Baum') * 1e3:.3g} mm; 2nd impact time spread α {rng(imp2, 'HHT') * 1e3:.3g} ms "
-                         f"vs (δ,ε) {rng(imp2, 'Baum') * 1e3:.3g} ms")
-    figs = _fig_series(_hmap(_pick(df, set="rebound"), hists), "theta_deg", stem,
-                       prov, "claim 1: θ(t) for α and (δ,ε), e = %g, N = %d" % (p.e_rebound, p.n_main))
-    return "; ".join(parts) + f" → {_word(None if None in ok else all(ok))}", figs
-
-
-def claim2(df, hists, p, stem, prov):
-    """HHT (α = −0.15, constraint) ≈ Newmark (Hertz); Baumgarte (1000, 5000) deviates from both."""
-    _, h_hht, _ = _hist(df, hists, set="rebound", setting="HHT α=-0.15")
-    _, h_nm, r_nm = _hist(df, hists, set="hertz")
-    _, h_b, r_b = _hist(df, hists, set="rebound", setting="Baumgarte (1000,5000)")
-    d_hn, d_bh, d_bn = _maxdiff(h_hht, h_nm), _maxdiff(h_b, h_hht), _maxdiff(h_b, h_nm)
-    ok = None
-    if all(math.isfinite(x) for x in (d_hn, d_bh, d_bn)):
-        ok = d_hn < d_bh and d_hn < d_bn
-    rows = pd.concat([_pick(df, set="rebound", setting="HHT α=-0.15"), _pick(df, set="hertz"),
-                      _pick(df, set="rebound", setting="Baumgarte (1000,5000)")])
-    figs = _fig_series(_hmap(rows, hists), "theta_deg", stem, prov,
-                       "claim 2: HHT α=−0.15 (constraint) vs Newmark (Hertz) vs Baumgarte (1000,5000)")
-    return (f"max |Δθ| HHT−Newmark(Hertz) = {d_hn:.3g}°, Baumgarte(1000,5000)−HHT = {d_bh:.3g}°, "
-            f"Baumgarte−Newmark = {d_bn:.3g}°{_status_note(rows)} → {_word(ok)}"), figs
-
-
-def _resid_at(h: pd.DataFrame, t: float) -> float:
-    return float(np.interp(t, h["t"], h["energy_residual"]))
-
-
-def claim3(df, hists, p, stem, prov):
-    """α ≠ 0 drains energy between impacts; Baumgarte (0,0), (10,50) gain at the first impact (e = 0.3)."""
-    rows = _pick(df, set="rebound")
-    drain, jump = {}, {}
-    for _, r in rows.iterrows():
-        h = hists.get(int(r["run"]))
-        imps = _impacts(r)
-        if h is None or not imps:
-            continue
-        t1 = imps[0]
-        drain[r["setting"]] = _resid_at(h, t1 - 1e-3)           # smooth flight before the first impact
-        jump[r["setting"]] = _resid_at(h, min(t1 + 0.02, h["t"].iloc[-1])) - _resid_at(h, t1 - 1e-3)
-    a0 = drain.get("HHT α=0", math.nan)
-    an = [drain.get(k, math.nan) for k in ("HHT α=-0.15", "HHT α=-1/3")]
-    ok_a = all(math.isfinite(x) for x in an + [a0]) and all(x < 0 and abs(x) > abs(a0) for x in an)
-    gains = [jump.get(k, math.nan) for k in ("Baumgarte (0,0)", "Baumgarte (10,50)")]
-    ok_b = all(math.isfinite(g) and g > 0 for g in gains)
-    testable = all(math.isfinite(x) for x in an + [a0] + gains)
-    figs = _fig_series(_hmap(rows, hists), "energy_residual", stem, prov,
-                       f"claim 3: energy-balance residual, e = {p.e_rebound:g}, N = {p.n_main}")
-    txt = ("energy residual before the 1st impact: " + ", ".join(f"{k} {v:.3g} J" for k, v in drain.items()
-                                                                if k.startswith("HHT"))
-           + "; change across the 1st impact (−1 ms … +20 ms): "
-           + ", ".join(f"{k} {v:+.3g} J" for k, v in jump.items() if k.startswith("Baum")))
-    return txt + f" → {_word((ok_a and ok_b) if testable else None)}", figs
-
-
-def claim4(df, hists, p, stem, prov):
-    """Results depend on N, more after each impact; at N = 9 Baumgarte diverges, HHT goes on."""
-    rows = _pick(df, set="table", setting="HHT α=-0.15").sort_values("N")
-    figs = _fig_series(_hmap(rows, hists), "theta_deg", stem, prov, "claim 4: θ(t) of HHT α=−0.15 for each N")
-    parts, ok = [], None
-    if len(rows) > 1:
-        hs = [hists.get(int(r["run"])) for _, r in rows.iterrows()]
-        imps = _impacts(rows.iloc[-1])
-        hi = hs[-1]
-        if hi is not None and imps:
-            t1 = imps[0]
-            pre = max(_window_diff(h, hi, 0.0, t1) for h in hs[:-1] if h is not None)
-            post = max(_window_diff(h, hi, t1, float(hi["t"].iloc[-1])) for h in hs[:-1] if h is not None)
-            parts.append(f"max |θ_N − θ_N={int(rows['N'].iloc[-1])}| before 1st impact {pre:.3g}°, after {post:.3g}°")
-            ok = post > pre
-    else:
-        parts.append(f"only N = {', '.join(map(str, p.Ns))} run")
-    n9 = _pick(df, set="table", N=9)
-    if len(n9):
-        b = n9[n9.integrator == "baumgarte"]["status"].tolist()
-        hh = n9[n9.integrator == "hht"]["status"].tolist()
-        parts.append(f"N = 9: Baumgarte {'/'.join(b)}, HHT {'/'.join(hh)}")
-        ok9 = all(s == "diverged" for s in b) and all(s == "completed" for s in hh)
-        ok = ok9 if ok is None else (ok and ok9)
-    else:
-        parts.append("N = 9 not run (divergence part not testable)")
-        ok = None
-    return "; ".join(parts) + f" → {_word(ok)}", figs
-
-
-def _window_diff(a: pd.DataFrame, b: pd.DataFrame, t0: float, t1: float) -> float:
-    if t1 <= t0:
-        return math.nan
-    g = metrics.uniform_grid(t0, t1, 501)
-    return float(np.nanmax(np.abs(metrics.interpolate(a, "theta_deg", g) - metrics.interpolate(b, "theta_deg", g))))
-
-
-def _rms_window(h: pd.DataFrame, col: str, t0: float, t1: float) -> float:
-    sel = (h["t"] > t0) & (h["t"] <= t1)
-    x = h.loc[sel, col].to_numpy(float)
-    return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
-
-
-def claim5(df, hists, p, stem, prov):
-    """Impact excites high modes (W of mode 7 grows); α ≠ 0 damps them, not mode 1."""
-    N = max(p.Ns) if max(p.Ns) >= 7 else p.n_main
-    top = min(7, N)
-    set_ = "table" if N in p.Ns and N != p.n_main else "rebound"
-    _, h0, r0 = _hist(df, hists, set=set_, N=N, setting="HHT α=0")
-    _, h3, r3 = _hist(df, hists, set=set_, N=N, setting="HHT α=-1/3")
-    hm = {k: v for k, v in (("HHT α=0", h0), ("HHT α=-1/3", h3)) if v is not None}
-    figs = plots.modal_participation(hm, stem, prov, title=f"claim 5: modal participation W_i(t), N = {N}")[1] \
-        if hm else []
-    imps = _impacts(r0)
-    if h0 is None or h3 is None or not imps or f"W{top}" not in h0:
-        return "not testable here (runs or impacts missing)", figs
-    t1, tend = imps[0], float(h0["t"].iloc[-1])
-    grow = _rms_window(h0, f"W{top}", t1, tend) / max(_rms_window(h0, f"W{top}", 0.0, t1), 1e-300)
-    damp_top = _rms_window(h3, f"W{top}", t1, tend) / max(_rms_window(h0, f"W{top}", t1, tend), 1e-300)
-    damp_1 = _rms_window(h3, "W1", t1, tend) / max(_rms_window(h0, "W1", t1, tend), 1e-300)
-    ok = grow > 1.0 and damp_top < damp_1
-    note = "" if top == 7 else f" (mode {top} = highest available, N = {N})"
-    return (f"RMS W{top} after/before 1st impact (α=0) = {grow:.3g}; after impact, α=−1/3 vs α=0: "
-            f"W{top} ×{damp_top:.3g}, W1 ×{damp_1:.3g}{note} → {_word(ok)}"), figs
-
-
-def claim6(df, hists, p, stem, prov):
-    """HHT keeps Ċ ~ 1e-14, C̈ up to 1e4; Baumgarte Ċ ~ 1e-1 (1000,5000), 1e-4 (10,50)."""
-    N = p.n_main if p.n_main in p.Ns else p.Ns[0]
-    rows = _pick(df, set="table", N=N)
-    # a run that did not complete has no residuals to compare (it may never have touched the plane)
-    val = {r["setting"]: (r.get("Cdot_max", math.nan), r.get("Cddot_max", math.nan), r["status"])
-           if r["status"] == "completed" else (math.nan, math.nan, r["status"]) for _, r in rows.iterrows()}
-    figs = _fig_series(_hmap(rows, hists), "Cdot", stem, prov,
-                       f"claim 6: |Ċ| while the contact is closed, e = {p.e_table:g}, N = {N}", logy=True,
-                       ylabel="|Ċ| [m/s]")
-    figs += _fig_series(_hmap(rows, hists), "Cddot", Path(str(stem) + "-Cddot"), prov,
-                        f"claim 6: |C̈| while the contact is closed, N = {N}", logy=True, ylabel="|C̈| [m/s²]")
-    h = val.get("HHT α=-0.15", (math.nan,) * 3)
-    b1, b2 = val.get("Baumgarte (1000,5000)", (math.nan,) * 3), val.get("Baumgarte (10,50)", (math.nan,) * 3)
-    ok = None
-    if all(math.isfinite(x) for x in (h[0], h[1], b1[0], b2[0])):
-        ok = h[0] < 1e-8 and h[1] > 1e3 * h[0] and b1[0] > 1e3 * h[0] and b2[0] > 1e3 * h[0]
-    return (f"HHT α=−0.15: max|Ċ| {h[0]:.2g}, max|C̈| {h[1]:.2g}; Baumgarte (1000,5000): max|Ċ| {b1[0]:.2g}; "
-            f"(10,50): max|Ċ| {b2[0]:.2g} (published: 1e-14, 1e4, 1e-1, 1e-4) → {_word(ok)}"), figs
-
-
-def claim7(df, hists, p, stem, prov):
-    """Cost grows steeply with N; at these fixed steps HHT is slower than Baumgarte."""
-    t = table1(df)
-    figs = _fig_cost(t, stem, prov)
-    ratios = []
-    for N in sorted(set(t["N"])):
-        m = t[t["N"] == N]
-        hv = m[m.setting.str.startswith("HHT")]["measured_s"].dropna()
-        bv = m[m.setting.str.startswith("Baum")]["measured_s"].dropna()
-        if len(hv) and len(bv):
-            ratios.append((N, hv.mean() / bv.mean()))
-    parts = [", ".join(f"N={N}: HHT/Baumgarte wall = {r:.3g}" for N, r in ratios) or "no completed pair"]
-    ok = bool(ratios) and all(r > 1 for _, r in ratios)
-    Ns = sorted(set(t["N"]))
-    if len(Ns) > 1:
-        g = t.groupby("N")["measured_s"].median()
-        slope = float(np.polyfit(np.log(g.index.to_numpy(float)), np.log(g.to_numpy(float)), 1)[0])
-        pub = float(np.polyfit(np.log(PUBLISHED_TABLE1.index.to_numpy(float)),
-                               np.log(PUBLISHED_TABLE1.median(axis=1).to_numpy(float)), 1)[0])
-        parts.append(f"median wall ∝ N^{slope:.2g} (published N^{pub:.2g})")
-        ok = ok and slope > 1.0
-    else:
-        parts.append("one N only: growth with N not testable")
-    return "; ".join(parts) + f" → {_word(ok if ratios else None)}", figs
-
-
-CLAIMS = (claim1, claim2, claim3, claim4, claim5, claim6, claim7)
-
-
-# ==== figures ==========================================================================
-def _fig_series(hm, col, stem, prov, title, logy=False, ylabel=None) -> list[Path]:
-    if not hm:
-        return []
-    return plots.series(hm, col, stem, prov, title=title, logy=logy, ylabel=ylabel)[1]
-
-
-def _fig_cost(t: pd.DataFrame, stem: Path, prov: dict[str, Any]) -> list[Path]:
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7.0, 4.6))
-    for i, s in enumerate(PUBLISHED_TABLE1.columns):
-        m = t[t.setting == s].sort_values("N")
-        ax.plot(m["N"], m["measured_s"], "o-", color=f"C{i}", label=f"{s} (this run)")
-        ax.plot(PUBLISHED_TABLE1.index, PUBLISHED_TABLE1[s], "s--", color=f"C{i}", alpha=0.45, ms=3,
-                label=f"{s} (published)")
-        for _, r in m[m.status != "completed"].iterrows():
-            ax.annotate(r["status"], (r["N"], ax.get_ylim()[0]), color=f"C{i}", fontsize=6)
-    ax.set_yscale("log")
-    ax.set_xlabel("number of modes N")
-    ax.set_ylabel("wall-clock time [s]")
-    ax.set_title("claim 7 / Table 1: cost against N (dashed: published, 2017)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=5.5, ncol=2)
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
-    return plots.save(fig, stem, prov)
