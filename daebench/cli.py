@@ -181,27 +181,29 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
         run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of the run [s]"),
         force: bool = typer.Option(False, "--force", help="run even beyond the step-count / history-size limits")) -> None:
     """Run a scene with one integrator; write the time history; print a summary."""
-    from daebench import api
-    from daebench.guards import RunTimeout
-    from daebench.params import parse_pairs
     from daebench.progress import RunProgress
 
-    sc = _load(scene, set_)
-    try:
-        settings = parse_pairs(opt, "--opt", "h=1e-4")
-        from daebench.guards import check_run_cap, resolve_integrator
+    # the reporter starts first: loading the modules and kernels of a first run is not silent
+    with RunProgress(scene, None) as bar:
+        from daebench import api
+        from daebench.guards import RunTimeout, check_run_cap, resolve_integrator
+        from daebench.params import parse_pairs
 
-        check_run_cap(run_cap)
-        label = f"{sc.name} with {resolve_integrator(integrator)}"
-        with RunProgress(label, sc.t_end) as bar:
+        sc = _load(scene, set_)
+        try:
+            settings = parse_pairs(opt, "--opt", "h=1e-4")
+            check_run_cap(run_cap)
+            bar.retarget(f"{sc.name} with {resolve_integrator(integrator)}", sc.t_end)
             r = api.run(sc, integrator, settings=settings, write=True, out_dir=out_dir, run_cap=run_cap,
                         force=force, progress=bar)
-    except ParamError as exc:
-        fail(str(exc))
-    except RunTimeout as exc:
-        fail(f"{exc}; nothing was written (raise --run-cap, or use a larger step)", 1)
-    except Exception as exc:  # a plugin's bug during the run: say so, no traceback
-        fail(f"the run raised {type(exc).__name__}: {exc} (a bug in integrator '{integrator}' or the model?)", 1)
+        except ParamError as exc:
+            fail(str(exc))
+        except RunTimeout as exc:
+            fail(f"{exc}; nothing was written (raise --run-cap, or use a larger step)", 1)
+        except KeyboardInterrupt:
+            fail("interrupted; nothing was written", 130)
+        except Exception as exc:  # a plugin's bug during the run: say so, no traceback
+            fail(f"the run raised {type(exc).__name__}: {exc} (a bug in integrator '{integrator}' or the model?)", 1)
     if as_json:
         sys.stdout.write(r.record.to_json() + "\n")
     else:

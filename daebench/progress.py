@@ -24,10 +24,10 @@ import time
 from typing import Any, Callable, TextIO
 
 POLL_S = 0.25
-NOTICE_AFTER = 1.5
+NOTICE_AFTER = 1.0
 TICK_S = 2.0
-COMPILE_NOTICE = ("no step reported after {s:.1f} s: the numerical kernels are being compiled for their first "
-                  "use (about 1–2 min, once; they are cached for later runs)")
+COMPILE_NOTICE = ("no step yet after {s:.1f} s — on a first run the numerical kernels are being compiled for "
+                  "their first use (about 1–2 min, once; they are cached for later runs)")
 
 
 def _is_terminal(stream: TextIO) -> bool:
@@ -75,10 +75,10 @@ class RunProgress(_Ticker):
     ``write`` receives plain lines (default: stderr); on a terminal a rich bar is drawn
     instead of time lines. ``notice_after``/``tick`` are for tests."""
 
-    def __init__(self, label: str, t_end: float, write: Callable[[str], None] | None = None,
+    def __init__(self, label: str, t_end: float | None, write: Callable[[str], None] | None = None,
                  terminal: bool | None = None, notice_after: float | None = None, tick: float | None = None) -> None:
         super().__init__()
-        self.label, self.t_end = label, float(t_end)
+        self.label, self.t_end = label, (float(t_end) if t_end else None)
         self.notice_after = NOTICE_AFTER if notice_after is None else notice_after
         self.tick = TICK_S if tick is None else tick
         self.poll = min(POLL_S, self.tick / 2)
@@ -92,6 +92,13 @@ class RunProgress(_Ticker):
     def __call__(self, t: float) -> None:
         self.t = float(t)
 
+    def retarget(self, label: str, t_end: float) -> None:
+        """Name the run and its end time once they are known (the reporter may start
+        earlier, so that loading and compiling are not silent)."""
+        self.label, self.t_end = label, float(t_end)
+        if self._bar is not None:
+            self._bar.update(self._task, description=label, total=self.t_end)
+
     def start(self) -> None:
         self._last_line = time.monotonic()
         if self.terminal:
@@ -101,7 +108,7 @@ class RunProgress(_Ticker):
             self._bar = Progress(TextColumn("{task.description}"), BarColumn(),
                                  TextColumn("t = {task.completed:.4g} / {task.total:.4g} s"), TimeElapsedColumn(),
                                  console=Console(stderr=True), transient=True)
-            self._task = self._bar.add_task(self.label, total=self.t_end)
+            self._task = self._bar.add_task(self.label, total=self.t_end or 1.0)
             self._bar.start()
         super().start()
 
@@ -127,11 +134,12 @@ class RunProgress(_Ticker):
             elif self.noticed and now - self._last_line >= self.tick:
                 self.line(f"{self.label}: still compiling, {elapsed:.0f} s elapsed")
             return
+        end = self.t_end or float("nan")
         if self._bar is not None:
-            self._bar.update(self._task, completed=min(self.t, self.t_end))
+            self._bar.update(self._task, completed=min(self.t, end))
         elif now - self._last_line >= self.tick:
-            self.line(f"{self.label}: t = {self.t:.4g} of {self.t_end:.4g} s "
-                      f"({100.0 * self.t / self.t_end:.0f} %), {elapsed:.0f} s elapsed")
+            self.line(f"{self.label}: t = {self.t:.4g} of {end:.4g} s ({100.0 * self.t / end:.0f} %), "
+                      f"{elapsed:.0f} s elapsed")
 
 
 def run_progress_factory(enabled: bool = True) -> Callable[[str, float], Any] | None:

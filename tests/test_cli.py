@@ -126,3 +126,18 @@ def test_run_summary_names_integrator_settings_and_exact_error(tmp_path):
 def test_help_points_nowhere_missing(cmd):
     r = runner.invoke(app, cmd)
     assert r.exit_code == 0 and "CASES.md" not in r.output
+
+
+def test_history_legend_names_integrator_and_settings(tmp_path):
+    """`plot history` labels each line by integrator and its non-default settings (read from
+    the sidecar `run` writes), not by the file's hash."""
+    from daebench import plots
+
+    r = runner.invoke(app, ["run", "pendulum", "-i", "hht", "--opt", "h=1e-2", "--opt", "alpha=-0.3",
+                            "--set", "t_end=0.1", "--out", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    (path,) = tmp_path.glob("pendulum-hht-*.csv")
+    assert plots.history_label(path) == "hht (h=0.01, alpha=-0.3)"
+    r = runner.invoke(app, ["plot", "history", str(path), "--out", str(tmp_path / "fig")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "fig.png").exists() and (tmp_path / "fig.svg").exists()

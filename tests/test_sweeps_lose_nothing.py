@@ -156,7 +156,7 @@ def test_damaged_reference_is_caught_in_every_mode(plugins, pendulum, damage):
 
 # ---- the command line, in real processes ------------------------------------------------------
 SLOW_SWEEP = ["bench", "pendulum", "-i", "hht", "--steps", "1e-5", "--grid", "alpha=0,-0.05,-0.1,-0.15,-0.2",
-              "--set", "t_end=2", "--reference", "none", "-j", "1"]
+              "--set", "t_end=2", "--reference", "none"]
 
 
 def daebench(*args: str, results: Path) -> subprocess.Popen:
@@ -187,7 +187,7 @@ def wait_for(cond, proc: subprocess.Popen, what: str, limit: float = 300.0) -> N
 
 def test_sigint_keeps_finished_rows_and_resume_completes_them_bit_identically(tmp_path):
     res = tmp_path / "results"
-    p = daebench(*SLOW_SWEEP, "--name", "s", results=res)
+    p = daebench(*SLOW_SWEEP, "--name", "s", "-j", "2", results=res)  # -j 2: workers stop at once too
     wait_for(lambda: stored_rows(res, "s") >= 2, p, "two finished rows")
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=60)
@@ -198,7 +198,7 @@ def test_sigint_keeps_finished_rows_and_resume_completes_them_bit_identically(tm
     assert len(partial) == 5 and len(kept) >= 2
     assert set(partial.status) <= {"completed", "interrupted"}
 
-    p = daebench(*SLOW_SWEEP, "--name", "s", "--resume", results=res)
+    p = daebench(*SLOW_SWEEP, "--name", "s", "-j", "2", "--resume", results=res)
     out, err = p.communicate(timeout=300)
     assert p.returncode == 0, err
     full = pd.read_parquet(res / "bench" / "s.parquet")
@@ -226,11 +226,11 @@ def test_concurrent_sweeps_lose_no_row(tmp_path):
     for t in tables:
         assert (pd.read_parquet(t).status == "completed").sum() == 4
     # one name, two sweeps at once: the second is refused while the first writes
-    first = daebench(*SLOW_SWEEP, "--name", "same", results=res)
+    first = daebench(*SLOW_SWEEP, "--name", "same", "-j", "1", results=res)
     wait_for(lambda: stored_rows(res, "same") >= 1, first, "a first row")
     second = daebench(*quick, "--name", "same", results=res)
     _, err = second.communicate(timeout=120)
     assert second.returncode == 2 and "being written by another sweep" in err
     first.send_signal(signal.SIGINT)
     first.communicate(timeout=60)
-    assert stored_rows(res, "same") >= 1
+    assert first.returncode == 130 and stored_rows(res, "same") >= 1
