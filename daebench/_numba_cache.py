@@ -3,7 +3,7 @@
 numba stamps a cached function with its own file only. A compiled integrator loop here
 contains the model kernels and phase functions it calls, which live in other files, so
 after an edit of a kernel numba would keep loading the old loop. This locator gives
-every daebench function one stamp: a hash of all daebench modules that hold numba code,
+every daebench function one stamp: a hash of all daebench modules that define numba functions,
 plus the versions of numba and of the plugin distributions registered under daebench's
 entry points. Any change to any of them recompiles; nothing else does.
 
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -23,6 +24,7 @@ from numba.core import caching, config
 PACKAGE_DIR = Path(__file__).resolve().parent
 GROUPS = ("daebench.integrators", "daebench.models")
 _STAMP: str | None = None
+_COMPILED = re.compile(rb"\bnjit\b")
 
 
 def _plugin_versions() -> list[str]:
@@ -43,7 +45,7 @@ def source_stamp() -> str:
         h = hashlib.sha256(numba.__version__.encode())
         for path in sorted(PACKAGE_DIR.rglob("*.py")):
             text = path.read_bytes()
-            if b"numba" in text:
+            if _COMPILED.search(text):
                 h.update(str(path.relative_to(PACKAGE_DIR)).encode())
                 h.update(text)
         for item in _plugin_versions():

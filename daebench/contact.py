@@ -13,13 +13,20 @@ Laws
                 Hunt & Crossley 1975; Flores et al. 2011). F is clipped at 0 (no
                 adhesion) and the clipped work is booked as dissipation.
 ``penalty``     F = k δ + c δ̇ (clipped at 0).
+
+The force formulas exist once, compiled, in :mod:`daebench.phase` (``law_force``);
+the Python methods here evaluate them.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
 
 import numpy as np
+
+from daebench.phase import LAW_HERTZ, LAW_PENALTY, law_elastic, law_force, law_potential
 
 DAMPING_LAWS = ("lankarani-nikravesh", "hunt-crossley", "flores", "none")
 APPROACH_SPEED_MIN = 1e-3  # m/s: the hysteresis factors scale as 1/v0; a grazing or resting
@@ -42,29 +49,46 @@ def hysteresis_factor(law: str, e: float, v0: float) -> float:
 
 
 class ContactLaw:
-    """Base: a law applied at each of a system's contact points."""
+    """Base: a law applied at each of a system's contact points. Immutable parameters;
+    what changes within a run (which contacts are engaged, the approach speed of the
+    current episode) is phase data (:class:`daebench.problem.Problem`)."""
 
     name = ""
     continuous = False
 
     def __init__(self, restitution: float, n_contacts: int = 1):
         self.restitution = float(restitution)
-        # approach speed v0 > 0 of the current contact episode, set by the driver
-        self.approach_speed = np.full(n_contacts, np.nan)
-        # contacts whose continuous force acts in the current phase. The driver engages a
-        # contact when its gap closes and releases it when it separates, so that a phase
-        # never contains the switch (default: all engaged, for use without the driver)
-        self.engaged = np.ones(n_contacts, dtype=bool)
+        self.n_contacts = int(n_contacts)
 
-    def force(self, g: np.ndarray, gdot: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError
+    def chi(self, approach_speed: np.ndarray) -> np.ndarray:
+        """Hysteresis factor per contact for the episodes' approach speeds (0 where none)."""
+        return np.zeros(self.n_contacts)
+
+    def parameters(self) -> np.ndarray:
+        """[kind, K, exponent, c] as the compiled phase reads them (kind 0: no force)."""
+        return np.zeros(4)
+
+    def force(self, g: np.ndarray, gdot: np.ndarray, engaged: np.ndarray | None = None,
+              chi: np.ndarray | None = None) -> np.ndarray:
+        """Normal force per contact (engaged: all by default; χ: 0 by default)."""
+        engaged = np.ones(g.size, bool) if engaged is None else np.asarray(engaged, bool)
+        chi = np.zeros(g.size) if chi is None else np.asarray(chi, float)
+        law = self.parameters()
+        return np.array([law_force(law, bool(engaged[i]), float(chi[i]), float(g[i]), float(gdot[i]))
+                         for i in range(g.size)])
 
     def potential(self, g: np.ndarray) -> float:
-        return 0.0
+        law = self.parameters()
+        return float(sum(law_potential(law, float(x)) for x in np.ravel(g)))
 
-    def dissipation_power(self, g: np.ndarray, gdot: np.ndarray) -> float:
+    def dissipation_power(self, g: np.ndarray, gdot: np.ndarray, engaged: np.ndarray | None = None,
+                          chi: np.ndarray | None = None) -> float:
         """Power into the system of the non-conservative part of the force (≤ 0)."""
-        return 0.0
+        engaged = np.ones(g.size, bool) if engaged is None else np.asarray(engaged, bool)
+        law = self.parameters()
+        F = self.force(g, gdot, engaged, chi)
+        elastic = np.array([law_elastic(law, bool(engaged[i]), float(g[i])) for i in range(g.size)])
+        return float(np.sum((F - elastic) * gdot))
 
 
 class ConstraintLaw(ContactLaw):
@@ -84,30 +108,15 @@ class HertzLaw(ContactLaw):
         self.exponent = float(exponent)
         hysteresis_factor(damping, restitution, 1.0)  # validate early
 
-    def _chi(self) -> np.ndarray:
-        v0 = self.approach_speed
-        ok = np.isfinite(v0) & (v0 > 0.0)
-        chi = np.zeros_like(v0)
-        for i in np.flatnonzero(ok):
-            chi[i] = hysteresis_factor(self.damping, self.restitution, max(float(v0[i]), APPROACH_SPEED_MIN))
-        return chi
+    def parameters(self) -> np.ndarray:
+        return np.array([LAW_HERTZ, self.stiffness, self.exponent, 0.0])
 
-    def force(self, g: np.ndarray, gdot: np.ndarray) -> np.ndarray:
-        ddot = -gdot
-        elastic = self._elastic(g)
-        return np.maximum(elastic * (1.0 + self._chi() * ddot), 0.0)
-
-    def _elastic(self, g: np.ndarray) -> np.ndarray:
-        return np.where(self.engaged, self.stiffness * np.maximum(-g, 0.0) ** self.exponent, 0.0)
-
-    def potential(self, g: np.ndarray) -> float:
-        delta = np.maximum(-g, 0.0)
-        n = self.exponent
-        return float(np.sum(self.stiffness * delta ** (n + 1.0) / (n + 1.0)))
-
-    def dissipation_power(self, g: np.ndarray, gdot: np.ndarray) -> float:
-        # power into the system is F ġ; its conservative part is elastic·ġ
-        return float(np.sum((self.force(g, gdot) - self._elastic(g)) * gdot))
+    def chi(self, approach_speed: np.ndarray) -> np.ndarray:
+        v0 = np.asarray(approach_speed, float)
+        out = np.zeros(v0.size)
+        for i in np.flatnonzero(np.isfinite(v0) & (v0 > 0.0)):
+            out[i] = hysteresis_factor(self.damping, self.restitution, max(float(v0[i]), APPROACH_SPEED_MIN))
+        return out
 
 
 class PenaltyLaw(ContactLaw):
@@ -119,18 +128,8 @@ class PenaltyLaw(ContactLaw):
         self.stiffness = float(stiffness)
         self.damping_coefficient = float(damping_coefficient)
 
-    def force(self, g: np.ndarray, gdot: np.ndarray) -> np.ndarray:
-        delta = np.maximum(-g, 0.0)
-        F = self.stiffness * delta + self.damping_coefficient * (-gdot)
-        return np.where(self.engaged & (delta > 0.0), np.maximum(F, 0.0), 0.0)
-
-    def potential(self, g: np.ndarray) -> float:
-        delta = np.maximum(-g, 0.0)
-        return float(np.sum(0.5 * self.stiffness * delta**2))
-
-    def dissipation_power(self, g: np.ndarray, gdot: np.ndarray) -> float:
-        elastic = np.where(self.engaged, self.stiffness * np.maximum(-g, 0.0), 0.0)
-        return float(np.sum((self.force(g, gdot) - elastic) * gdot))
+    def parameters(self) -> np.ndarray:
+        return np.array([LAW_PENALTY, self.stiffness, 1.0, self.damping_coefficient])
 
 
 def make_contact_law(law: str, restitution: float, n_contacts: int = 1, *, hertz_stiffness: float = 0.0,
@@ -143,6 +142,28 @@ def make_contact_law(law: str, restitution: float, n_contacts: int = 1, *, hertz
     if law == "penalty":
         return PenaltyLaw(restitution, penalty_stiffness, penalty_damping, n_contacts)
     raise ValueError(f"unknown contact law '{law}' (constraint | hertz | penalty)")
+
+
+@dataclass
+class Impact:
+    """One contact episode: an impact (constraint law), a penetration episode
+    (continuous laws), or an episode an integrator resolved itself."""
+
+    t: float
+    contact: int
+    vn_minus: float          # normal velocity ġ before (negative: approaching)
+    vn_plus: float           # after the impact (constraint law) or at separation (continuous laws)
+    energy_loss: float       # kinetic energy lost (constraint law) or dissipated in the episode
+    closed: bool = False     # the contact stayed closed after the impact
+    impulse: float = math.nan      # normal impulse of the impact or of the whole episode [N s]
+    t_end: float = math.nan        # end of the episode (separation), when known
+    min_gap: float = math.nan      # smallest gap during the episode (penetration < 0)
+    q: np.ndarray | None = field(default=None, repr=False)        # configuration at the impact
+    v_minus: np.ndarray | None = field(default=None, repr=False)  # velocities before / after
+    v_plus: np.ndarray | None = field(default=None, repr=False)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: v for k, v in asdict(self).items() if k not in ("q", "v_minus", "v_plus")}
 
 
 @dataclass

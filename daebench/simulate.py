@@ -34,37 +34,19 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import brentq
 
-from daebench.contact import impact_map
-from daebench.integrators.base import BatchWatch, Integrator, StepFailure, check_capabilities
-from daebench.system import MechanicalSystem, Problem, State
+from daebench.contact import Impact, impact_map
+from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
+from daebench.problem import Problem
+from daebench.stepping.watch import GAP_BAND, Watch, gap_event
+from daebench.system import MechanicalSystem, State
 
 EVENT_TOL = 1e-13        # event times located to this (seconds)
-GAP_BAND = 1e-9          # m: after a release or a rebound, a contact re-arms its closing event
-                         # only once its gap exceeds this; until then closing is detected at
-                         # g = −GAP_BAND. Without the band, solver noise (|g| ~ 1e-12 at a
-                         # release) re-closes the contact at once, over and over (chatter).
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
 REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes it (Zeno)
 DIVERGENCE_ENERGY = 1e3  # energy residual beyond this × energy scale means the run diverged
 MAX_STALLED_PHASES = 100 # consecutive phases that do not advance time: the event logic is stuck
 PROJECTION_ITERS = 3     # Newton iterations of the position projection onto C(q) = 0
 PROGRESS_EVERY = 0.25    # s of wall time between two progress reports
-
-
-@dataclass
-class Impact:
-    t: float
-    contact: int
-    vn_minus: float          # normal velocity ġ before (negative: approaching)
-    vn_plus: float           # after the impact (constraint law) or at separation (continuous laws)
-    energy_loss: float       # kinetic energy lost (constraint law) or dissipated in the episode
-    closed: bool = False     # the contact stayed closed after the impact
-    q: np.ndarray | None = field(default=None, repr=False)        # configuration at the impact
-    v_minus: np.ndarray | None = field(default=None, repr=False)  # velocities before / after
-    v_plus: np.ndarray | None = field(default=None, repr=False)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {k: v for k, v in asdict(self).items() if k not in ("q", "v_minus", "v_plus")}
 
 
 @dataclass
@@ -132,7 +114,9 @@ class Driver:
         self.impacts: list[Impact] = []
         self.rows: list[dict[str, float]] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
-        self.work: dict[str, float] = {k: 0.0 for k in sys_.power(0.0, q, v)}  # W(0) = 0, not NaN
+        self.approach_speed = np.full(sys_.n_contacts, np.nan)  # v₀ of each continuous-law episode
+        self._current = self._problem()
+        self.work: dict[str, float] = {k: 0.0 for k in self._power_terms(0.0, q, v)}  # W(0) = 0, not NaN
         self.d_impacts = 0.0
         terms0 = sys_.energy(q, v)
         self.E0 = float(sum(terms0.values()))
@@ -168,6 +152,8 @@ class Driver:
         except StepFailure as exc:
             msg = str(exc)
             status = "diverged" if msg.lower().startswith("diverged") else "failed"
+            if exc.t is not None:
+                self._t_last = max(self._t_last, float(exc.t))
             message = f"t = {self._t_last:.6g} s: {msg}"
         except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
             status, message = "failed", f"t = {self._t_last:.6g} s: {type(exc).__name__}: {exc}"
@@ -183,7 +169,7 @@ class Driver:
     # -- one smooth phase ----------------------------------------------------------
     def _phase(self, state: State) -> State:
         sys_ = self.system
-        problem = Problem(sys_, tuple(self.active))
+        problem = self._current = self._problem()
         a, lam = problem.acceleration(state.t, state.q, state.v)
         state = State(state.t, state.q, state.v, a, lam)
         if self.constraint_contacts and self.active:
@@ -195,24 +181,18 @@ class Driver:
                 self.armed[tensile] = False
                 self.last_release_t[tensile] = state.t  # a release like any other (see hold)
                 return state
-        if self.continuous_contacts:
-            law = sys_.contact_law
-            law.engaged[:] = False
-            law.engaged[list(self.penetrating)] = True
         in_contact = bool(self.active) or bool(self.penetrating)
-        h = self.integ.step_size(in_contact)
+        h = self.h = self.integ.step_size(in_contact)
         self.integ.start(problem, state, h)
         if self.out_i == 0 and state.t == 0.0:
             self._record_until(state, state, problem, 0.0)
         powers0 = self._power(state)
         batch = self._batch_ok(problem)
         while True:
-            if batch and not self.hold and not powers0 and self.out_i < len(self.t_out):
-                new = self._advance(problem)
-                prev = self.integ.prev
-            else:
-                prev = self.integ.state
-                new = self.integ.step(self.t_end)
+            watch = self._watch(problem) if (batch and not self.hold and not powers0
+                                             and self.out_i < len(self.t_out)) else None
+            adv = self._advance(watch)
+            prev, new = adv.prev, adv.new
             self._t_last = new.t
             self._last_state = new
             self._report_progress(new.t)
@@ -241,17 +221,16 @@ class Driver:
 
     # -- fast path: many quiet steps per call ----------------------------------------------
     def _batch_ok(self, problem: Problem) -> bool:
-        """Whether this phase may run through ``integ.advance`` (a compiled phase runner).
+        """Whether this phase may run many steps per call of ``integ.advance``.
 
-        Only when the integrator offers it for this problem, the model declares that it
-        has no non-conservative power outside contact (``system.power_free``), and no continuous
-        contact is penetrating. Within such a phase the per-step driver work on a step
+        Only when the model declares that it has no non-conservative power outside
+        contact (``system.power_free``) and no continuous contact is penetrating. Within such a phase the per-step driver work on a step
         without event, output time or sign change is exactly what the runner does itself
         (re-arming gaps, constraint maxima); the step that needs more is handed back and
         processed below like any other step, so results do not depend on the path."""
-        return self.system.power_free and not self.penetrating and self.integ.can_advance(problem)
+        return self.system.power_free and not self.penetrating
 
-    def _advance(self, problem: Problem) -> State:
+    def _watch(self, problem: Problem) -> Watch:
         sys_ = self.system
         k = sys_.n_bilateral
         inactive = np.array([i for i in range(sys_.n_contacts) if i not in self.active], dtype=np.int64) \
@@ -260,18 +239,31 @@ class Driver:
             if self.constraint_contacts else np.zeros(0, dtype=np.int64)
         armed = self.armed if self.armed.size else np.zeros(1, dtype=bool)
         cmax = np.array([self.cmax["C"], self.cmax["Cdot"], self.cmax["Cddot"]])
-        watch = BatchWatch(inactive, lam_rows, armed, self.continuous_contacts, problem.m > 0, cmax,
-                           float(self.t_out[self.out_i]), self.t_end)
-        t0 = self.integ.state.t
-        try:
-            return self.integ.advance(self.t_end, watch)
-        except StepFailure:
-            if self.integ.state.t > t0:  # quiet steps were taken before the failing one
-                self._t_last = self.integ.state.t
-                self._last_state = self.integ.state
-            raise
-        finally:
-            self.cmax.update(C=float(cmax[0]), Cdot=float(cmax[1]), Cddot=float(cmax[2]))
+        return Watch(inactive, lam_rows, armed.copy(), problem.m > 0, cmax, float(self.t_out[self.out_i]),
+                     self.t_end)
+
+    def _advance(self, watch: Watch | None) -> Advance:
+        """One call of the integrator; adopt its quiet steps' bookkeeping and the contact
+        episodes it resolved itself."""
+        adv = self.integ.advance(self.t_end, watch)
+        if watch is not None:
+            if self.armed.size:
+                self.armed = np.asarray(adv.armed, dtype=bool)[:self.armed.size].copy()
+            c = adv.cmax
+            self.cmax.update(C=float(c[0]), Cdot=float(c[1]), Cddot=float(c[2]))
+        self.impacts.extend(adv.events)
+        return adv
+
+    def _problem(self) -> Problem:
+        """The phase the driver is in: closed contacts, engaged continuous contacts, χ."""
+        sys_ = self.system
+        nc = sys_.n_contacts
+        engaged = np.zeros(nc)
+        chi = np.zeros(nc)
+        if self.continuous_contacts:
+            engaged[list(self.penetrating)] = 1.0
+            chi = sys_.contact_law.chi(self.approach_speed)
+        return Problem(sys_, tuple(self.active), engaged, chi)
 
     # -- events ------------------------------------------------------------------------
     def _find_event(self, prev: State, new: State, problem: Problem):
@@ -292,18 +284,19 @@ class Driver:
                         cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i], prev, new),
                                       "separate", i))
                     continue
+                closes, arms = gap_event(g1[i], self.armed[i])
                 off = 0.0 if self.armed[i] else GAP_BAND
-                if g1[i] < -off <= g0[i]:
+                if closes and g0[i] >= -off:
                     # the band decides whether the contact closed; where is g = 0 when the
                     # step started on or above the plane
                     at = 0.0 if g0[i] >= 0.0 else off
                     cands.append((self._root(lambda t: sys_.gap(self.integ.dense(t).q)[i] + at, prev, new),
                                   "close", i))
-                elif g1[i] < -off:
+                elif closes:
                     # the step started already (numerically) closed — e.g. a grazing re-contact
                     # right after a separation: contact at its start
                     cands.append((prev.t, "close", i))
-                elif g1[i] > GAP_BAND:
+                elif arms:
                     self.armed[i] = True
         if self.constraint_contacts and self.active:
             k = sys_.n_bilateral
@@ -346,15 +339,16 @@ class Driver:
                 res = impact_map(M, Gq[[i]], v, 0.0, np.vstack(bil))
             self.last_impact_t[i] = t
             self.d_impacts += res.energy_loss
-            self.impacts.append(Impact(t, i, float(res.vn_minus[0]), float(res.vn_plus[0]),
-                                       res.energy_loss, closed, q.copy(), v.copy(), res.v_plus.copy()))
+            self.impacts.append(Impact(t, i, float(res.vn_minus[0]), float(res.vn_plus[0]), res.energy_loss,
+                                       closed, float(res.impulse[0]), q=q.copy(), v_minus=v.copy(),
+                                       v_plus=res.v_plus.copy()))
             v = res.v_plus
             if closed:
                 self.active.append(i)
-                if t - self.last_release_t[i] <= self.integ.h:
+                if t - self.last_release_t[i] <= self.h:
                     self.hold.add(i)
                 # the impact was located on g = 0 (or −GAP_BAND): start the closed phase on it
-                q, v = project(Problem(sys_, tuple(self.active)), t, q, v)
+                q, v = project(self._problem(), t, q, v)
             self.armed[i] = False
         elif kind == "open":
             self.active.remove(i)
@@ -362,7 +356,7 @@ class Driver:
             self.last_release_t[i] = t
         elif kind == "close":  # continuous law: first touch
             vn = float(sys_.gap_jacobian(q)[i] @ v)
-            sys_.contact_law.approach_speed[i] = max(-vn, 1e-12)
+            self.approach_speed[i] = max(-vn, 1e-12)
             self.penetrating.add(i)
             self.episode_start_W[i] = self.work.get("contact", 0.0)
             self.impacts.append(Impact(t, i, vn, math.nan, math.nan))
@@ -374,12 +368,21 @@ class Driver:
                 if imp.contact == i and math.isnan(imp.vn_plus):
                     imp.vn_plus = vn
                     imp.energy_loss = self.episode_start_W.pop(i, math.nan) - self.work.get("contact", 0.0)
+                    imp.t_end = t
                     break
         return State(t, q, v)
 
     # -- bookkeeping -------------------------------------------------------------------
     def _power(self, s: State) -> dict[str, float]:
-        return self.system.power(s.t, s.q, s.v)
+        return self._power_terms(s.t, s.q, s.v)
+
+    def _power_terms(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
+        """The model's own non-conservative powers, and the continuous contact dissipation
+        while a contact penetrates."""
+        out = self.system.power(t, q, v)
+        if self.continuous_contacts and self.penetrating:
+            out = {**out, "contact": self._current.contact_power(q, v)}
+        return out
 
     def _accumulate_work(self, prev: State, end: State, p0: dict, p1: dict, problem: Problem) -> None:
         dt = end.t - prev.t
@@ -422,8 +425,12 @@ class Driver:
             self._check_divergence(to, row["energy_residual"], terms, work)
             if self.constraint_contacts or self.continuous_contacts:
                 row["n_active"] = len(self.active) + len(self.penetrating)
+            if self.continuous_contacts:
+                F = problem.contact_forces(s.q, s.v)
+                for i in range(sys_.n_contacts):
+                    row[f"contact_force_{i}"] = float(F[i])
             if problem.m and self.active:
-                C, Cd, Cdd = self._residuals(s, problem)
+                C, Cd, Cdd = problem.constraint_residuals(s.t, s.q, s.v, s.a)
                 row.update({"C": C, "Cdot": Cd, "Cddot": Cdd})
                 k = sys_.n_bilateral
                 for j, c in enumerate(self.active):
@@ -431,17 +438,10 @@ class Driver:
             self.rows.append(row)
             self.out_i += 1
 
-    def _residuals(self, s: State, problem: Problem) -> tuple[float, float, float]:
-        C = problem.constraint(s.t, s.q)
-        Cq = problem.constraint_jacobian(s.t, s.q)
-        Cd = Cq @ s.v + problem.constraint_t(s.t, s.q)
-        Cdd = Cq @ s.a - problem.constraint_gamma(s.t, s.q, s.v) if s.a.size == s.q.size else np.full(1, np.nan)
-        return float(np.max(np.abs(C))), float(np.max(np.abs(Cd))), float(np.max(np.abs(Cdd)))
-
     def _track_constraints(self, s: State, problem: Problem) -> None:
         if problem.m == 0:
             return
-        C, Cd, Cdd = self._residuals(s, problem)
+        C, Cd, Cdd = problem.constraint_residuals(s.t, s.q, s.v, s.a)
         self.cmax["C"] = max(self.cmax["C"], C)
         self.cmax["Cdot"] = max(self.cmax["Cdot"], Cd)
         if np.isfinite(Cdd):

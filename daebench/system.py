@@ -1,20 +1,18 @@
-"""The problem protocol: what a model provides and what an integrator may use.
+"""The model protocol: what a model provides, in Python.
 
-Two layers:
+:class:`MechanicalSystem` is a model (hub–beam, pendulum, Andrews, chain, …): its mass
+matrix, its generalized forces, its permanent (bilateral) constraints, its unilateral
+contact points (gap functions), its energy and the power of its non-conservative
+effects. Integrators never see it directly: they see one smooth phase of it, a
+:class:`daebench.problem.Problem`.
 
-* :class:`MechanicalSystem` — a model (hub–beam, pendulum, Andrews, chain, …).
-  It knows its mass matrix, its generalized forces, its permanent (bilateral)
-  constraints, its unilateral contact points (gap functions), its energy and
-  the power of its non-conservative effects.
-* :class:`Problem` — one *smooth phase* of a system: the bilateral constraints
-  plus the contact constraints that are currently closed (a fixed active set).
-  This is all an integrator ever sees::
+A model gives its physics either
 
-      M(q) q̈ + C_q(t, q)ᵀ λ = Q(t, q, v),     C(t, q) = 0,
-      C_q q̈ = γ(t, q, v)        (acceleration level, γ = −(C_q q̇)_q q̇ − …)
-
-  The driver (:mod:`daebench.simulate`) changes the active set between phases
-  and restarts the integrator; integrators never see a switch.
+* as compiled kernels (:mod:`daebench.kernels`) — subclass :class:`KernelSystem`,
+  return the kernel data from :meth:`kernel_data`, and the Python methods below are
+  derived from the kernels (the physics exists once); or
+* as plain Python methods — subclass :class:`MechanicalSystem` and override them; the
+  compiled integrators then call these methods back (:class:`daebench.kernels.PyModel`).
 
 Every array is a float64 NumPy array. ``q`` and ``v`` have length ``n``.
 """
@@ -22,22 +20,23 @@ Every array is a float64 NumPy array. ``q`` and ``v`` have length ``n``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from daebench import kernels
+from daebench.kernels import fd_step
 
 if TYPE_CHECKING:  # pragma: no cover
     from daebench.contact import ContactLaw
 
-FD_REL_STEP = 1e-7  # relative step of the central differences used as default Jacobians
-
 
 def central_difference(fun, x: np.ndarray, m: int) -> np.ndarray:
-    """Jacobian ∂fun/∂x (m × len(x)) by central differences."""
+    """Jacobian ∂fun/∂x (m × len(x)) by central differences (step :func:`daebench.kernels.fd_step`)."""
     x = np.asarray(x, dtype=float)
     jac = np.empty((m, x.size))
     for j in range(x.size):
-        dx = FD_REL_STEP * max(1.0, abs(x[j]))
+        dx = fd_step(float(x[j]))
         xp = x.copy()
         xm = x.copy()
         xp[j] += dx
@@ -55,10 +54,9 @@ class MechanicalSystem:
     implement the ``constraint*`` methods, models with contact the ``gap*``
     methods. Optional analytic Jacobians override :meth:`force_jacobian`.
 
-    Continuous contact laws (Hertz, penalty) are added to the applied force here,
-    once for every model, from the gap functions: ``Q = Q_applied + g_qᵀ F``.
-    With the ``constraint`` law the contact is instead a constraint handled by
-    the driver, and no force is added.
+    A continuous contact law (Hertz, penalty) is not the model's business: the phase
+    adds its force ``g_qᵀ F`` (:mod:`daebench.phase`). With the ``constraint`` law the
+    contact is a constraint handled by the driver.
     """
 
     n: int = 0
@@ -77,23 +75,11 @@ class MechanicalSystem:
         elastic, gravity, drive, damping. Shape (n,)."""
         raise NotImplementedError
 
-    def force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Total generalized force Q(t, q, v) seen by the integrator."""
-        Q = self.applied_force(t, q, v)
-        law = self.contact_law
-        if law is not None and law.continuous and self.n_contacts:
-            g = self.gap(q)
-            if np.any(g < 0.0):
-                Gq = self.gap_jacobian(q)
-                F = law.force(g, Gq @ v)
-                Q = Q + Gq.T @ F
-        return Q
-
     def force_jacobian(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(∂Q/∂q, ∂Q/∂v). Default: central differences of :meth:`force`."""
+        """(∂Q/∂q, ∂Q/∂v) of the applied force. Default: central differences."""
         n = self.n
-        Kq = central_difference(lambda x: self.force(t, x, v), q, n)
-        Kv = central_difference(lambda x: self.force(t, q, x), v, n)
+        Kq = central_difference(lambda x: self.applied_force(t, x, v), q, n)
+        Kv = central_difference(lambda x: self.applied_force(t, q, x), v, n)
         return Kq, Kv
 
     def mass_jacobian_product(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
@@ -135,15 +121,10 @@ class MechanicalSystem:
         raise NotImplementedError
 
     def power(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
-        """Power *into* the system of each non-conservative effect
-        (``torque`` > 0 when driving, ``damping`` ≤ 0, ``contact`` ≤ 0).
-        Default: the continuous contact law's dissipation only."""
-        law = self.contact_law
-        if law is not None and law.continuous and self.n_contacts:
-            g = self.gap(q)
-            if np.any(g < 0.0):
-                gdot = self.gap_jacobian(q) @ v
-                return {"contact": float(law.dissipation_power(g, gdot))}
+        """Power *into* the system of each of the model's own non-conservative effects
+        (``torque`` > 0 when driving, ``damping`` ≤ 0). The dissipation of a continuous
+        contact law is the phase's (:meth:`daebench.problem.Problem.contact_power`).
+        Default: none."""
         return {}
 
     def contact_potential(self, q: np.ndarray) -> float:
@@ -177,96 +158,88 @@ class MechanicalSystem:
     def total_energy(self, q: np.ndarray, v: np.ndarray) -> float:
         return float(sum(self.energy(q, v).values()))
 
-
-@dataclass
-class EvalCounters:
-    """Evaluations made through a :class:`Problem` (read by the integrator base)."""
-
-    residual_evals: int = 0
-    jacobian_evals: int = 0
+    def kernel_data(self) -> Any:
+        """The data compiled integrators dispatch on (:mod:`daebench.kernels`). Here: a
+        handle through which they call this model's Python methods."""
+        return kernels.python_handle(self)
 
 
-class Problem:
-    """One smooth phase: a system with a fixed set of active constraints.
+class KernelSystem(MechanicalSystem):
+    """A model whose physics is its compiled kernels (:mod:`daebench.kernels`).
 
-    Active constraints are the system's bilateral constraints followed by the
-    closed contacts listed in ``active`` (indices into the system's gaps), so
-    ``m = n_bilateral + len(active)``. A closed contact i is the constraint
-    C = −g_i(q) = 0. With  M q̈ + C_qᵀ λ = Q  this sign makes λ_i the normal
-    contact force, λ_i ≥ 0 compressive (admissible), λ_i < 0 tensile (the
-    contact must open).
+    Subclasses set ``self.data`` to their registered kernel data (and n, n_bilateral,
+    n_contacts) and implement the bookkeeping methods (energy, observables,
+    initial_state, power); mass, forces, Jacobians, constraints and gaps are derived
+    from the kernels here.
     """
 
-    def __init__(self, system: MechanicalSystem, active: tuple[int, ...] = ()):
-        self.system = system
-        self.active = tuple(int(i) for i in active)
-        self.n = system.n
-        self.m = system.n_bilateral + len(self.active)
-        self.counters = EvalCounters()
+    data: Any = None
 
-    # -- dynamics ---------------------------------------------------------
+    def kernel_data(self) -> Any:
+        return self.data
+
+    def mass_and_force(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        M = np.empty((self.n, self.n))
+        Q = np.empty(self.n)
+        kernels.mass_force(self.data, float(t), _f(q), _f(v), M, Q)
+        return M, Q
+
     def mass(self, q: np.ndarray) -> np.ndarray:
-        return self.system.mass(q)
+        return self.mass_and_force(0.0, q, np.zeros(self.n))[0]
 
-    def force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        self.counters.residual_evals += 1
-        return self.system.force(t, q, v)
+    def applied_force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self.mass_and_force(t, q, v)[1]
 
     def force_jacobian(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        self.counters.jacobian_evals += 1
-        return self.system.force_jacobian(t, q, v)
+        Kq = np.empty((self.n, self.n))
+        Kv = np.empty((self.n, self.n))
+        kernels.force_jacobian(self.data, float(t), _f(q), _f(v), Kq, Kv)
+        return Kq, Kv
 
     def mass_jacobian_product(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
-        return self.system.mass_jacobian_product(q, a)
+        K = np.empty((self.n, self.n))
+        kernels.mass_jacobian_product(self.data, _f(q), _f(a), K)
+        return K
 
-    # -- active constraints ----------------------------------------------------
+    def _constraint_rows(self, t: float, q: np.ndarray, v: np.ndarray | None = None):
+        nb, n = self.n_bilateral, self.n
+        C, Cq, Ct, gam = np.zeros(nb), np.zeros((nb, n)), np.zeros(nb), np.zeros(nb)
+        if nb:
+            kernels.constraints(self.data, float(t), _f(q), np.zeros(n) if v is None else _f(v), C, Cq, Ct, gam)
+        return C, Cq, Ct, gam
+
     def constraint(self, t: float, q: np.ndarray) -> np.ndarray:
-        parts = [self.system.constraint(t, q)]
-        if self.active:
-            parts.append(-self.system.gap(q)[list(self.active)])
-        return np.concatenate(parts)
+        return self._constraint_rows(t, q)[0]
 
     def constraint_jacobian(self, t: float, q: np.ndarray) -> np.ndarray:
-        parts = [self.system.constraint_jacobian(t, q).reshape(-1, self.n)]
-        if self.active:
-            parts.append(-self.system.gap_jacobian(q)[list(self.active)])
-        return np.vstack(parts)
+        return self._constraint_rows(t, q)[1]
 
     def constraint_t(self, t: float, q: np.ndarray) -> np.ndarray:
-        return np.concatenate([self.system.constraint_t(t, q), np.zeros(len(self.active))])
+        return self._constraint_rows(t, q)[2]
 
     def constraint_gamma(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        parts = [self.system.constraint_gamma(t, q, v)]
-        if self.active:
-            parts.append(-self.system.gap_gamma(q, v)[list(self.active)])
-        return np.concatenate(parts)
+        return self._constraint_rows(t, q, v)[3]
 
-    def constraint_force_jacobian(self, t: float, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
-        """∂(C_qᵀ λ)/∂q at fixed λ, by central differences (n × n)."""
-        if self.m == 0:
-            return np.zeros((self.n, self.n))
-        return central_difference(lambda x: self.constraint_jacobian(t, x).T @ lam, q, self.n)
+    def _gap_rows(self, q: np.ndarray, v: np.ndarray | None = None):
+        k, n = self.n_contacts, self.n
+        g, G, gam = np.zeros(k), np.zeros((k, n)), np.zeros(k)
+        qq, vv = _f(q), np.zeros(n) if v is None else _f(v)
+        for i in range(k):
+            g[i], gam[i] = kernels.gap(self.data, i, qq, vv, G[i])
+        return g, G, gam
 
-    # -- helpers every integrator needs ----------------------------------------
-    def acceleration(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Consistent (q̈, λ) from the augmented system
-        [[M, C_qᵀ], [C_q, 0]] [q̈; λ] = [Q; γ]."""
-        M = self.mass(q)
-        Q = self.force(t, q, v)
-        if self.m == 0:
-            return np.linalg.solve(M, Q), np.zeros(0)
-        Cq = self.constraint_jacobian(t, q)
-        gam = self.constraint_gamma(t, q, v)
-        n, m = self.n, self.m
-        A = np.zeros((n + m, n + m))
-        A[:n, :n] = M
-        A[:n, n:] = Cq.T
-        A[n:, :n] = Cq
-        sol = np.linalg.solve(A, np.concatenate([Q, gam]))
-        return sol[:n], sol[n:]
+    def gap(self, q: np.ndarray) -> np.ndarray:
+        return self._gap_rows(q)[0]
 
-    def energy(self, q: np.ndarray, v: np.ndarray) -> float:
-        return self.system.total_energy(q, v)
+    def gap_jacobian(self, q: np.ndarray) -> np.ndarray:
+        return self._gap_rows(q)[1]
+
+    def gap_gamma(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self._gap_rows(q, v)[2]
+
+
+def _f(x: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(x, dtype=np.float64)
 
 
 @dataclass

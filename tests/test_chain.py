@@ -24,7 +24,8 @@ from daebench.models.chain import Chain, effective_restitution, energetic_restit
 from daebench.runner import run_scene
 from daebench.scene import SceneError, load_scene
 from daebench.simulate import simulate
-from daebench.system import Problem, State
+from daebench.problem import Problem
+from daebench.system import State
 
 IDA_TIGHT = {"rtol": 1e-10, "atol": 1e-12}
 # two free masses (no springs): m3 starts 1 mm left of m4 at 1 m/s
@@ -34,14 +35,18 @@ RESTITUTIONS = (0.3, 0.5, 0.8, 0.9, 1.0)
 
 
 def run_lcp(system: Chain, h: float, t_end: float, theta: float = 0.5):
-    """Step the lcp integrator by hand (no driver) and keep every state."""
+    """Step the lcp integrator by hand (no driver); keep every state and the contact
+    episodes it reports."""
     integ = ComplementarityLCP(h=h, gap_weight=theta)
     p = Problem(system)
     q, v = system.initial_state()
     integ.start(p, State(0.0, q, v, np.zeros(6), np.zeros(1)), h)
     states = [integ.state]
-    while integ.state.t < t_end - 1e-12:
-        states.append(integ.step(t_end))
+    integ.episodes = []
+    while states[-1].t < t_end - 1e-12:
+        adv = integ.advance(t_end)
+        states.append(adv.new)
+        integ.episodes += adv.events
     return integ, states
 
 
@@ -56,15 +61,24 @@ def test_initial_state_is_the_static_equilibrium_of_the_pulled_chain():
     assert ch.total_energy(q, v) == pytest.approx(1.5)       # 3 springs × ½ k (0.01)²
 
 
-def test_analytic_contact_tangent_matches_differences():
+def test_contact_jacobian_matches_the_analytic_hertz_tangent():
+    """The phase's contact-force Jacobian (central differences) against the tangent of
+    F = K δⁿ (1 + χ δ̇) written out: ∂F/∂δ = nKδⁿ⁻¹(1 + χδ̇), ∂F/∂δ̇ = Kδⁿχ, g = x4 − x3."""
     ch = Chain(restitution=0.7)
-    ch.contact_law.approach_speed[:] = 0.9
+    law = ch.contact_law
+    chi = law.chi(np.array([0.9]))
+    p = Problem(ch, engaged=np.ones(1), chi=chi)
     q = np.array([0.0, 0.0, 1e-4, -2e-4, 0.0, 0.0])
     v = np.array([0.0, 0.1, 0.5, -0.2, 0.0, 0.3])
-    Kq, Kv = ch.force_jacobian(0.0, q, v)
-    Kq_fd, Kv_fd = Chain.__mro__[1].force_jacobian(ch, 0.0, q, v)  # the base class: differences
-    assert np.allclose(Kq, Kq_fd, rtol=1e-6, atol=1e-3)
-    assert np.allclose(Kv, Kv_fd, rtol=1e-6, atol=1e-6)
+    Kq, Kv = p.force_jacobian(0.0, q, v)
+    delta, ddot = -(q[3] - q[2]), -(v[3] - v[2])
+    n, K = law.exponent, law.stiffness
+    G = np.array([0.0, 0.0, -1.0, 1.0, 0.0, 0.0])
+    GG = np.outer(G, G)
+    Kq_exact = -ch.K - n * K * delta ** (n - 1.0) * (1.0 + chi[0] * ddot) * GG
+    Kv_exact = -K * delta ** n * chi[0] * GG
+    assert np.allclose(Kq, Kq_exact, rtol=1e-6, atol=1e-3)
+    assert np.allclose(Kv, Kv_exact, rtol=1e-6, atol=1e-6)
 
 
 def test_undamped_hertz_conserves_energy():
@@ -107,7 +121,7 @@ def _lcp_pair_restitution(theta: float, phase: float, h: float = 1e-4) -> float:
     # the free flight to contact ends `phase` of a step before a step boundary
     ch = Chain(stiffness=0.0, pull=1e-3 + phase * h, velocity=1.0, law="complementarity")
     integ, _ = run_lcp(ch, h, 4e-3, theta)
-    return effective_restitution(integ.impacts)
+    return effective_restitution(integ.episodes)
 
 
 def test_effective_restitution_table():
@@ -198,8 +212,10 @@ def test_complementarity_energy_through_the_driver():
         res = simulate(Chain(law="complementarity"), integ, sc.t_end, sc["output.dt"])
         assert res.status == "completed", res.message
         E0 = res.history["E"].iloc[0]
+        # the integrator's contact episodes reach the run record like the driver's impacts
+        assert len(res.impacts) >= 1 and all(i.impulse > 0.0 and math.isfinite(i.min_gap) for i in res.impacts)
         out[theta] = (res.history["E"].iloc[-1] / E0 - 1.0, integ.min_gap, integ.min_force,
-                      effective_restitution(integ.impacts), len(integ.impacts))
+                      effective_restitution(res.impacts), len(res.impacts))
     print("\nlcp on chain-impact, h = 1e-4, t_end = 0.1: θ, E(t_end)/E0 − 1, min gap, min force, "
           "e_eff (1st episode), episodes")
     for th, row in out.items():

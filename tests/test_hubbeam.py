@@ -8,6 +8,8 @@ import math
 import numpy as np
 import pytest
 
+from daebench.problem import Problem
+
 from daebench.models import build_system
 from daebench.models.hubbeam import HubBeam, hertz_default_stiffness
 from daebench.scene import SceneError, load_scene
@@ -143,8 +145,8 @@ def test_jacobians_match_finite_differences(kind):
         q, v = random_state(s)
         a = RNG.standard_normal(s.n)
         Kq, Kv = s.force_jacobian(t, q, v)
-        assert rel(Kq, fd(lambda x: s.force(t, x, v), q)) < 1e-6
-        assert rel(Kv, fd(lambda x: s.force(t, q, x), v)) < 1e-6
+        assert rel(Kq, fd(lambda x: s.applied_force(t, x, v), q)) < 1e-6
+        assert rel(Kv, fd(lambda x: s.applied_force(t, q, x), v)) < 1e-6
         assert rel(s.mass_jacobian_product(q, a), fd(lambda x: s.mass(x) @ a, q)) < 1e-6
         assert rel(s.gap_jacobian(q), fd(lambda x: s.gap(x), q)) < 1e-6
         # γ_g = −(g_q v)_q v
@@ -165,15 +167,17 @@ def test_gap_second_derivative_along_motion():
 
 
 def test_hertz_contact_jacobian_when_penetrating():
+    """The phase's force with an engaged Hertz contact: model force + g_qᵀF, Jacobian
+    against differences of the total force."""
     s = system("beam-impact", ["contact.law=hertz", "contact.restitution=0.5"])
-    s.contact_law.approach_speed[:] = 1.0
+    p = Problem(s, engaged=np.ones(1), chi=s.contact_law.chi(np.array([1.0])))
     q, v = random_state(s, scale=0.1)
     q[0] = -0.002  # tip below the plane through the hinge
     v[0] = -0.5
     assert s.gap(q)[0] < 0
-    Kq, Kv = s.force_jacobian(0.0, q, v)
-    assert rel(Kq, fd(lambda x: s.force(0.0, x, v), q, h=1e-8)) < 1e-5
-    assert rel(Kv, fd(lambda x: s.force(0.0, q, x), v, h=1e-8)) < 1e-5
+    Kq, Kv = p.force_jacobian(0.0, q, v)
+    assert rel(Kq, fd(lambda x: p.force(0.0, x, v), q, h=1e-8)) < 1e-5
+    assert rel(Kv, fd(lambda x: p.force(0.0, q, x), v, h=1e-8)) < 1e-5
 
 
 # ---------------------------------------------------------------------------
@@ -181,7 +185,7 @@ def test_hertz_contact_jacobian_when_penetrating():
 def energy_rate(s: HubBeam, t: float, q: np.ndarray, v: np.ndarray) -> tuple[float, float]:
     """(E′ = ∂E/∂q·v + ∂E/∂v·M⁻¹Q, scale of its terms), both partial derivatives by
     central differences (separately, so that stiff axial terms don't spoil the step)."""
-    acc = np.linalg.solve(s.mass(q), s.force(t, q, v))
+    acc = np.linalg.solve(s.mass(q), s.applied_force(t, q, v))
     h = 1e-5
     dE_q = (s.total_energy(q + h * v, v) - s.total_energy(q - h * v, v)) / (2 * h)
     # E is quadratic in v, so a central difference in v is exact for any step: take a large one
@@ -262,20 +266,21 @@ def test_fem_allows_many_elements():
 
 
 def test_kernels_callable_from_compiled_code():
-    """The contract for compiled integrator loops: kernel_args + mass_force from @njit."""
+    """The contract for compiled integrator loops: the generic kernels of
+    daebench.kernels called from @njit code on the model's data."""
     from numba import njit
 
-    from daebench.models import _hubbeam_kernels as kern
+    from daebench import kernels
 
     @njit
-    def call(t, q, v, args, M, Q, work):
-        kern.mass_force(t, q, v, *args, True, M, Q, work)
+    def call(md, t, q, v, M, Q):
+        kernels.mass_force(md, t, q, v, M, Q)
 
     s = all_effects("modes")
     q, v = random_state(s)
     M = np.empty((s.n, s.n))
     Q = np.empty(s.n)
-    call(0.4, q, v, s.kernel_args, M, Q, np.zeros_like(s._work))
+    call(s.kernel_data(), 0.4, q, v, M, Q)
     M_ref, Q_ref = s.mass_and_force(0.4, q, v)
     assert np.array_equal(M, M_ref) and np.array_equal(Q, Q_ref)
     assert np.allclose(M, M.T, rtol=0, atol=1e-15 * np.abs(M).max())

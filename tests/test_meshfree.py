@@ -188,8 +188,8 @@ def test_meshfree_model_jacobians_and_lagrange():
     v[s.iB] = 0.5 * RNG.standard_normal(s.nB)
     t = 0.6
     Kq, Kv = s.force_jacobian(t, q, v)
-    assert rel(Kq, fd(lambda x: s.force(t, x, v), q)) < 1e-6
-    assert rel(Kv, fd(lambda x: s.force(t, q, x), v)) < 1e-6
+    assert rel(Kq, fd(lambda x: s.applied_force(t, x, v), q)) < 1e-6
+    assert rel(Kv, fd(lambda x: s.applied_force(t, q, x), v)) < 1e-6
     # Q_v from Lagrange's equations: ∂T/∂q − Ṁ v
     Qv = s.applied_force(0.0, q, v) - s.applied_force(0.0, q, np.zeros(s.n))
     s0 = build_system(load_scene("hub-beam-meshfree", ["discretization.n=5", "effects.torque=false"]))

@@ -7,7 +7,8 @@ from scipy.integrate import solve_ivp
 from daebench.models import build_system
 from daebench.models.pendulum import Pendulum, exact_theta
 from daebench.scene import SceneError, load_scene
-from daebench.system import Problem, central_difference
+from daebench.problem import Problem
+from daebench.system import central_difference
 
 G, L = 9.81, 1.0
 

@@ -96,7 +96,7 @@ def test_ball_impacts_match_closed_form(e):
     # energy balance closes: E(t) − E0 + D_impacts = 0 (no other non-conservative effect).
     # With e > 0 the Zeno tail has rebounds shorter than a step; they are located at the
     # GAP_BAND and the projection onto g = 0 costs at most m g GAP_BAND.
-    from daebench.simulate import GAP_BAND
+    from daebench.stepping.watch import GAP_BAND
 
     assert res.energy_residual < (1e-11 if e == 0 else 1.01 * ball.m * G * GAP_BAND)
 

@@ -20,6 +20,21 @@ Implementer's contract (rule by rule, in the spirit of ``scipy.integrate.OdeSolv
    through the problem are counted automatically; steps are counted by the base.
 5. Optionally override :meth:`dense` (the default is a cubic Hermite interpolant
    of q and v between the last two states, linear in λ).
+6. Step control: a fixed-step method takes ``self.h``; every method lands exactly on
+   ``t_stop`` with :func:`daebench.stepping.control.land` (a step within SNAP·h of it
+   ends on it). An adaptive method uses a :class:`daebench.stepping.control.StepControl`
+   (``self.step_control()``: fixed h, or error control to rtol/atol for the declared
+   order) and :func:`daebench.stepping.control.judge` to accept or reject.
+7. An integrator that resolves contacts itself (``capabilities.contacts``) reports
+   each contact episode with :meth:`report_contact`; the driver books it like an impact.
+
+The driver talks to an integrator through :meth:`start`, :meth:`advance` (which returns
+an :class:`Advance` value) and :meth:`dense`; it reads no other attribute. An integrator
+reads the phase from its :class:`~daebench.problem.Problem` and nothing else.
+
+For speed, subclass :class:`daebench.integrators.compiled.CompiledIntegrator` instead:
+write the step as a compiled stepper (:mod:`daebench.stepping.methods`) and the base
+runs it many steps per call, fixed or adaptive, on every model.
 
 Built-ins register under the entry-point group ``daebench.integrators``; a third-
 party package does the same in its own ``pyproject.toml``.
@@ -28,20 +43,29 @@ party package does the same in its own ``pyproject.toml``.
 from __future__ import annotations
 
 import sys
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from importlib.metadata import entry_points
 from typing import Any, ClassVar
 
 import numpy as np
 
+from daebench.contact import Impact
 from daebench.params import Param, ParamError, did_you_mean
-from daebench.system import Problem, State
+from daebench.problem import Problem
+from daebench.stepping import control
+from daebench.stepping.watch import Watch
+from daebench.system import State
 
 ENTRY_POINT_GROUP = "daebench.integrators"
 
 
 class StepFailure(RuntimeError):
-    """An integrator could not take a step (Newton failure, step size underflow …)."""
+    """An integrator could not take a step (Newton failure, step size underflow …).
+    ``t`` is the time reached before the failing step, when known."""
+
+    def __init__(self, message: str, t: float | None = None):
+        super().__init__(message)
+        self.t = t
 
 
 class IntegratorError(ParamError):
@@ -147,6 +171,7 @@ class Integrator:
         self.prev: State | None = None
         self.h = 0.0
         self._eval_base = (0, 0)
+        self._events: list[Impact] = []
 
     # -- configuration ------------------------------------------------------
     def _check_settings(self) -> None:
@@ -197,20 +222,30 @@ class Integrator:
         self.counters.steps += 1
         return new
 
-    def can_advance(self, problem: Problem) -> bool:
-        """Whether :meth:`advance` runs many steps per call on ``problem`` (a compiled
-        phase runner). Default False: the driver calls :meth:`step` once per step."""
-        return False
+    def advance(self, t_stop: float, watch: Watch | None = None) -> Advance:
+        """Advance one or more accepted steps, never past ``t_stop``. The default takes one
+        :meth:`step`. An integrator may take several when given a ``watch``, stopping after
+        the first step the driver must see (:func:`daebench.stepping.watch.quiet`) and
+        doing the quiet steps' bookkeeping on its own copies of the watch's arrays."""
+        prev = self.state
+        new = self.step(t_stop)
+        return Advance(prev, new, 1, None if watch is None else watch.armed,
+                       None if watch is None else watch.cmax, self._take_events())
 
-    def advance(self, t_stop: float, watch: "BatchWatch | None" = None) -> State:
-        """Advance one or more accepted steps and return the new state; afterwards
-        ``self.prev`` is the state before the *last* step, which is the one the driver
-        inspects for events. The default is a single :meth:`step`. An integrator that
-        returns True from :meth:`can_advance` may take several steps, stopping after the
-        first step that ``watch`` says the driver must see (see
-        :class:`BatchWatch`); the earlier ("quiet") steps' bookkeeping — re-arming gaps,
-        constraint maxima — is done by the integrator into ``watch``."""
-        return self.step(t_stop)
+    def report_contact(self, event: Impact) -> None:
+        """Book a contact episode resolved inside the steps (contact-resolving methods)."""
+        self._events.append(event)
+
+    def _take_events(self) -> list[Impact]:
+        out, self._events = self._events, []
+        return out
+
+    def step_control(self) -> control.StepControl:
+        """Fixed ``h`` or, with ``adaptive``, error control to (rtol, atol) for the
+        declared order (the first step is ``h``)."""
+        if self.adaptive:
+            return control.adaptive(self.h, self.settings["rtol"], self.settings["atol"], self.capabilities.order)
+        return control.fixed(self.h)
 
     def dense(self, t: float) -> State:
         """State at t within the last step: cubic Hermite in q (using v) and in v
@@ -240,26 +275,17 @@ class Integrator:
 
 
 @dataclass
-class BatchWatch:
-    """What the driver watches, handed to :meth:`Integrator.advance`.
+class Advance:
+    """What :meth:`Integrator.advance` hands the driver: the last step (prev → new), how
+    many accepted steps were taken, the watch's re-armed contacts and constraint maxima
+    after the quiet steps, and the contact episodes the integrator resolved itself."""
 
-    A step is *quiet* (needs no driver attention) when no inactive contact's gap fell
-    below its closing threshold (−0 if ``armed``, else −GAP_BAND; with a ``continuous``
-    law any negative gap counts), no multiplier in ``lam_rows`` is negative, the state is
-    finite, and neither ``t_out_next`` (minus 1e-12·max(1, t_end)) nor ``t_end`` was
-    reached. For quiet steps the integrator sets ``armed[i]`` once gap i exceeds the band
-    and, if ``track``, raises ``cmax`` = [max|C|, max|Ċ|, max|C̈|] (arrays updated in place).
-    """
-
-    inactive: np.ndarray        # int64: open contacts whose closing is watched
-    lam_rows: np.ndarray        # int64: rows of λ of closed contacts (opening when λ < 0)
-    armed: np.ndarray           # bool, per contact (updated in place)
-    continuous: bool
-    track: bool
-    cmax: np.ndarray            # float64[3] (updated in place)
-    t_out_next: float
-    t_end: float
-    max_steps: int = 2000
+    prev: State
+    new: State
+    steps: int
+    armed: np.ndarray | None = None
+    cmax: np.ndarray | None = None
+    events: list[Impact] = field(default_factory=list)
 
 
 def hermite_state(s0: State, s1: State, t: float) -> State:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from daebench.integrators._newmark_family import NEWTON_SETTINGS, NewmarkFamily
 from daebench.integrators.base import ADAPTIVE_SETTINGS, STEP_SETTINGS, Capabilities, Setting
+from daebench.integrators.family import NEWTON_SETTINGS, Coefficients, NewmarkFamily, hht_coefficients
 
 ALPHA_DEFAULT = -0.15  # the middle value of the beam-impact paper's {0, −0.15, −1/3}; ρ∞ ≈ 0.74
 
@@ -21,8 +21,9 @@ class HHT(NewmarkFamily):
         C(q_{n+1}) = 0,   C_q v_{n+1} + C_t = 0  (GGL: q_{n+1} += C_qᵀ μ),
 
     solved by Newton on the scaled unknowns (q_{n+1}, βh²λ, μ); see
-    :mod:`daebench.integrators._newmark_family` for the formulation, the scaling
-    and the convergence test.
+    :mod:`daebench.stepping.newmark` for the formulation, the scaling and the
+    convergence test. In the family's terms (:mod:`daebench.integrators.family`):
+    α_m = 0, α_f = −α, force averaging.
 
     Settings
     --------
@@ -74,6 +75,5 @@ class HHT(NewmarkFamily):
         *NEWTON_SETTINGS,
     )
 
-    def _coefficients(self) -> tuple[float, float, float, bool]:
-        a = float(self.settings["alpha"])
-        return a, 0.25 * (1.0 - a) ** 2, 0.5 - a, bool(self.settings["ggl"])
+    def coefficients(self) -> Coefficients:
+        return hht_coefficients(float(self.settings["alpha"]), bool(self.settings["ggl"]))

@@ -56,16 +56,14 @@ either way; 5.8e3 residual calls and 1.23 s assembled, 12.5e3 and 1.43 s FD.
 
 Compiled residual
 -----------------
-When the model exposes compiled kernels (``system.kernels()``; hub–beam, pendulum) the
-residual is one numba call (:mod:`daebench.integrators._compiled_ida`) through the same
-kernels the Python path uses; ``DAEBENCH_COMPILED=0`` restores the Python residual. The
-Jacobian stays in Python (one per ~40 steps). :meth:`IDA.advance` lets the driver hand
+The residual is one numba call (:func:`ggl_residual`) on the phase
+(:mod:`daebench.phase`), for every model. The Jacobian is assembled in Python from the
+problem's compiled pieces (one per ~40 steps). :meth:`IDA.advance` lets the driver hand
 over many steps per call, with each quiet step checked by one compiled call
-(:func:`daebench.integrators._compiled_watch.quiet`). Measured on beam-impact (t_end 0.5 s,
-default tolerances, 87.6e3 steps): 17.5 s → 9.5 s (compiled residual, cheaper driver
-checks) → 5.9 s (advance); SUNDIALS' own step is now about half of the time. Results agree
-with the Python residual to round-off, and advance() takes exactly the steps of the
-one-step loop (tests/test_ida.py).
+(:func:`daebench.stepping.watch.quiet`). Measured on beam-impact (t_end 0.5 s, default
+tolerances, 87.6e3 steps): 17.5 s → 9.5 s (compiled residual, cheaper driver checks) →
+5.9 s (advance); SUNDIALS' own step is now about half of the time; advance() takes exactly
+the steps of the one-step loop (tests/test_ida.py).
 
 Dense output
 ------------
@@ -104,13 +102,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from sksundae.ida import IDA as _SundaeIDA
 
-from daebench.integrators import _compiled_ida as _ci
-from daebench.integrators import _compiled_models as _cm
-from daebench.integrators import _compiled_watch as _cw
+from daebench import phase
 from daebench.integrators.base import (
     STEP_SETTINGS,
+    Advance,
     Capabilities,
     Integrator,
     IntegratorError,
@@ -118,11 +116,42 @@ from daebench.integrators.base import (
     StepFailure,
     hermite_state,
 )
-from daebench.system import State, central_difference
+from daebench.stepping import watch as _watch
+from daebench.stepping.methods import StateArrays
+from daebench.system import State
 
 MAX_NUM_STEPS = 500  # IDA's limit per call; one call = one internal step here
 ALG_ATOL_DEFAULT = 1e10  # absolute tolerance of λ, μ: takes them out of the error test
 DENSE_EDGE = 1e-10  # relative distance to the step end below which dense() returns the end state
+MAX_STEPS_PER_CALL = 2000  # advance(): keeps the driver responsive
+
+
+@njit(cache=True)
+def ggl_residual(ph, m, t, y, yp, res, M, Q, C, Cq, Ct, gam):
+    """F(t, y, ẏ) of the GGL form, y = (q, v, λ, μ) (module docstring), into ``res``."""
+    n = M.shape[0]
+    q = y[:n]
+    v = y[n:2 * n]
+    phase.mass_force(ph, t, q, v, M, Q)
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += M[i, j] * yp[n + j]
+        res[i] = yp[i] - v[i]
+        res[n + i] = acc - Q[i]
+    if m == 0:
+        return
+    phase.constraints(ph, t, q, v, C, Cq, Ct, gam)
+    for r in range(m):
+        lam = y[2 * n + r]
+        mu = y[2 * n + m + r]
+        cv = 0.0
+        for i in range(n):
+            res[i] += Cq[r, i] * mu
+            res[n + i] += Cq[r, i] * lam
+            cv += Cq[r, i] * v[i]
+        res[2 * n + r] = C[r]
+        res[2 * n + m + r] = cv + Ct[r]
 
 
 class IDA(Integrator):
@@ -184,7 +213,6 @@ class IDA(Integrator):
         self._n = self._m = 0
         self._nfev = self._njev = 0
         self._ida_t = 0.0
-        self._md = None
 
     def _check_settings(self) -> None:
         if not self.settings["adaptive"]:
@@ -203,12 +231,8 @@ class IDA(Integrator):
         # even if the driver's impact map left them stale.
         a, lam = p.acceleration(st.t, st.q, st.v)
         st.a, st.lam = a, lam
-        # compiled residual when the model exposes kernels (None: the Python path below)
-        self._md = _cm.descriptor(p.system)
-        if self._md is not None:
-            self._c_active = np.array(p.active, dtype=np.int64)
-            self._c_M, self._c_Q = np.zeros((n, n)), np.zeros(n)
-            self._c_C, self._c_Cq, self._c_Ct, self._c_gam = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
+        self._c_M, self._c_Q = np.zeros((n, n)), np.zeros(n)
+        self._c_C, self._c_Cq, self._c_Ct, self._c_gam = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
         solver = self._solver_for(n, m)
         y0 = np.concatenate([st.q, st.v, lam, np.zeros(m)]) if m else np.concatenate([st.q, st.v])
         yp0 = np.concatenate([st.v, a, np.zeros(2 * m)])
@@ -240,26 +264,9 @@ class IDA(Integrator):
 
     # -- residual and Jacobian ----------------------------------------------------
     def _res(self, t: float, y: np.ndarray, yp: np.ndarray, res: np.ndarray) -> None:
-        p, n, m = self.problem, self._n, self._m
-        if self._md is not None:
-            p.counters.residual_evals += 1  # as Problem.force counts on the Python path
-            _ci.ggl_residual(self._md, self._c_active, m, t, y, yp, res, self._c_M, self._c_Q,
-                             self._c_C, self._c_Cq, self._c_Ct, self._c_gam)
-            return
-        q, v = y[:n], y[n:2 * n]
-        qd, vd = yp[:n], yp[n:2 * n]
-        M = p.mass(q)
-        Q = p.force(t, q, v)
-        if m == 0:
-            res[:n] = qd - v
-            res[n:] = M @ vd - Q
-            return
-        lam, mu = y[2 * n:2 * n + m], y[2 * n + m:]
-        Cq = p.constraint_jacobian(t, q)
-        res[:n] = qd - v + Cq.T @ mu
-        res[n:2 * n] = M @ vd + Cq.T @ lam - Q
-        res[2 * n:2 * n + m] = p.constraint(t, q)
-        res[2 * n + m:] = Cq @ v + p.constraint_t(t, q)
+        self.problem.counters.residual_evals += 1
+        ggl_residual(self.problem.kernel, self._m, t, y, yp, res, self._c_M, self._c_Q, self._c_C, self._c_Cq,
+                     self._c_Ct, self._c_gam)
 
     def _jac(self, t: float, y: np.ndarray, yp: np.ndarray, res: np.ndarray, cj: float,
              JJ: np.ndarray) -> None:
@@ -282,8 +289,7 @@ class IDA(Integrator):
         JJ[n:2 * n, :n] += p.constraint_force_jacobian(t, q, lam)
         JJ[n:2 * n, 2 * n:2 * n + m] = Cq.T
         JJ[2 * n:2 * n + m, :n] = Cq
-        JJ[2 * n + m:, :n] = central_difference(
-            lambda x: p.constraint_jacobian(t, x) @ v + p.constraint_t(t, x), q, m)
+        JJ[2 * n + m:, :n] = p.velocity_constraint_jacobian(t, q, v)
         JJ[2 * n + m:, n:2 * n] = Cq
 
     # -- stepping ---------------------------------------------------------------------
@@ -331,30 +337,25 @@ class IDA(Integrator):
         return self._unpack(t_new, y, yp)
 
     # -- many steps per call (the driver's fast path) ---------------------------------
-    def can_advance(self, problem) -> bool:
-        return self._md is not None and problem is self.problem
-
-    def advance(self, t_stop: float, watch=None) -> State:
-        """Take IDA steps until one the driver must see (:class:`BatchWatch`): the quiet
-        steps' checks, re-arming and constraint maxima run compiled
-        (:func:`daebench.integrators._compiled_watch.quiet`). Same steps, same states as
-        stepping through the driver one at a time."""
-        if watch is None or not self.can_advance(self.problem):
-            return self.step(t_stop)
+    def advance(self, t_stop: float, watch: _watch.Watch | None = None) -> Advance:
+        """Take IDA steps until one the driver must see (:func:`daebench.stepping.watch.quiet`):
+        the quiet steps' checks, re-arming and constraint maxima run compiled. Same steps,
+        same states as stepping through the driver one at a time."""
+        if watch is None:
+            return super().advance(t_stop, None)
         n, m = self._n, self._m
-        k = max(int(watch.armed.shape[0]), 1)
-        g, zeros = np.empty(k), np.zeros(n)
-        mm = max(m, 1)
-        C, Cq, Ct, gam = np.empty(mm), np.empty((mm, n)), np.empty(mm), np.empty(mm)
+        w = _watch.Watch(watch.inactive, watch.lam_rows, watch.armed.copy(), watch.track, watch.cmax.copy(),
+                         watch.t_out_next, watch.t_end)
+        C, Cq, Ct, gam = np.empty(m), np.empty((m, n)), np.empty(m), np.empty(m)
         t_end_tol = 1e-15 * max(1.0, float(t_stop))
-        for _ in range(int(watch.max_steps)):
+        prev = self.state
+        for k in range(1, MAX_STEPS_PER_CALL + 1):
+            prev = self.state
             new = self.step(t_stop)
-            if new.t >= t_stop - t_end_tol or not _cw.quiet(
-                    self._md, self._c_active, watch.inactive, watch.lam_rows, watch.armed, bool(watch.continuous),
-                    bool(watch.track), watch.cmax, float(new.t), new.q, new.v, new.a, new.lam,
-                    float(watch.t_out_next), float(watch.t_end), g, zeros, C, Cq, Ct, gam):
-                return new
-        return new
+            if new.t >= t_stop - t_end_tol or not _watch.quiet(
+                    self.problem.kernel, w, float(new.t), StateArrays(new.q, new.v, new.a, new.lam), C, Cq, Ct, gam):
+                break
+        return Advance(prev, self.state, k, w.armed, w.cmax, self._take_events())
 
     def dense(self, t: float) -> State:
         """State at t within the last step from IDA's own interpolating polynomial

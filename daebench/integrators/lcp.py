@@ -44,10 +44,10 @@ Output
 ``State.lam`` holds the mean contact force of the step, P/h, one entry per contact
 (the driver sets no continuous law for this model, so the force appears nowhere
 else); ``State.a`` = (v₁ − v₀)/h. :meth:`dense` interpolates the scheme's own
-piecewise-quadratic position / linear velocity. ``impacts`` lists the contact
-episodes (first to last step with P > 0) as :class:`daebench.simulate.Impact` with
-ġ⁻ at the start of the first step, ġ⁺ at the end of the last one and the energy
-change of the episode.
+piecewise-quadratic position / linear velocity. Each contact episode (first to last
+step with P > 0) is reported to the driver (:meth:`report_contact`) and reaches the run
+record as an impact: ġ⁻ at the start of the first step, ġ⁺ at the end of the last one,
+the energy change of the episode, its total impulse and its smallest gap.
 
 Capabilities: order 2 on smooth (contact-free) motion; at a contact switch the
 local error is O(h) (non-smooth). Fixed step only. It treats the system's contacts
@@ -80,6 +80,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from daebench.contact import Impact
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, IntegratorError, Setting, \
     StepFailure
 from daebench.system import State
@@ -152,20 +153,19 @@ class ComplementarityLCP(Integrator):
 
     def __init__(self, **settings) -> None:
         super().__init__(**settings)
-        self.impacts: list = []       # contact episodes (daebench.simulate.Impact)
-        self._open: dict[int, tuple[float, float, float]] = {}  # contact → (t, ġ⁻, E at start)
+        self._open: dict[int, tuple[float, float, float, float, float]] = {}  # contact → (t, ġ⁻, E, ΣP, min g)
         self.min_force = math.inf     # smallest contact force of any step (≥ 0 by construction)
         self.min_gap = math.inf       # smallest gap at any step end
 
     # -- lifecycle ---------------------------------------------------------------
     def _start(self) -> None:
-        sys_ = self.problem.system
-        if sys_.n_contacts == 0:
+        p = self.problem
+        if p.n_contacts == 0:
             raise IntegratorError(
                 "integrator 'lcp' treats the contacts of the system itself, but this system has none; "
                 "switch `--set effects.contact=true` (with `--set contact.law=complementarity`) or use "
                 "another integrator.")
-        law = sys_.contact_law
+        law = p.contact_law
         if law is not None:
             raise IntegratorError(
                 f"integrator 'lcp' needs `--set contact.law=complementarity`; this system already has "
@@ -174,30 +174,29 @@ class ComplementarityLCP(Integrator):
         if self.problem.m:
             raise IntegratorError("integrator 'lcp' integrates ODE models only (no bilateral constraints)")
         st = self.state
-        nc = sys_.n_contacts
+        nc = p.n_contacts
         if st.lam.size != nc:
             self.state = State(st.t, st.q, st.v, st.a, np.zeros(nc))
 
     # -- one step ------------------------------------------------------------------------
     def _step_impl(self, t_stop: float) -> State:
         p, s = self.problem, self.state
-        sys_ = p.system
         h = min(self.h, t_stop - s.t)
         t0, q0, v0 = s.t, s.q, s.v
         t1 = t0 + h
         th = float(self.settings["gap_weight"])
         tol = float(self.settings["newton_tol"])
         Q0 = p.force(t0, q0, v0)
-        g0 = sys_.gap(q0)
+        g0 = p.gap(q0)
         dv = np.zeros_like(v0)
-        P = np.zeros(sys_.n_contacts)
+        P = np.zeros(p.n_contacts)
         vscale = max(1.0, float(np.max(np.abs(v0))))
         for it in range(int(self.settings["newton_maxiter"])):
             v1 = v0 + dv
             q1 = q0 + 0.5 * h * (v0 + v1)
             qm = 0.5 * (q0 + q1)
             M = p.mass(qm)
-            W = sys_.gap_jacobian(qm).T
+            W = p.gap_jacobian(qm).T
             Q1 = p.force(t1, q1, v1)
             r = M @ dv - 0.5 * h * (Q0 + Q1) - W @ P
             Kq, Kv = p.force_jacobian(t1, q1, v1)
@@ -211,8 +210,8 @@ class ComplementarityLCP(Integrator):
             self.counters.newton_iterations += 1
             # linearized: dv_new(P') = free + S⁻¹ W P'
             free = dv - Sinv_r - Sinv_W @ P
-            G1 = sys_.gap_jacobian(q1)
-            g1 = sys_.gap(q1)
+            G1 = p.gap_jacobian(q1)
+            g1 = p.gap(q1)
             # ḡ(P') = (1−θ) g0 + θ [g1 + G1 (h/2)(dv_new − dv)]
             b = (1.0 - th) * g0 + th * (g1 + 0.5 * h * G1 @ (free - dv))
             A = th * 0.5 * h * G1 @ Sinv_W
@@ -231,20 +230,23 @@ class ComplementarityLCP(Integrator):
         return State(t1, q1, v1, dv / h, lam)
 
     def _book(self, t0, t1, q0, v0, q1, v1, P, lam) -> None:
-        """Contact episodes, smallest force and gap (for reports and tests)."""
-        from daebench.simulate import Impact  # the driver imports integrators.base: import late
-
-        sys_ = self.problem.system
+        """Contact episodes (first to last step with P > 0), reported to the driver."""
+        p = self.problem
         self.min_force = min(self.min_force, float(np.min(lam)))
-        self.min_gap = min(self.min_gap, float(np.min(sys_.gap(q1))))
-        G0, G1 = sys_.gap_jacobian(q0), sys_.gap_jacobian(q1)
+        g1 = p.gap(q1)
+        self.min_gap = min(self.min_gap, float(np.min(g1)))
+        G0 = p.gap_jacobian(q0)
         for i in range(P.size):
             if P[i] > 0.0 and i not in self._open:
-                self._open[i] = (t0, float(G0[i] @ v0), sys_.total_energy(q0, v0))
+                self._open[i] = (t0, float(G0[i] @ v0), p.energy(q0, v0), float(P[i]), float(g1[i]))
+            elif P[i] > 0.0:
+                ts, vn, E0, imp, gmin = self._open[i]
+                self._open[i] = (ts, vn, E0, imp + float(P[i]), min(gmin, float(g1[i])))
             elif P[i] == 0.0 and i in self._open:
-                ts, vn, E0 = self._open.pop(i)
+                ts, vn, E0, imp, gmin = self._open.pop(i)
                 # the episode ended with the previous step: ġ⁺ and E at t0
-                self.impacts.append(Impact(ts, i, vn, float(G0[i] @ v0), E0 - sys_.total_energy(q0, v0)))
+                self.report_contact(Impact(ts, i, vn, float(G0[i] @ v0), E0 - p.energy(q0, v0), impulse=imp,
+                                           t_end=t0, min_gap=gmin))
 
     def dense(self, t: float) -> State:
         """The scheme's own interpolant: v linear, q quadratic (q(t₁) = q₁ exactly)."""

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from daebench.integrators._newmark_family import NEWTON_SETTINGS, NewmarkFamily
 from daebench.integrators.base import (ADAPTIVE_SETTINGS, STEP_SETTINGS, Capabilities, IntegratorError,
                                        Setting)
+from daebench.integrators.family import NEWTON_SETTINGS, Coefficients, NewmarkFamily
 
 
 class Newmark(NewmarkFamily):
@@ -19,8 +19,8 @@ class Newmark(NewmarkFamily):
     For m = 0 (e.g. a Hertz or penalty contact law) it is the classical implicit
     Newmark scheme; with constraints the position constraint is enforced by the
     multiplier at t_{n+1} (index 3, no velocity stabilization: C_q v drifts at
-    O(h²)). It is HHT-α with α = 0 and no GGL term and shares that code
-    (:mod:`daebench.integrators._newmark_family`), including the scaled Newton
+    O(h²)). It is the family member α_m = α_f = 0 without GGL and shares its
+    code (:mod:`daebench.stepping.newmark`), including the scaled Newton
     iteration and the optional adaptive step control.
 
     Settings
@@ -77,5 +77,5 @@ class Newmark(NewmarkFamily):
                 "integrator 'newmark' setting 'beta' = 0 is the explicit central-difference scheme, which "
                 "cannot enforce position constraints; use beta > 0 (0.25 = trapezoidal rule)")
 
-    def _coefficients(self) -> tuple[float, float, float, bool]:
-        return 0.0, float(self.settings["beta"]), float(self.settings["gamma"]), False
+    def coefficients(self) -> Coefficients:
+        return Coefficients(0.0, 0.0, float(self.settings["beta"]), float(self.settings["gamma"]), False, False)

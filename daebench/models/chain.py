@@ -41,7 +41,7 @@ from typing import Iterable
 
 import numpy as np
 
-from daebench.contact import DAMPING_LAWS, HertzLaw, PenaltyLaw, hysteresis_factor, make_contact_law
+from daebench.contact import DAMPING_LAWS, HertzLaw, make_contact_law
 from daebench.params import Param
 from daebench.scene import Scene, SceneError
 from daebench.system import MechanicalSystem
@@ -154,38 +154,8 @@ class Chain(MechanicalSystem):
         return -(self.K @ q)
 
     def force_jacobian(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Analytic (∂Q/∂q, ∂Q/∂v): −K plus the contact law's tangent g_qᵀ (∂F/∂g, ∂F/∂ġ) g_q."""
-        Kq, Kv = -self.K, np.zeros((6, 6))
-        law = self.contact_law
-        if law is not None and law.continuous and self.n_contacts:
-            g = self.gap(q)
-            if g[0] < 0.0:
-                dF_dg, dF_dgdot = self._contact_tangent(float(g[0]), float(self._G[0] @ v))
-                GG = self._G.T @ self._G
-                Kq = Kq + dF_dg * GG
-                Kv = Kv + dF_dgdot * GG
-        return Kq, Kv
-
-    def _contact_tangent(self, g: float, gdot: float) -> tuple[float, float]:
-        """(∂F/∂g, ∂F/∂ġ) of the active continuous law at penetration δ = −g > 0."""
-        law = self.contact_law
-        if not law.engaged[0]:
-            return 0.0, 0.0
-        F = float(law.force(np.array([g]), np.array([gdot]))[0])
-        if F <= 0.0:  # clipped: no adhesion, no tangent
-            return 0.0, 0.0
-        delta, ddot = -g, -gdot
-        if isinstance(law, HertzLaw):
-            v0 = float(law.approach_speed[0])
-            chi = hysteresis_factor(law.damping, law.restitution, v0) if math.isfinite(v0) and v0 > 0 else 0.0
-            n, Kc = law.exponent, law.stiffness
-            dF_dd = n * Kc * delta ** (n - 1.0) * (1.0 + chi * ddot)
-            dF_dddot = Kc * delta**n * chi
-        elif isinstance(law, PenaltyLaw):
-            dF_dd, dF_dddot = law.stiffness, law.damping_coefficient
-        else:  # pragma: no cover - only the two continuous laws exist
-            raise TypeError(f"no tangent for contact law {law.name!r}")
-        return -dF_dd, -dF_dddot  # δ = −g, δ̇ = −ġ
+        """(∂Q/∂q, ∂Q/∂v) = (−K, 0): linear springs (the contact force is the phase's)."""
+        return -self.K, self._zero
 
     def mass_jacobian_product(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
         return self._zero
@@ -208,15 +178,10 @@ class Chain(MechanicalSystem):
                 "contact": self.contact_potential(q)}
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
-        """x1..x6, v3, v4, gap and — for a continuous law only — the contact force
-        (the constraint law's force is the driver's ``lambda_0``; the complementarity
-        model's is in the integrator's ``State.lam``)."""
+        """x1..x6, v3, v4 and the gap. The contact force is recorded by the driver:
+        ``contact_force_0`` for a continuous law, ``lambda_0`` for the constraint law."""
         out = {f"x{i + 1}": float(q[i]) for i in range(6)}
         out.update(v3=float(v[2]), v4=float(v[3]), gap=float(q[3] - q[2]))
-        law = self.contact_law
-        if law is not None and law.continuous and self.n_contacts:
-            g = self.gap(q)
-            out["contact_force"] = float(law.force(g, self._G @ v)[0]) if g[0] < 0.0 else 0.0
         return out
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:

@@ -56,14 +56,20 @@ import math
 
 import numpy as np
 
+from typing import NamedTuple
+
+from numba import njit
+
+from daebench import kernels
 from daebench.contact import DAMPING_LAWS, make_contact_law
+from daebench.models import _hubbeam_jacobians as hj
 from daebench.models import _hubbeam_kernels as kern
 from daebench.models.shapes import (BUILDER_OPTIONS, BUILDERS, MAX_ELEMENTS, MAX_MODES, MAX_NODES,
                                      MAX_INFLUENCE, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE, MIN_INFLUENCE,
                                      ShapeTables, tabulate)
 from daebench.params import Param
 from daebench.scene import Scene, SceneError
-from daebench.system import MechanicalSystem, central_difference
+from daebench.system import KernelSystem
 
 DESCRIPTION = "flexible beam on a turning hub (modes or FEM), gravity, torque, damping, contact with a plane"
 
@@ -123,6 +129,58 @@ SCHEMA: dict[str, Param] = {
 }
 
 
+# -- kernel data and its registration (daebench.kernels) ---------------------------------------
+class HubBeamData(NamedTuple):
+    """Tables and parameters of one hub–beam scene (point-contiguous, see the module
+    docstring); ``work`` and ``G1`` are scratch."""
+
+    prm: np.ndarray
+    fore: int
+    xs: np.ndarray
+    wm: np.ndarray
+    phx: np.ndarray
+    phy: np.ndarray
+    H: np.ndarray
+    Mc: np.ndarray
+    K1: np.ndarray
+    K2: np.ndarray
+    phx_bar: np.ndarray
+    phy_bar: np.ndarray
+    Hbar: np.ndarray
+    work: np.ndarray
+    xp: float          # the contact point's material coordinate and its tables
+    phx_p: np.ndarray
+    phy_p: np.ndarray
+    H_p: np.ndarray
+    G1: np.ndarray
+
+
+@njit(cache=True, fastmath=kern.FASTMATH)
+def _k_mass_force(md, t, q, v, M, Q):
+    kern.mass_force(t, q, v, md.prm, md.fore, md.xs, md.wm, md.phx, md.phy, md.H, md.Mc, md.K1, md.K2, md.phx_bar,
+               md.phy_bar, md.Hbar, True, M, Q, md.work)
+
+
+@njit(cache=True, fastmath=kern.FASTMATH)
+def _k_force_jacobian(md, t, q, v, Kq, Kv):
+    hj.force_jacobian(t, q, v, md.prm, md.fore, md.xs, md.wm, md.phx, md.phy, md.H, md.K1, md.K2, md.phx_bar,
+                      md.phy_bar, md.Hbar, Kq, Kv)
+
+
+@njit(cache=True, fastmath=kern.FASTMATH)
+def _k_mass_jacobian_product(md, q, a, K):
+    hj.mass_jacobian_product(q, a, md.prm, md.fore, md.xs, md.wm, md.phx, md.phy, md.H, K)
+
+
+@njit(cache=True, fastmath=kern.FASTMATH)
+def _k_gap(md, i, q, v, gq):
+    return kern.gap_kernel(q, v, md.prm, md.fore, md.xp, md.phx_p, md.phy_p, md.H_p, gq, md.G1)
+
+
+kernels.register(HubBeamData, mass_force=_k_mass_force, force_jacobian=_k_force_jacobian,
+                 mass_jacobian_product=_k_mass_jacobian_product, gap=_k_gap)
+
+
 def hertz_default_stiffness(modulus: float, poisson: float, radius: float) -> float:
     """K = (4/3) E/(1 − ν²) √r: a sphere of radius r on a rigid plane."""
     return 4.0 / 3.0 * modulus / (1.0 - poisson**2) * math.sqrt(radius)
@@ -165,12 +223,9 @@ def build(scene: Scene) -> "HubBeam":
     return HubBeam(scene)
 
 
-class HubBeam(MechanicalSystem):
-    """Hub–beam :class:`~daebench.system.MechanicalSystem`; see the module docstring.
-
-    Besides the protocol it exposes ``mass_and_force(t, q, v)`` (one kernel pass)
-    and ``kernel_args`` for compiled callers of :mod:`daebench.models._hubbeam_kernels`.
-    """
+class HubBeam(KernelSystem):
+    """Hub–beam :class:`~daebench.system.KernelSystem`; see the module docstring. Its
+    physics is the kernels of :class:`HubBeamData`; the protocol methods derive from them."""
 
     def __init__(self, scene: Scene):
         s = scene
@@ -213,7 +268,6 @@ class HubBeam(MechanicalSystem):
         H = tab.H if fore else np.zeros((1, 1, 1))
         Hbar = np.einsum("k,kij->ij", wm, tab.H) if fore else np.zeros((nB, nB))
         Hp = tab.H_points if fore else np.zeros((2, nB, nB))
-        self.Hp = np.ascontiguousarray(Hp)
 
         prm = np.zeros(kern.N_PRM)
         prm[kern.P_A] = a
@@ -228,15 +282,15 @@ class HubBeam(MechanicalSystem):
         self.prm = prm
         self.fore = 1 if fore else 0
         c = np.ascontiguousarray
-        # point-contiguous tables (kernels loop over quadrature points innermost)
-        self.kernel_args = (prm, self.fore, c(tab.x), c(wm), c(at.phx.T), c(at.phy.T), c(H.transpose(1, 2, 0)),
-                            self.Mc, c(self.K1), c(self.K2), c(wm @ at.phx), c(wm @ at.phy), c(Hbar))
-        self._jac_args = self.kernel_args[:7] + self.kernel_args[8:]
-        self._work = np.zeros((nB + 8, tab.x.size))
-        self._zeros = np.zeros(self.n)  # read-only zero velocity
-        self._G1 = np.zeros(self.n)
-        self._pt = [(float(tab.points[i]), c(tab.at_points.phx[i]), c(tab.at_points.phy[i]), c(self.Hp[i]))
+        nq = tab.x.size
+        # point-contiguous tables (kernels loop over quadrature points innermost); the
+        # material points are 0 = tip, 1 = contact point
+        self._pt = [(float(tab.points[i]), c(tab.at_points.phx[i]), c(tab.at_points.phy[i]), c(Hp[i]))
                     for i in range(2)]
+        xp, phx_p, phy_p, H_p = self._pt[1]
+        self.data = HubBeamData(prm, self.fore, c(tab.x), c(wm), c(at.phx.T), c(at.phy.T), c(H.transpose(1, 2, 0)),
+                                self.Mc, c(self.K1), c(self.K2), c(wm @ at.phx), c(wm @ at.phy), c(Hbar),
+                                np.zeros((nB + 8, nq)), xp, phx_p, phy_p, H_p, np.zeros(self.n))
 
         if self.effects["contact"]:
             K = s["contact.hertz_stiffness"] or hertz_default_stiffness(
@@ -249,109 +303,13 @@ class HubBeam(MechanicalSystem):
         else:
             self.contact_law = None
 
-    # -- compiled kernels ------------------------------------------------------
-    def kernels(self) -> tuple:
-        """Model descriptor for compiled integrator loops
-        (:mod:`daebench.integrators._compiled_models`; built once, tables shared). The
-        contact law's state in it is filled by ``_compiled_models.descriptor``, not here."""
-        md = getattr(self, "_md", None)
-        if md is None:
-            from daebench.integrators import _compiled_models as cm
-
-            prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy_bar, Hbar = self.kernel_args
-            xp, phx_p, phy_p, Hp = self._pt[1]
-            # the continuous contact law's state (refreshed by cm.descriptor) and its scratch
-            law_state, law_work = cm.contact_law_slots(self.n, self.n_contacts)
-            md = cm.pack(cm.KIND_HUBBEAM, prm, [fore, self.n_contacts, 0, int(self.power_free)],
-                         [xs, wm, phx_bar, phy_bar, phx_p, phy_p, [xp], np.zeros(self.n), np.zeros(self.n),
-                          law_state, law_work],
-                         [phx, phy, Mc, K1, K2, Hbar, Hp, np.zeros_like(self._work)],
-                         H)
-            self._md = md
-        return md
-
-    # -- dynamics --------------------------------------------------------------
-    def mass_and_force(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(M(q), applied force Q(t, q, v)) from one kernel pass (no contact force)."""
-        M = np.empty((self.n, self.n))
-        Q = np.empty(self.n)
-        kern.mass_force(float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), *self.kernel_args,
-                        True, M, Q, self._work)
-        return M, Q
-
-    def mass(self, q: np.ndarray) -> np.ndarray:
-        M = np.empty((self.n, self.n))
-        Q = np.empty(self.n)
-        q = np.asarray(q, dtype=float)
-        kern.mass_force(0.0, q, self._zeros, *self.kernel_args, True, M, Q, self._work)
-        return M
-
-    def applied_force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        Q = np.empty(self.n)
-        kern.mass_force(float(t), np.asarray(q, dtype=float), np.asarray(v, dtype=float), *self.kernel_args,
-                        False, self.Mc, Q, self._work)
-        return Q
-
-    def _contact_force(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """g_qᵀ F of a continuous contact law (zero when open)."""
-        g, gq, _ = self._point(1, q, v)
-        if g >= 0.0:
-            return np.zeros(self.n)
-        F = self.contact_law.force(np.array([g]), np.array([gq @ v]))
-        return gq * F[0]
-
-    def force_jacobian(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(∂Q/∂q, ∂Q/∂v) of the total force: analytic for the applied force, central
-        differences of the contact force g_qᵀF only while a continuous contact is closed."""
-        q = np.asarray(q, dtype=float)
-        v = np.asarray(v, dtype=float)
-        Kq = np.empty((self.n, self.n))
-        Kv = np.empty((self.n, self.n))
-        kern.force_jacobian(float(t), q, v, *self._jac_args, Kq, Kv)
-        law = self.contact_law
-        if law is not None and law.continuous and self.gap(q)[0] < 0.0:
-            Kq += central_difference(lambda x: self._contact_force(x, v), q, self.n)
-            Kv += central_difference(lambda x: self._contact_force(q, x), v, self.n)
-        return Kq, Kv
-
-    def mass_jacobian_product(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
-        out = np.empty((self.n, self.n))
-        p = self.kernel_args
-        kern.mass_jacobian_product(np.asarray(q, dtype=float), np.asarray(a, dtype=float), p[0], p[1], p[2],
-                                   p[3], p[4], p[5], p[6], out)
-        return out
-
-    # -- contact ------------------------------------------------------------------
-    def _point(self, which: int, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray, float]:
-        """(gap, gap Jacobian, γ_g) of material point ``which`` (0 = tip, 1 = contact point)."""
-        gq = np.empty(self.n)
-        xp, phx, phy, Hp = self._pt[which]
-        g, gamma = kern.gap_kernel(np.asarray(q, dtype=float), np.asarray(v, dtype=float), self.prm, self.fore,
-                                   xp, phx, phy, Hp, gq, self._G1)
-        return g, gq, gamma
-
-    def gap(self, q: np.ndarray) -> np.ndarray:
-        if not self.n_contacts:
-            return np.zeros(0)
-        return np.array([self._point(1, q, self._zeros)[0]])
-
-    def gap_jacobian(self, q: np.ndarray) -> np.ndarray:
-        if not self.n_contacts:
-            return np.zeros((0, self.n))
-        return self._point(1, q, self._zeros)[1][None, :]
-
-    def gap_gamma(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        if not self.n_contacts:
-            return np.zeros(0)
-        return np.array([self._point(1, q, v)[2]])
-
     # -- bookkeeping ----------------------------------------------------------------
     def tip_position(self, q: np.ndarray) -> tuple[float, float]:
         """Inertial tip position r(L) = R(θ) p(L)."""
         G0 = np.empty(self.n)
         xp, phx, phy, Hp = self._pt[0]
         p1, p2, *_ = kern.point_kinematics(np.asarray(q, dtype=float), np.zeros(self.n), self.prm, self.fore,
-                                           xp, phx, phy, Hp, G0, self._G1)
+                                           xp, phx, phy, Hp, G0, np.empty(self.n))
         c, s = math.cos(q[0]), math.sin(q[0])
         return c * p1 - s * p2, s * p1 + c * p2
 
@@ -368,11 +326,11 @@ class HubBeam(MechanicalSystem):
         }
         g = self.prm[kern.P_G]
         if g != 0.0:
-            p = self.kernel_args
-            P1 = self.prm[kern.P_M1] + float(p[10] @ A)
+            d = self.data
+            P1 = self.prm[kern.P_M1] + float(d.phx_bar @ A)
             if self.fore:
-                P1 -= 0.5 * float(B @ p[12] @ B)
-            P2 = float(p[11] @ B)
+                P1 -= 0.5 * float(B @ d.Hbar @ B)
+            P2 = float(d.phy_bar @ B)
             out["gravity"] = g * (math.sin(q[0]) * P1 + math.cos(q[0]) * P2)
         return out
 
@@ -387,7 +345,6 @@ class HubBeam(MechanicalSystem):
         if self.effects["damping"]:
             vA, vB = v[self.iA], v[self.iB]
             out["damping"] = -self.prm[kern.P_BETA] * float(vA @ self.K1 @ vA + vB @ self.K2 @ vB)
-        out.update(super().power(t, q, v))
         return out
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:

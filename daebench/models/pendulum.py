@@ -21,9 +21,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import ellipj, ellipk, ellipkinc
 
+from typing import NamedTuple
+
+from numba import njit
+
+from daebench import kernels
 from daebench.params import Param
 from daebench.scene import Scene, SceneError
-from daebench.system import MechanicalSystem
+from daebench.system import KernelSystem
 
 DESCRIPTION = "rigid pendulum in Cartesian coordinates (index-3 DAE, exact energy conservation)"
 
@@ -40,13 +45,57 @@ SCHEMA: dict[str, Param] = {
 }
 
 
-class Pendulum(MechanicalSystem):
+class PendulumData(NamedTuple):
+    """Kernel data of the pendulum (:mod:`daebench.kernels`)."""
+
+    m: float
+    l: float
+    g: float
+
+
+@njit(cache=True)
+def _mass_force(md, t, q, v, M, Q):
+    M[0, 0] = md.m
+    M[0, 1] = 0.0
+    M[1, 0] = 0.0
+    M[1, 1] = md.m
+    Q[0] = 0.0
+    Q[1] = -md.m * md.g
+
+
+@njit(cache=True)
+def _zero_jacobians(md, t, q, v, Kq, Kv):
+    Kq[:, :] = 0.0
+    Kv[:, :] = 0.0
+
+
+@njit(cache=True)
+def _zero_mass_jacobian(md, q, a, K):
+    K[:, :] = 0.0
+
+
+@njit(cache=True)
+def _constraints(md, t, q, v, C, Cq, Ct, gam):
+    """The rod: C = ½(|q|² − l²), C_q = qᵀ, γ = −|v|²."""
+    C[0] = 0.5 * (q[0] * q[0] + q[1] * q[1] - md.l * md.l)
+    Cq[0, 0] = q[0]
+    Cq[0, 1] = q[1]
+    Ct[0] = 0.0
+    gam[0] = -(v[0] * v[0] + v[1] * v[1])
+
+
+kernels.register(PendulumData, mass_force=_mass_force, force_jacobian=_zero_jacobians,
+                 mass_jacobian_product=_zero_mass_jacobian, constraints=_constraints)
+
+
+class Pendulum(KernelSystem):
     """Point mass on a rigid rod, Cartesian coordinates q = (x, y)."""
 
     n = 2
     n_bilateral = 1
     n_contacts = 0
     coordinate_names = ("x", "y")
+    power_free = True  # gravity only: no non-conservative effect
 
     def __init__(self, mass: float = 1.0, length: float = 1.0, g: float = 9.81,
                  theta0_deg: float = 30.0, omega0: float = 0.0) -> None:
@@ -55,41 +104,7 @@ class Pendulum(MechanicalSystem):
         self.g = float(g)
         self.theta0 = np.deg2rad(float(theta0_deg))
         self.omega0 = float(omega0)
-        self._M = self.m * np.eye(2)
-        self._Q = np.array([0.0, -self.m * self.g])
-        self._zero = np.zeros((2, 2))
-
-    # -- dynamics: M and Q are constant, so their Jacobians vanish ------------
-    def mass(self, q: np.ndarray) -> np.ndarray:
-        return self._M
-
-    def applied_force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return self._Q.copy()
-
-    def force_jacobian(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return self._zero, self._zero
-
-    def mass_jacobian_product(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
-        return self._zero
-
-    power_free = True  # gravity only: no non-conservative effect
-
-    def kernels(self) -> tuple:
-        """Model descriptor for compiled integrator loops (the pendulum's branch of
-        :mod:`daebench.integrators._compiled_models`: M = mI, Q = (0, −mg), C = ½(|q|² − l²))."""
-        from daebench.integrators import _compiled_models as cm
-
-        return cm.pack(cm.KIND_PENDULUM, [self.m, self.l, self.g], [0, 0, 1, int(self.power_free)], [], [], np.zeros((1, 1, 1)))
-
-    # -- the rod ------------------------------------------------------------
-    def constraint(self, t: float, q: np.ndarray) -> np.ndarray:
-        return np.array([0.5 * (q[0] * q[0] + q[1] * q[1] - self.l * self.l)])
-
-    def constraint_jacobian(self, t: float, q: np.ndarray) -> np.ndarray:
-        return np.array([[q[0], q[1]]])
-
-    def constraint_gamma(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.array([-(v[0] * v[0] + v[1] * v[1])])
+        self.data = PendulumData(self.m, self.l, self.g)
 
     # -- bookkeeping ------------------------------------------------------------
     def energy(self, q: np.ndarray, v: np.ndarray) -> dict[str, float]:

@@ -1,0 +1,91 @@
+"""Which step the event-driven driver must see — the one rule, for every integrator.
+
+The driver (:mod:`daebench.simulate`) watches, after every accepted step, for a contact
+closing, a closed contact turning tensile, an output time, the end time and a
+non-finite state. A compiled runner that takes many steps per call stops after the
+first step with any of these and hands it back; for every earlier ("quiet") step it
+does the only bookkeeping the driver would have done: re-arming gaps and the running
+maxima of |C|, |Ċ|, |C̈|. The driver itself decides with :func:`gap_event` too.
+
+Gap rule: after a release or a rebound a contact re-arms its closing event only once
+its gap exceeds ``GAP_BAND``; until then closing is detected at g = −GAP_BAND. Without
+the band, solver noise (|g| ~ 1e-12 at a release) re-closes the contact at once, over
+and over (chatter).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from daebench import kernels, phase
+
+GAP_BAND = 1e-9  # m
+
+
+class Watch(NamedTuple):
+    """What a runner watches (arrays ``armed`` and ``cmax`` are its own copies, updated
+    in place and handed back to the driver as values)."""
+
+    inactive: np.ndarray   # int64: open contacts whose closing is watched
+    lam_rows: np.ndarray   # int64: rows of λ of closed contacts (opening when λ < 0)
+    armed: np.ndarray      # bool per contact
+    track: bool            # keep constraint maxima
+    cmax: np.ndarray       # float64[3]: max |C|, |Ċ|, |C̈|
+    t_out_next: float
+    t_end: float
+
+
+def blind(n_contacts: int) -> Watch:
+    """A watch that never stops a runner (single steps)."""
+    return Watch(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(max(n_contacts, 1), np.bool_), False,
+                 np.zeros(3), math.inf, math.inf)
+
+
+@njit(cache=True)
+def gap_event(g, armed):
+    """(closes, arms) for an open contact at gap g: it crossed its closing threshold (0
+    once armed, −GAP_BAND before), or it left the band and re-arms."""
+    off = 0.0 if armed else GAP_BAND
+    if g < -off:
+        return True, False
+    return False, g > GAP_BAND
+
+
+@njit(cache=True)
+def reached(t, t_next, t_end):
+    """Whether an output time or the end was reached at t (with the driver's tolerances)."""
+    return t_next <= t + 1e-12 * max(1.0, t_end) or t >= t_end - 1e-15 * max(1.0, t_end)
+
+
+@njit(cache=True)
+def quiet(ph, w, t, cur, C, Cq, Ct, gam):
+    """Whether the step that ended in ``cur`` (at t) needs no driver attention; re-arms
+    gaps that left the band and, for a quiet step, raises the constraint maxima."""
+    q, v = cur.q, cur.v
+    n = q.shape[0]
+    stop = False
+    for i in range(n):
+        if not (math.isfinite(q[i]) and math.isfinite(v[i])):
+            stop = True
+    for i in w.inactive:
+        g, _ = kernels.gap(ph.model, i, q, v, ph.gq)
+        closes, arms = gap_event(g, w.armed[i])
+        if closes:
+            stop = True
+        elif arms:
+            w.armed[i] = True
+    for r in w.lam_rows:
+        if cur.lam[r] < 0.0:
+            stop = True
+    if stop or reached(t, w.t_out_next, w.t_end):
+        return False
+    if w.track and C.shape[0]:
+        c0, c1, c2 = phase.constraint_residuals(ph, t, q, v, cur.a, C, Cq, Ct, gam)
+        w.cmax[0] = max(w.cmax[0], c0)
+        w.cmax[1] = max(w.cmax[1], c1)
+        w.cmax[2] = max(w.cmax[2], c2)
+    return True
