@@ -25,7 +25,7 @@ from typing import Any, Callable, TextIO
 
 POLL_S = 0.25
 NOTICE_AFTER = 1.0
-TICK_S = 2.0
+TICK_S = 1.5
 COMPILE_NOTICE = ("no step yet after {s:.1f} s — on a first run the numerical kernels are being compiled for "
                   "their first use (about 1–2 min, once; they are cached for later runs)")
 
