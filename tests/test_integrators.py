@@ -110,6 +110,8 @@ CASES = [
     ("newmark", dict(), H2, 2),
     ("baumgarte", dict(), H2, 4),
     ("baumgarte", dict(delta=1.0, epsilon=1.0), H2, 4),
+    ("genalpha", dict(rho_inf=0.5), H2, 2),
+    ("genalpha", dict(rho_inf=0.74, ggl=True), H2, 2),
 ]
 
 

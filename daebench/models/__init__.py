@@ -1,24 +1,39 @@
-"""Model registry. Each model module defines
+"""Model registry: models are found through the entry-point group ``daebench.models``
+(name → module), as integrators are through ``daebench.integrators``; daebench's own
+register in its pyproject.toml, a plugin package in its own. Each model module defines
 
 * ``DESCRIPTION`` — one line for `daebench list`;
 * ``SCHEMA`` — ``dict[str, Param]`` of the scene keys it understands (dotted names);
 * ``build(scene) -> MechanicalSystem`` — assemble only the effects the scene turns on;
 * optionally ``check_scene(scene)`` — cross-key validation raising ``SceneError``.
+
+Its system gives its physics as compiled kernels (:mod:`daebench.kernels`, subclass
+:class:`daebench.system.KernelSystem`) or as plain Python methods.
 """
 
 from __future__ import annotations
 
 import importlib
+from importlib.metadata import entry_points
 from types import ModuleType
 
 from daebench.params import did_you_mean
 
-MODELS: dict[str, str] = {
-    "hub-beam": "daebench.models.hubbeam",
-    "pendulum": "daebench.models.pendulum",
-    "andrews": "daebench.models.andrews",
-    "chain": "daebench.models.chain",
-}
+ENTRY_POINT_GROUP = "daebench.models"
+
+
+def _scan() -> dict[str, str]:
+    """name → module of every registered model; a plugin may not shadow a built-in."""
+    found: dict[str, tuple[str, str]] = {}
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        dist = ep.dist.name if ep.dist is not None else "?"
+        if ep.name in found and found[ep.name][1] == "daebench":
+            continue
+        found[ep.name] = (ep.value, dist)
+    return {name: value for name, (value, _) in sorted(found.items())}
+
+
+MODELS: dict[str, str] = _scan()
 
 
 def get_model(name: str) -> ModuleType:

@@ -64,9 +64,9 @@ from daebench import kernels
 from daebench.contact import DAMPING_LAWS, make_contact_law
 from daebench.models import _hubbeam_jacobians as hj
 from daebench.models import _hubbeam_kernels as kern
-from daebench.models.shapes import (BUILDER_OPTIONS, BUILDERS, MAX_ELEMENTS, MAX_MODES, MAX_NODES,
-                                     MAX_INFLUENCE, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE, MIN_INFLUENCE,
-                                     ShapeTables, tabulate)
+from daebench.models.shapes import (BUILDER_OPTIONS, BUILDERS, FEM_POINTS_PER_ELEMENT, MAX_ELEMENTS, MAX_INFLUENCE,
+                                     MAX_MODES, MAX_NODES, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE, MIN_INFLUENCE,
+                                     MODE_PANELS, MODE_POINTS_PER_PANEL, ShapeTables, tabulate)
 from daebench.params import Param
 from daebench.scene import Scene, SceneError
 from daebench.system import KernelSystem
@@ -201,7 +201,6 @@ def check_scene(scene: Scene) -> None:
                          f"discretization.kind = 'fem' (number of elements)")
     if scene["effects.foreshortening"]:
         nB = n if kind == "modes" else 2 * n
-        from daebench.models.shapes import FEM_POINTS_PER_ELEMENT, MODE_PANELS, MODE_POINTS_PER_PANEL
         nq = MODE_PANELS * MODE_POINTS_PER_PANEL if kind == "modes" else FEM_POINTS_PER_ELEMENT * n
         if 8 * nq * nB * nB > MAX_TABLE_BYTES:
             raise SceneError(f"scene key 'discretization.n' = {n}: foreshortening tables would need "
