@@ -208,7 +208,8 @@ def exact_or_reference_error(scene: Scene, system: Any, hist: pd.DataFrame) -> d
         ref = load_reference(scene, mode="require")
     except (ReferenceMissing, ReferenceDamaged):
         return {}
-    acc = metrics.accuracy(hist, ref.history, scene.get("output.observables") or None)
+    scored = [o for o in scene.get("output.observables") or [] if o in hist.columns]
+    acc = metrics.accuracy(hist, ref.history, scored or None)
     return {"against": f"cached reference (IDA rtol {ref.rtol:g})",
             **{k: v for k, v in acc.items() if k.endswith("_max")}}
 

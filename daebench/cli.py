@@ -165,6 +165,10 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
     else:
         pairs.append(("error", f"no exact solution or cached reference for this scene "
                                f"(`daebench reference {r.scene.name}` makes one)"))
+    absent = [o for o in r.scene.get("output.observables") or [] if o not in r.observables.columns]
+    if absent:
+        pairs.append(("not recorded", f"{', '.join(absent)} (scored observables of the scene that an effect "
+                                      f"switched off removes)"))
     if r.history_path:
         pairs.append(("history", r.history_path))
     return pairs

@@ -146,19 +146,39 @@ def check_size(scene: Any, integ: Integrator) -> None:
             f"the limit of {MAX_OUTPUT_ROWS:.0e}; use a larger output.dt (e.g. --set output.dt=1e-3), or pass --force")
 
 
-def check_observables(scene: Any, system: Any) -> None:
-    """Every scored observable of the scene (``output.observables``) must be one the model
-    computes."""
+def check_observables(scene: Any, system: Any) -> list[str]:
+    """The scored observables (``output.observables``) this configuration produces.
+
+    A name the model never computes, whatever its effects, is refused (a typo); a name it
+    computes only with an effect this scene turns off (``gap`` without contact) is left
+    out of scoring and returned out of the list — callers report it, never silently."""
     wanted = list(scene.get("output.observables") or [])
     if not wanted:
-        return
+        return []
     q, v = system.initial_state()
     have = list(system.observables(0.0, q, v))
     unknown = [o for o in wanted if o not in have]
     if unknown:
-        raise GuardError(
-            f"scene key 'output.observables': '{unknown[0]}' is not an observable of model '{scene.model}'"
-            f"{did_you_mean(unknown[0], have)} Observables: {', '.join(have)}.")
+        vocabulary = set(have) | _all_effects_observables(scene)
+        typos = [o for o in unknown if o not in vocabulary]
+        if typos:
+            raise GuardError(
+                f"scene key 'output.observables': '{typos[0]}' is not an observable of model '{scene.model}'"
+                f"{did_you_mean(typos[0], vocabulary)} Observables: {', '.join(sorted(vocabulary))}.")
+    return [o for o in wanted if o in have]
+
+
+def _all_effects_observables(scene: Any) -> set[str]:
+    """What the model computes with every effect of the scene switched on."""
+    from daebench.models import build_system
+
+    effects = {k: True for k in scene.values if k.startswith("effects.")}
+    try:
+        system = build_system(scene.with_overrides(effects))
+        q, v = system.initial_state()
+        return set(system.observables(0.0, q, v))
+    except Exception:  # a combination the model refuses: only what this scene produces counts
+        return set()
 
 
 def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
@@ -170,7 +190,7 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
     if scene.get("contact.law") == "complementarity":
         return
     if law is not None and law.choices and "complementarity" in law.choices:
-        raise GuardError(f"integrator '{cls.name}' resolves contacts itself; run it with "
+        raise IntegratorError(f"integrator '{cls.name}' resolves contacts itself; run it with "
                          f"`--set contact.law=complementarity` (scene '{scene.name}' uses '{scene['contact.law']}')")
     from daebench.scene import list_scenes, load_scene
 
@@ -181,7 +201,7 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
             offer.append(name)
     hint = (f"scenes that offer it: {', '.join(offer)} (with --set contact.law=complementarity)" if offer
             else "no installed scene offers it")
-    raise GuardError(f"integrator '{cls.name}' resolves contacts itself (contact law 'complementarity'), which "
+    raise IntegratorError(f"integrator '{cls.name}' resolves contacts itself (contact law 'complementarity'), which "
                      f"scene '{scene.name}' (model {scene.model}) does not offer; {hint}")
 
 

@@ -110,10 +110,6 @@ def validate(scene: Scene, path: Path) -> Reference:
     t0, t1 = float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])
     if abs(t0) > 1e-12 or abs(t1 - scene.t_end) > 1e-9 * max(1.0, scene.t_end):
         raise damaged(f"time span [{t0:g}, {t1:g}] s does not cover the scene's [0, {scene.t_end:g}] s")
-    observables = list(scene.get("output.observables") or [])
-    absent = [c for c in observables if c not in hist.columns]
-    if absent:
-        raise damaged(f"observable(s) {', '.join(absent)} of the scene are not in it")
     try:
         rtol = float(meta["settings"]["rtol"])
     except (KeyError, TypeError, ValueError):

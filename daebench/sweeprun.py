@@ -86,7 +86,11 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
                     raise
         if ref is not None and len(hist):
             row["ref_rtol"] = ref.rtol
-            row.update(metrics.accuracy(hist, ref.history, sc.get("output.observables") or None))
+            wanted = list(sc.get("output.observables") or [])
+            scored = [o for o in wanted if o in hist.columns]  # the others: an effect of this scene is off
+            if len(scored) < len(wanted):
+                row["unscored_observables"] = ",".join(o for o in wanted if o not in scored)
+            row.update(metrics.accuracy(hist, ref.history, scored or None))
             row.update(metrics.event_errors(hist, impacts, ref.history, ref.impacts))
         else:
             row.update(metrics.impact_time_errors(impacts, []))

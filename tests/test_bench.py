@@ -198,3 +198,16 @@ def test_dask_executor_gives_the_rows_of_the_process_pool(registry, pendulum):
     by = df.set_index("integrator")
     assert by.loc["boom", "status"] == "error" and "deliberate bug" in by.loc["boom", "message"]
     assert by.loc["explode", "status"] == "diverged" and by.loc["hht", "steps"] == 20
+
+
+def test_observable_of_a_switched_off_effect_is_reported_not_scored(registry):
+    """beam-impact lists 'gap'; with effects.contact=false the model does not compute it: the
+    run is scored on the rest and the row says which observable was left out (a typo is
+    refused instead: tests/test_hostile_inputs.py)."""
+    from daebench.scene import load_scene
+
+    sc = load_scene("beam-impact", ["effects.contact=false", "discretization.n=3", "t_end=0.05"])
+    df = bench.run_sweep(sc, ["hht"], steps=[1e-4], reference_mode="compute", progress=False, write=False)
+    row = df.iloc[0]
+    assert row["status"] == "completed" and row["unscored_observables"] == "gap"
+    assert math.isfinite(row["err_theta_max"]) and "err_gap_max" not in df.columns
