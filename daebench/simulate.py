@@ -43,7 +43,7 @@ from daebench.system import MechanicalSystem, State
 EVENT_TOL = 1e-13        # event times located to this (seconds)
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
 REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes it (Zeno)
-DIVERGENCE_ENERGY = 1e3  # energy residual beyond this × energy scale means the run diverged
+DIVERGENCE_ENERGY = 10.0 # energy residual beyond this × energy scale means the run diverged (energy from nowhere)
 MAX_STALLED_PHASES = 100 # consecutive phases that do not advance time: the event logic is stuck
 PROJECTION_ITERS = 3     # Newton iterations of the position projection onto C(q) = 0
 PROGRESS_EVERY = 0.25    # s of wall time between two progress reports
@@ -94,11 +94,15 @@ class Driver:
         self.progress = progress
         self._progress_wall = 0.0
         law = system.contact_law
-        self.constraint_contacts = law is not None and not law.continuous and system.n_contacts > 0
-        self.continuous_contacts = law is not None and law.continuous and system.n_contacts > 0
-        needs = system.n_bilateral > 0 or self.constraint_contacts
-        check_capabilities(type(integrator), needs, integrator.adaptive,
-                           contacts_by_integrator=system.contacts_by_integrator)
+        check_capabilities(type(integrator), system.n_bilateral > 0 or (law is not None and not law.continuous
+                                                                       and system.n_contacts > 0
+                                                                       and not integrator.capabilities.contacts),
+                           integrator.adaptive, contacts_by_integrator=system.contacts_by_integrator,
+                           contact_law=None if law is None else law.name, n_contacts=system.n_contacts)
+        # contacts the driver treats (none when the integrator resolves them itself)
+        mine = law is not None and system.n_contacts > 0 and not integrator.capabilities.contacts
+        self.constraint_contacts = mine and not law.continuous
+        self.continuous_contacts = mine and law.continuous
 
     # -- public -----------------------------------------------------------------
     def run(self) -> RunResult:

@@ -93,8 +93,11 @@ class Capabilities:
     dense_output : bool
         Whether :meth:`Integrator.dense` is better than the default Hermite cubic.
     contacts : bool
-        Whether it resolves the system's contacts itself (complementarity time
-        stepping) instead of leaving them to the driver's events and contact laws.
+        Whether it resolves the system's contacts itself (event-capturing time stepping:
+        complementarity, Moreau–Jean, …) instead of leaving them to the driver's events
+        and contact laws. It takes over contacts with no law ('complementarity') and
+        those with the ``constraint`` law, whose restitution it applies; it reports each
+        contact episode with :meth:`Integrator.report_contact`.
     """
 
     order: int
@@ -374,19 +377,32 @@ def get_integrator(name: str) -> type[Integrator]:
 
 def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
                        adaptive: bool = False, what: str = "this case",
-                       contacts_by_integrator: bool = False) -> None:
-    """Refuse a mismatch before the first step, with a message that says what to do."""
+                       contacts_by_integrator: bool = False, contact_law: str | None = None,
+                       n_contacts: int = 0) -> None:
+    """Refuse a mismatch before the first step, with a message that says what to do.
+
+    ``contacts_by_integrator``: the system leaves its contacts to the integrator (no
+    law); ``contact_law``: the name of its law otherwise. An integrator that resolves
+    contacts itself takes over contacts with no law or the ``constraint`` law (whose
+    restitution it applies); a continuous law would count the contact twice."""
     cap = cls.capabilities
     if contacts_by_integrator and not cap.contacts:
         raise IntegratorError(
             f"{what} leaves its contacts to the integrator (contact law 'complementarity'), but "
-            f"'{cls.name}' does not resolve contacts; use `--integrator lcp`, or pick a contact law "
-            f"the driver handles (`--set contact.law=hertz`, `penalty` or `constraint`)."
+            f"'{cls.name}' does not resolve contacts; use an integrator that does (`daebench list`: "
+            f"'resolves contacts'), or pick a contact law the driver handles "
+            f"(`--set contact.law=hertz`, `penalty` or `constraint`)."
         )
-    if cap.contacts and not contacts_by_integrator:
+    if cap.contacts and not contacts_by_integrator and (n_contacts == 0 or contact_law is None):
         raise IntegratorError(
-            f"integrator '{cls.name}' resolves contacts itself and needs a case whose contacts are "
-            f"left to it (`--set contact.law=complementarity`); {what} has none."
+            f"integrator '{cls.name}' resolves contacts itself and needs a case with contacts "
+            f"(`--set effects.contact=true`); {what} has none."
+        )
+    if cap.contacts and contact_law not in (None, "constraint"):
+        raise IntegratorError(
+            f"integrator '{cls.name}' resolves contacts itself; {what} has the continuous contact law "
+            f"'{contact_law}', which would count the contact twice. Use `--set contact.law=constraint` "
+            f"(its restitution applies) or `--set contact.law=complementarity`."
         )
     if problem_needs_constraints and not cap.constraints:
         raise IntegratorError(
