@@ -362,14 +362,20 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
     specs = plan_sweep(scene, integrators, grid, steps, tols, options, force=force)
     from daebench.progress import run_progress_factory
 
+    if executor not in ("process", "inline", "dask"):
+        raise SweepError(f"unknown executor '{executor}' (process, inline or dask)")
+    client, release = (None, lambda: None)
+    if executor == "dask" or scheduler is not None:  # an unreachable scheduler fails before any reference
+        client, release = executors.connect_dask(scheduler, _int_at_least_1(jobs, "jobs", MAX_JOBS))
+        scheduler = client
     store = None
-    if write:
-        folder = Path(folder) if folder is not None else results_dir() / "bench"
-        name = name if name is not None else sweepstore.unique_name(scene.name)
-        store = SweepStore.open(folder, name, manifest(scene, specs, reference_mode, repeats), resume, overwrite)
-    elif resume or overwrite:
-        raise SweepError("resume and overwrite need a stored sweep (write=True)")
     try:
+        if write:
+            folder = Path(folder) if folder is not None else results_dir() / "bench"
+            name = name if name is not None else sweepstore.unique_name(scene.name)
+            store = SweepStore.open(folder, name, manifest(scene, specs, reference_mode, repeats), resume, overwrite)
+        elif resume or overwrite:
+            raise SweepError("resume and overwrite need a stored sweep (write=True)")
         prepare_references(specs, scene, reference_mode, run_progress_factory(progress))
         try:
             df = run_specs(specs, scene, jobs, executor, scheduler, reference_mode, repeats, warmup, time_cap,
@@ -384,6 +390,7 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
     finally:
         if store is not None:
             store.close()
+        release()
 
 
 # `daebench.bench(...)` runs daebench.api.bench while this stays the module (see daebench/__init__.py)

@@ -179,9 +179,8 @@ def test_a_run_over_its_cap_stops_cleanly():
     refused(["run", "pendulum", "-i", "hang", "--opt", "h=1e-2", "--run-cap", "0.3"], "wall-time cap of 0.3 s", 1)
 
 
-@pytest.mark.xfail(strict=False, reason="driver threshold pending: the driver (lead) will declare a run diverged "
-                                        "when its energy balance breaks beyond the lowered divergence threshold")
 def test_baumgarte_energy_blow_up_is_diverged():
+    """3 J → ~460 J used to end 'completed'; the driver's energy-balance threshold now says diverged."""
     from daebench.runner import run_scene
     from daebench.scene import load_scene
 
