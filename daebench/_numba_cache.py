@@ -80,12 +80,28 @@ class InTreeLocator(_PackageStampMixin, caching.InTreeCacheLocator):
     """``__pycache__`` beside the source, with the package stamp."""
 
 
+_load_index = caching.IndexDataCacheFile._load_index
+
+
+def _tolerant_load_index(self):
+    """numba's index loader, but an index it cannot unpickle is a cache miss, not a crash.
+
+    A loop compiled for a plugin's model or method keeps that plugin's type in the index
+    of the loop's file (daebench's): a process where the plugin is not importable would
+    otherwise fail with ModuleNotFoundError on every compiled call of that loop."""
+    try:
+        return _load_index(self)
+    except Exception:  # noqa: BLE001 - any unreadable index is stale for this process
+        return {}
+
+
 def install() -> None:
-    """Put the package-stamped locators first (idempotent)."""
+    """Put the package-stamped locators first and make index loading tolerant (idempotent)."""
     classes = caching.CacheImpl._locator_classes
     for cls in (InTreeLocator, UserDirLocator):  # UserDirLocator ends up first
         if cls not in classes:
             classes.insert(0, cls)
+    caching.IndexDataCacheFile._load_index = _tolerant_load_index
 
 
 def cache_dir_note() -> str:

@@ -79,3 +79,38 @@ def test_registry_is_cached_per_sys_path_and_sees_a_plugin_added_to_it(plugin_si
     with_plugin = base.registry()
     assert len(calls) == 2 and "verlet" in with_plugin and with_plugin["verlet"].cls is not None
     assert base.registry(refresh=True) == with_plugin and len(calls) == 3
+
+
+def test_compiled_plugin_runs_like_the_python_one(plugin_site, tmp_path):
+    """The second example plugin writes its step against the compiled interfaces
+    (daebench_verlet.compiled): it is listed, runs through the CLI and gives the Python
+    plugin's answer (same method) to round-off, with second-order error."""
+    out = daebench(plugin_site, "list")
+    assert out.returncode == 0 and "verlet-compiled" in out.stdout, out.stderr
+    thetas = {}
+    for name in ("verlet", "verlet-compiled"):
+        for h in (2e-3, 1e-3):
+            out = daebench(plugin_site, "run", "pendulum", "--integrator", name, "--opt", f"h={h}",
+                           "--out", str(tmp_path), "--json")
+            assert out.returncode == 0, out.stderr
+            rec = json.loads(out.stdout)
+            assert rec["status"] == "completed"
+            thetas[name, h] = np.radians(rec["observables"]["theta_deg"])
+    for h in (2e-3, 1e-3):
+        assert abs(thetas["verlet", h] - thetas["verlet-compiled", h]) < 1e-11
+    errs = [abs(thetas["verlet-compiled", h] - exact_theta_end()) for h in (2e-3, 1e-3)]
+    assert 3.0 < errs[0] / errs[1] < 5.0
+
+
+def test_daebench_still_runs_where_the_plugin_is_not_installed(plugin_site, tmp_path):
+    """The plugin's compiled runs put its types into the cache index of daebench's loops;
+    a process that cannot import the plugin must treat that index as a miss, not crash."""
+    out = daebench(plugin_site, "run", "pendulum", "--integrator", "verlet-compiled", "--opt", "h=1e-3",
+                   "--out", str(tmp_path), "--json")
+    assert out.returncode == 0, out.stderr
+    env = dict(os.environ, COLUMNS="250")
+    env.pop("PYTHONPATH", None)
+    p = subprocess.run([sys.executable, "-m", "daebench.cli", "run", "pendulum", "--integrator", "hht",
+                        "--opt", "h=1e-3", "--out", str(tmp_path), "--json"], capture_output=True, text=True, env=env)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert json.loads(p.stdout)["status"] == "completed"

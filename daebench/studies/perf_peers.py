@@ -1,0 +1,251 @@
+"""Peers measured in the same run: Exudyn (generalized-α on the pendulum, ANCF cables on
+the hinged beam) and the example plugin written against daebench's compiled interfaces."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from daebench.models.pendulum import exact_theta
+from daebench.runner import run_scene
+from daebench.scene import load_scene
+from daebench.studies.perf_common import PerfSettings, _timed
+
+
+def _exu_settings(exu, T: float, h: float, rho: float):
+    sim = exu.SimulationSettings()
+    sim.timeIntegration.numberOfSteps = int(round(T / h))
+    sim.timeIntegration.endTime = T
+    sim.timeIntegration.generalizedAlpha.spectralRadius = rho
+    sim.timeIntegration.newton.useModifiedNewton = True
+    sim.timeIntegration.verboseMode = 0
+    sim.solution.file.write = False
+    sim.show.computationTime = False
+    sim.show.statistics = False
+    return sim
+
+
+def exudyn_pendulum(T: float, h: float, rho: float, theta0_deg: float = 30.0) -> tuple[float, float]:
+    """(wall time of SolveDynamic, final θ [rad]) of Exudyn's generalized-α on the Cartesian pendulum."""
+    import exudyn as exu
+    from exudyn.itemInterface import (DistanceConstraint, LoadCoordinate, MarkerNodeCoordinate, MarkerNodePosition,
+                                      MassPoint2D, NodePoint2D, NodePointGround)
+
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    th, l, m, g = math.radians(theta0_deg), 1.0, 1.0, 9.81
+    nG = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
+    n = mbs.AddNode(NodePoint2D(referenceCoordinates=[l * math.sin(th), -l * math.cos(th)]))
+    mbs.AddObject(MassPoint2D(mass=m, nodeNumber=n))
+    mG = mbs.AddMarker(MarkerNodePosition(nodeNumber=nG))
+    mB = mbs.AddMarker(MarkerNodePosition(nodeNumber=n))
+    mbs.AddObject(DistanceConstraint(markerNumbers=[mG, mB], distance=l))
+    mc = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=n, coordinate=1))
+    mbs.AddLoad(LoadCoordinate(markerNumber=mc, load=-m * g))
+    mbs.Assemble()
+    sim = _exu_settings(exu, T, h, rho)
+    _, w = _timed(lambda: exu.SolveDynamic(mbs, sim))
+    p = mbs.GetNodeOutput(n, exu.OutputVariableType.Position)
+    return w, math.atan2(p[0], -p[1])
+
+
+def exudyn_ancf_beam(T: float, h: float, rho: float, ne: int, scene) -> tuple[float, float]:
+    """(wall, tip angle [rad] at T) of a hinged ANCF cable (same L, EI, ρA, EA, start angle, g)."""
+    import exudyn as exu
+    from exudyn.itemInterface import (CoordinateConstraint, LoadMassProportional, MarkerBodyMass,
+                                      MarkerNodeCoordinate, NodePoint2DSlope1, NodePointGround, ObjectANCFCable2D,
+                                      ObjectGround)
+
+    L, A, I = scene["beam.length"], scene["beam.area"], scene["beam.inertia"]
+    rho_m, E, g = scene["beam.density"], scene["beam.modulus"], scene["gravity.g"]
+    th = math.radians(scene["start.theta_deg"])
+    c, s_ = math.cos(th), math.sin(th)
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    nodes = [mbs.AddNode(NodePoint2DSlope1(referenceCoordinates=[k * L / ne * c, k * L / ne * s_, c, s_]))
+             for k in range(ne + 1)]
+    for k in range(ne):
+        o = mbs.AddObject(ObjectANCFCable2D(length=L / ne, massPerLength=rho_m * A,
+                                            bendingStiffness=E * I, axialStiffness=E * A,
+                                            nodeNumbers=[nodes[k], nodes[k + 1]]))
+        mbs.AddLoad(LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(bodyNumber=o)),
+                                         loadVector=[0, -g, 0]))
+    mbs.AddObject(ObjectGround())
+    nG = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
+    mG = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nG, coordinate=0))
+    for k in (0, 1):  # the hinge: root position fixed, slope free
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[mG, mbs.AddMarker(MarkerNodeCoordinate(
+            nodeNumber=nodes[0], coordinate=k))]))
+    mbs.Assemble()
+    sim = _exu_settings(exu, T, h, rho)
+    _, w = _timed(lambda: exu.SolveDynamic(mbs, sim))
+    p = mbs.GetNodeOutput(nodes[-1], exu.OutputVariableType.Position)
+    return w, math.atan2(p[1], p[0])
+
+
+def _cost_at(errs: list[float], walls: list[float], target: float) -> float:
+    """Wall time at error ``target`` on the log–log work–precision line (interpolated)."""
+    e, w = np.log(np.array(errs)), np.log(np.array(walls))
+    ok = np.isfinite(e) & np.isfinite(w)
+    e, w = e[ok], w[ok]
+    if len(e) < 2:
+        return math.nan
+    order = np.argsort(e)
+    return float(np.exp(np.interp(math.log(target), e[order], w[order])))
+
+
+def pendulum_vs_exudyn(s: PerfSettings, alpha: float = -0.15) -> dict[str, Any]:
+    """hht vs Exudyn's generalized-α on the rigid pendulum at the same step and ρ∞: the
+    best of 3 wall times of each (ours: the whole ``run_scene``), per step."""
+    rho = (1 + alpha) / (1 - alpha)
+    out: dict[str, Any] = {}
+    T, h = s.pendulum_T, s.pendulum_h
+    sc = load_scene("pendulum", [f"t_end={T}", f"output.dt={T / 10}"])
+    run_scene(sc, "hht", {"h": h}, write=False)
+    exudyn_pendulum(min(T, 0.01), h, rho)  # warm
+    best_ours, best_exu = math.inf, math.inf
+    for _ in range(3):
+        (rec, res), w = _timed(lambda: run_scene(sc, "hht", {"h": h, "alpha": alpha}, write=False))
+        best_ours = min(best_ours, w)
+        we, th_e = exudyn_pendulum(T, h, rho)
+        best_exu = min(best_exu, we)
+    th_exact = float(exact_theta(T, math.radians(30.0)))
+    steps = rec.counters["steps"]
+    out["pendulum"] = {
+        "T": T, "h": h, "alpha": alpha, "rho_inf": rho, "steps": steps,
+        "ours_us_per_step": 1e6 * best_ours / steps, "exudyn_us_per_step": 1e6 * best_exu / round(T / h),
+        "ours_theta_err": abs(math.radians(float(res.history["theta_deg"].iloc[-1])) - th_exact),
+        "exudyn_theta_err": abs(th_e - th_exact),
+    }
+    out["pendulum"]["ratio_ours_over_exudyn"] = out["pendulum"]["ours_us_per_step"] / out["pendulum"]["exudyn_us_per_step"]
+    out["pendulum"]["newton_per_step"] = rec.counters["newton_iterations"] / steps
+    return out["pendulum"]
+
+
+def exudyn_compare(s: PerfSettings) -> dict[str, Any]:
+    try:
+        import exudyn
+    except ImportError:
+        return {"available": False, "note": "exudyn not installed (pip install 'daebench[exudyn]')"}
+    out: dict[str, Any] = {"available": True, "version": exudyn.__version__}
+    alpha = -0.15
+    rho = (1 + alpha) / (1 - alpha)
+    out["pendulum"] = pendulum_vs_exudyn(s, alpha)
+    out["genalpha"] = genalpha_vs_exudyn(s, out["pendulum"]["rho_inf"])
+    # -- flexible beam, equal accuracy -------------------------------------------------------
+    # Two of our discretizations against ANCF × ne: the modal one of beam-impact, and the
+    # like-for-like one (ne Hermite elements with axial stretch, as the ANCF cable has).
+    T, ne = s.beam_T, s.ancf_elements
+    base = ["effects.contact=false", f"t_end={T}", f"output.dt={T / 10}"]
+    models = {"modes": ("hub-beam modes N=5 (n=6), inextensible", []),
+              "fem": (f"hub-beam FEM × {ne} Hermite elements, axial on",
+                      ["discretization.kind=fem", f"discretization.n={ne}", "effects.axial=true"])}
+    scenes = {k: load_scene("beam-impact", base + sets) for k, (_, sets) in models.items()}
+
+    def ours(key, hh):
+        (rec, res), w = _timed(lambda: run_scene(scenes[key], "hht", {"h": hh, "alpha": alpha}, write=False))
+        last = res.history.iloc[-1]
+        return w, math.atan2(float(last["tip_y"]), float(last["tip_x"]))
+
+    refs = {}
+    for k in models:
+        ours(k, s.beam_hs[0])  # warm
+        refs[k] = ours(k, s.beam_ref_h)[1]
+    _, ref_e = exudyn_ancf_beam(T, s.beam_ref_h, rho, ne, scenes["modes"])
+    rows = []
+    for hh in s.beam_hs:
+        row: dict[str, Any] = {"h": hh}
+        for k in models:
+            wo, tho = ours(k, hh)
+            row[f"{k}_wall_s"], row[f"{k}_err"] = wo, abs(tho - refs[k])
+        we, the = exudyn_ancf_beam(T, hh, rho, ne, scenes["modes"])
+        row["exudyn_wall_s"], row["exudyn_err"] = we, abs(the - ref_e)
+        row["fem_over_exudyn_per_step"] = row["fem_wall_s"] / we
+        rows.append(row)
+    beam: dict[str, Any] = {"T": T, "alpha": alpha, "rho_inf": rho, "rows": rows,
+                            "models": {k: v[0] for k, v in models.items()},
+                            "exudyn_model": f"ANCFCable2D × {ne} elements", "ref_tip_angle_exudyn": ref_e}
+    ce_errs, ce_walls = [r["exudyn_err"] for r in rows], [r["exudyn_wall_s"] for r in rows]
+    for k in models:
+        errs = [r[f"{k}_err"] for r in rows] + ce_errs
+        pos = [e for e in errs if e > 0]
+        target = float(np.exp(np.mean(np.log(pos)))) if pos else math.nan  # inside both lines' ranges
+        co = _cost_at([r[f"{k}_err"] for r in rows], [r[f"{k}_wall_s"] for r in rows], target)
+        ce = _cost_at(ce_errs, ce_walls, target)
+        beam[k] = {"target_err": target, "ours_wall_at_target": co, "exudyn_wall_at_target": ce,
+                   "ratio_ours_over_exudyn": co / ce if ce == ce and ce > 0 else math.nan,
+                   "ref_tip_angle": refs[k]}
+    out["beam"] = beam
+    return out
+
+
+def genalpha_vs_exudyn(s: PerfSettings, rho: float = 0.74) -> dict[str, Any]:
+    """``genalpha`` against Exudyn's generalized-α on the rigid pendulum at the same ρ∞ and
+    h, both index 3: error of θ(T) against the exact solution and µs per step (best of 3
+    wall times each; ours: the whole ``run_scene``)."""
+    T, h = s.pendulum_T, s.pendulum_h
+    sc = load_scene("pendulum", [f"t_end={T}", f"output.dt={T / 10}"])
+    opts = {"h": h, "rho_inf": rho}
+    run_scene(sc, "genalpha", opts, write=False)
+    exudyn_pendulum(min(T, 0.01), h, rho)
+    best_ours = best_exu = math.inf
+    for _ in range(3):
+        (rec, res), w = _timed(lambda: run_scene(sc, "genalpha", opts, write=False))
+        best_ours = min(best_ours, w)
+        we, th_e = exudyn_pendulum(T, h, rho)
+        best_exu = min(best_exu, we)
+    th_exact = float(exact_theta(T, math.radians(30.0)))
+    steps = rec.counters["steps"]
+    ours_err = abs(math.radians(float(res.history["theta_deg"].iloc[-1])) - th_exact)
+    exu_err = abs(th_e - th_exact)
+    out = {"T": T, "h": h, "rho_inf": rho, "steps": steps, "ours_us_per_step": 1e6 * best_ours / steps,
+           "exudyn_us_per_step": 1e6 * best_exu / round(T / h), "ours_theta_err": ours_err,
+           "exudyn_theta_err": exu_err, "newton_per_step": rec.counters["newton_iterations"] / steps}
+    out["ratio_ours_over_exudyn"] = out["ours_us_per_step"] / out["exudyn_us_per_step"]
+    out["error_ratio_ours_over_exudyn"] = ours_err / exu_err if exu_err > 0 else math.nan
+    return out
+
+
+def _plugin_classes():
+    """The example plugins from the repository's tests/plugin_pkg (None when daebench is
+    not run from a checkout)."""
+    root = Path(__file__).resolve().parents[2] / "tests" / "plugin_pkg"
+    if not (root / "daebench_verlet").is_dir():
+        return None
+    if str(root) not in sys.path:
+        sys.path.insert(0, str(root))
+    from daebench_verlet import Verlet
+    from daebench_verlet.compiled import CompiledVerlet
+
+    return Verlet, CompiledVerlet
+
+
+def compiled_plugin(s: PerfSettings) -> dict[str, Any]:
+    """Per-step cost on the pendulum (same h, best of 3) of the example plugin written
+    against the compiled interfaces, beside the built-ins and its plain-Python twin."""
+    classes = _plugin_classes()
+    if classes is None:
+        return {"available": False, "note": "tests/plugin_pkg not found (run from a checkout)"}
+    Verlet, CompiledVerlet = classes
+    T, h = s.pendulum_T, s.pendulum_h
+    sc = load_scene("pendulum", [f"t_end={T}", f"output.dt={T / 10}"])
+    rows = {}
+    for label, make in (("verlet-compiled (plugin)", lambda: CompiledVerlet(h=h)),
+                        ("verlet (plugin, plain Python)", lambda: Verlet(h=h)),
+                        ("hht", lambda: "hht"), ("genalpha", lambda: "genalpha")):
+        opts = {"h": h} if label in ("hht", "genalpha") else {}
+        run_scene(sc, make(), opts, write=False)  # warm
+        best = math.inf
+        for _ in range(3):
+            (rec, _), w = _timed(lambda: run_scene(sc, make(), opts, write=False))
+            best = min(best, w)
+        rows[label] = {"steps": rec.counters["steps"], "us_per_step": 1e6 * best / rec.counters["steps"]}
+    plugin = rows["verlet-compiled (plugin)"]["us_per_step"]
+    return {"available": True, "T": T, "h": h, "rows": rows,
+            "plugin_over_hht": plugin / rows["hht"]["us_per_step"],
+            "plugin_over_genalpha": plugin / rows["genalpha"]["us_per_step"],
+            "python_over_compiled_plugin": rows["verlet (plugin, plain Python)"]["us_per_step"] / plugin}
