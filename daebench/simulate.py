@@ -121,6 +121,7 @@ class Driver:
         self.approach_speed = np.full(sys_.n_contacts, np.nan)  # v₀ of each continuous-law episode
         self._current = self._problem()
         self.work: dict[str, float] = {k: 0.0 for k in self._power_terms(0.0, q, v)}  # W(0) = 0, not NaN
+        self._contact_work: tuple[float, float] | None = None
         self.d_impacts = 0.0
         terms0 = sys_.energy(q, v)
         self.E0 = float(sum(terms0.values()))
@@ -256,6 +257,7 @@ class Driver:
             c = adv.cmax
             self.cmax.update(C=float(c[0]), Cdot=float(c[1]), Cddot=float(c[2]))
         self.impacts.extend(adv.events)
+        self._contact_work = adv.contact_work
         return adv
 
     def _problem(self) -> Problem:
@@ -391,6 +393,13 @@ class Driver:
     def _accumulate_work(self, prev: State, end: State, p0: dict, p1: dict, problem: Problem) -> None:
         dt = end.t - prev.t
         base = dict(self.work)
+        cw = self._contact_work
+        if cw is not None and dt > 0.0:
+            # the contact work of an integrator that resolves contacts itself: its value at
+            # prev.t, and its mean power over the step (interpolated linearly at output times)
+            base["contact"] = cw[0]
+            rate = (cw[1] - cw[0]) / dt
+            p0, p1 = {**p0, "contact": rate}, {**p1, "contact": rate}
         for k in set(p0) | set(p1):
             self.work[k] = base.get(k, 0.0) + 0.5 * dt * (p0.get(k, 0.0) + p1.get(k, 0.0))
         self._record_until(prev, end, problem, dt, base, p0, p1)
