@@ -1,5 +1,5 @@
 """Meshfree discretization of the hub–beam (EFG, interpolating generalized MLS;
-daebench.models.shapes.MeshfreeBasis) against independent truth: polynomial
+daebench.models.meshfree.MeshfreeBasis) against independent truth: polynomial
 reproduction, the Kronecker-delta property, finite differences, cantilever theory, and
 the finite-element and modal discretizations of the same runs.
 
@@ -18,14 +18,8 @@ import pytest
 from scipy.linalg import eigh
 
 from daebench.models import build_system
-from daebench.models.shapes import (
-    MeshfreeBasis,
-    cantilever_roots,
-    composite_gauss,
-    cubic_spline_weight,
-    foreshortening_matrices,
-    meshfree_basis,
-)
+from daebench.models.meshfree import MeshfreeBasis, cubic_spline_weight, meshfree_basis
+from daebench.models.shapes import cantilever_roots, composite_gauss, foreshortening_matrices
 from daebench.runner import run_scene
 from daebench.scene import SceneError, load_scene
 from _fd import fd  # tests/_fd.py

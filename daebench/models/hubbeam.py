@@ -64,12 +64,18 @@ from daebench import kernels
 from daebench.contact import DAMPING_LAWS, make_contact_law
 from daebench.models import _hubbeam_jacobians as hj
 from daebench.models import _hubbeam_kernels as kern
-from daebench.models.shapes import (BUILDER_OPTIONS, BUILDERS, FEM_POINTS_PER_ELEMENT, MAX_ELEMENTS, MAX_INFLUENCE,
-                                     MAX_MODES, MAX_NODES, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE, MIN_INFLUENCE,
-                                     MODE_PANELS, MODE_POINTS_PER_PANEL, ShapeTables, tabulate)
+from daebench.models.meshfree import (MAX_INFLUENCE, MAX_NODES, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE,
+                                       MIN_INFLUENCE, meshfree_basis)
+from daebench.models.shapes import (FEM_POINTS_PER_ELEMENT, MAX_ELEMENTS, MAX_MODES, MODE_PANELS,
+                                     MODE_POINTS_PER_PANEL, ShapeTables, fem_basis, modal_basis, tabulate)
 from daebench.params import Param
 from daebench.scene import Scene, SceneError
 from daebench.system import KernelSystem
+
+#: discretization.kind → shape builder (length, n, axial, **options) -> ShapeBasis
+BUILDERS = {"modes": modal_basis, "fem": fem_basis, "meshfree": meshfree_basis}
+#: extra scene keys ``discretization.<key>`` a builder takes as keyword arguments
+BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {"meshfree": ("influence", "cell_gauss")}
 
 DESCRIPTION = "flexible beam on a turning hub (modes or FEM), gravity, torque, damping, contact with a plane"
 
