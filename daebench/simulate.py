@@ -121,7 +121,7 @@ class Driver:
         self.approach_speed = np.full(sys_.n_contacts, np.nan)  # v₀ of each continuous-law episode
         self._current = self._problem()
         self.work: dict[str, float] = {k: 0.0 for k in self._power_terms(0.0, q, v)}  # W(0) = 0, not NaN
-        self._contact_work: tuple[float, float] | None = None
+        self._contact_work: tuple[float, ...] | None = None
         self.d_impacts = 0.0
         terms0 = sys_.energy(q, v)
         self.E0 = float(sum(terms0.values()))
@@ -395,11 +395,14 @@ class Driver:
         base = dict(self.work)
         cw = self._contact_work
         if cw is not None and dt > 0.0:
-            # the contact work of an integrator that resolves contacts itself: its value at
-            # prev.t, and its mean power over the step (interpolated linearly at output times)
+            # the contact work of an integrator that resolves contacts itself, W(prev.t) and
+            # W(new.t) [, power at prev.t]: as end "powers" whose trapezoid gives W(new.t)
+            # exactly, interpolated at output times as the quadratic through W(prev.t) with
+            # that power (or linearly)
             base["contact"] = cw[0]
-            rate = (cw[1] - cw[0]) / dt
-            p0, p1 = {**p0, "contact": rate}, {**p1, "contact": rate}
+            mean = (cw[1] - cw[0]) / dt
+            r0 = cw[2] if len(cw) > 2 else mean
+            p0, p1 = {**p0, "contact": r0}, {**p1, "contact": 2.0 * mean - r0}
         for k in set(p0) | set(p1):
             self.work[k] = base.get(k, 0.0) + 0.5 * dt * (p0.get(k, 0.0) + p1.get(k, 0.0))
         self._record_until(prev, end, problem, dt, base, p0, p1)

@@ -282,8 +282,9 @@ class Advance:
     """What :meth:`Integrator.advance` hands the driver: the last step (prev → new), how
     many accepted steps were taken, the watch's re-armed contacts and constraint maxima
     after the quiet steps, the contact episodes the integrator resolved itself, and — for
-    such integrators — the cumulative work of their contact forces at prev.t and new.t
-    (the driver books it as ``W_contact`` in the energy balance)."""
+    such integrators — the cumulative work of their contact forces at prev.t and at new.t
+    and, optionally, their power at prev.t (the driver books it as ``W_contact`` in the
+    energy balance, interpolated within the step: quadratic with the power, else linear)."""
 
     prev: State
     new: State
@@ -291,7 +292,7 @@ class Advance:
     armed: np.ndarray | None = None
     cmax: np.ndarray | None = None
     events: list[Impact] = field(default_factory=list)
-    contact_work: tuple[float, float] | None = None
+    contact_work: tuple[float, ...] | None = None
 
 
 def hermite_state(s0: State, s1: State, t: float) -> State:
