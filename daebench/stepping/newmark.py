@@ -78,9 +78,10 @@ import numpy as np
 from numba import njit
 
 from daebench import phase
-from daebench.linalg import lu_factor, lu_solve
+from daebench.linalg import lu_solve
 from daebench.stepping import control, methods
-from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES
+from daebench.stepping.methods import C_NEWTON, C_RES
+from daebench.stepping.newmark_matrix import ST_HOLD, ST_LU, ST_LUH, ST_PREV, factor, uses_hM, weights
 
 NEWTON_RATE_REFRESH = 0.1    # contraction rate above which a reused iteration matrix is rebuilt
 NEWTON_RATE_DIVERGE = 2.0    # rate above which a fresh-matrix iteration is declared divergent
@@ -96,7 +97,6 @@ FAIL_MESSAGES = {
     4: "non-finite iteration matrix",
     5: "singular iteration matrix (dependent constraints?)",
 }
-ST_LU, ST_LUH, ST_PREV, ST_HOLD = range(4)  # ws.st: LU valid, h of the LU, previous step known, its h
 
 
 class NewmarkMethod(NamedTuple):
@@ -159,22 +159,10 @@ def workspace(n: int, m: int, ggl: bool) -> NewmarkWork:
 
 
 @njit(cache=True)
-def _weights(meth):
-    """(w₁, w_m, w_f) = ((1−α_m), α_m, α_f) / (1−α_f)."""
-    d = 1.0 - meth.alpha_f
-    return (1.0 - meth.alpha_m) / d, meth.alpha_m / d, meth.alpha_f / d
-
-
-@njit(cache=True)
-def _uses_hM(meth):
-    return meth.alpha_m != 0.0 or meth.accel_avg
-
-
-@njit(cache=True)
 def _start(meth, ws, ph, t, cur, cnt):
     """Forget the history; h_M, h_F (and F_n) from the consistent start state."""
     n = cur.q.shape[0]
-    w1, wm, wf = _weights(meth)
+    w1, wm, wf = weights(meth)
     ws.st[:] = 0.0
     ws.acc[:] = cur.a
     for i in range(n):
@@ -238,75 +226,6 @@ def _constraints_ok(meth, n, m, h, tol, qscale, Cq, C, Ct, va):
 
 
 @njit(cache=True)
-def _factor(meth, ws, ph, n, m, nx, t1, h, q, v, a, lt, bh2, cnt):
-    """Build and factorize the scaled iteration matrix J; returns a status."""
-    M, Kq, Kv, KM, KC, Cq = ws.M, ws.Kq, ws.Kv, ws.KM, ws.KC, ws.Cq
-    J = ws.LU
-    w1, wm, wf = _weights(meth)
-    phase.force_jacobian(ph, t1, q, v, Kq, Kv)
-    cnt[C_JAC] += 1
-    phase.mass_jacobian_product(ph, q, a, KM)
-    gah = meth.gamma * h
-    for i in range(n):
-        for j in range(n):
-            J[i, j] = w1 * M[i, j] + bh2 * (w1 * KM[i, j] - Kq[i, j]) - gah * Kv[i, j]
-    for i in range(nx):
-        for j in range(n, nx):
-            J[i, j] = 0.0
-    for i in range(n, nx):
-        for j in range(n):
-            J[i, j] = 0.0
-    if _uses_hM(meth):
-        phase.mass_jacobian_product(ph, q, ws.hM, KM)
-        for i in range(n):
-            for j in range(n):
-                J[i, j] += bh2 * KM[i, j]
-    if m:
-        lam = ws.lam_s
-        for k in range(m):
-            lam[k] = lt[k] / bh2
-        phase.constraint_force_jacobian(ph, t1, q, lam, KC)
-        for i in range(n):
-            for j in range(n):
-                J[i, j] = J[i, j] + bh2 * KC[i, j]
-        for k in range(m):
-            for i in range(n):
-                J[i, n + k] = Cq[k, i]
-                J[n + k, i] = Cq[k, i]
-        if meth.ggl:
-            for i in range(n):
-                for k in range(m):
-                    s = 0.0
-                    for j in range(n):
-                        s += (w1 * M[i, j] - gah * Kv[i, j]) * Cq[k, j]
-                    J[i, n + m + k] = -s
-            FDv = ws.FDv[:m]
-            phase.velocity_constraint_jacobian(ph, t1, q, v, FDv)
-            c = meth.beta * h / meth.gamma
-            for k in range(m):
-                for j in range(n):
-                    J[n + m + k, j] = Cq[k, j] + c * FDv[k, j]
-                for l in range(m):
-                    s = 0.0
-                    for j in range(n):
-                        s += Cq[k, j] * Cq[l, j]
-                    J[n + m + k, n + m + l] = -s
-    for i in range(nx):
-        for j in range(nx):
-            if not math.isfinite(J[i, j]):
-                ws.st[ST_LU] = 0.0
-                return 4
-    info = lu_factor(J, ws.piv)
-    if info > 0:
-        ws.st[ST_LU] = 0.0
-        return 5
-    ws.st[ST_LU] = 1.0
-    ws.st[ST_LUH] = h
-    cnt[C_LU] += 1
-    return 0
-
-
-@njit(cache=True)
 def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     """One step t → t + h (module docstring); returns (status, local error estimate)."""
     n = cur.q.shape[0]
@@ -321,8 +240,8 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     st = ws.st
     tol = meth.tol
     maxiter = meth.maxiter
-    w1, wm, wf = _weights(meth)
-    hM_on = _uses_hM(meth)
+    w1, wm, wf = weights(meth)
+    hM_on = uses_hM(meth)
     t1 = t + h
     be, ga = meth.beta, meth.gamma
     bh2 = be * h * h
@@ -389,7 +308,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
             if not finite:
                 return 1, 0.0
             if st[ST_LU] == 0.0 or not meth.reuse:
-                status = _factor(meth, ws, ph, n, m, nx, t1, h, qa, va, aa, x[n:n + m], bh2, cnt)
+                status = factor(meth, ws, ph, n, m, nx, t1, h, qa, va, aa, x[n:n + m], bh2, cnt)
                 if status:
                     return status, 0.0
                 fresh = True
@@ -478,7 +397,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
 @njit(cache=True)
 def _accept(meth, ws, h, prev, cur):
     n = cur.q.shape[0]
-    w1, wm, wf = _weights(meth)
+    w1, wm, wf = weights(meth)
     for i in range(n):
         ws.a_old[i] = ws.acc[i]
         if meth.accel_avg:
