@@ -25,7 +25,8 @@ not the Runge–Kutta step.
 
 LCP solver. The source solves the LCP "through its equivalent nonlinear equations" and
 names no NCP function. Here it is solved exactly by Murty's least-index principal
-pivoting (:func:`daebench.stepping.lcpavg.solve_lcp`), warm-started from {b < 0}: A is
+pivoting (:func:`daebench.capture.lcp.solve_lcp`, shared with the event-capturing
+steppers; one contact in closed form, f = max(0, −b/A)): A is
 symmetric positive definite for independent contact Jacobians, so the solution is unique
 and any exact method — a semismooth Newton on min(ḡ, f) = 0 or on Fischer–Burmeister
 included, at convergence — gives the same f. With one contact (or decoupled contacts: a
@@ -117,7 +118,7 @@ class LcpAvg(CompiledIntegrator):
                 low=1e-12, high=10.0),
     )
     fail_messages = {k: v.replace("{lcp_pivots}", str(_lcpavg.LCP_MAX_PIVOTS))
-                     for k, v in _lcpavg.FAIL_MESSAGES.items()}
+                     for k, v in _lcpavg.FAIL_MESSAGES.items()}  # the message's braces are not settings
 
     def method(self) -> _lcpavg.LcpAvgMethod:
         return _lcpavg.LcpAvgMethod(float(self.settings["h_avg"]))

@@ -8,8 +8,8 @@ M(q) a_free = Q(t, q, v); per contact i: g_i, row G_i = ∂g_i/∂q, γ_i (g̈ =
     b_i = g_i + (h/2) G_i v + (h²/6)(G_i a_free − γ_i),   A = (h²/6) G M⁻¹ Gᵀ,
     0 ≤ f ⟂ A f + b ≥ 0,   q̈ = a_free + M⁻¹ Gᵀ f,
 
-solved by :func:`solve_lcp`; when every b_i ≥ 0 the answer f = 0 is immediate (no
-M⁻¹Gᵀ needed).
+solved by Murty's principal pivoting (:func:`daebench.capture.lcp.solve_lcp`); when every
+b_i ≥ 0 the answer f = 0 is immediate (no M⁻¹Gᵀ needed).
 
 Bookkeeping (in ``accept``, on the accepted step's stage samples, in time order — the
 stage times c = 0, 1/5, 3/10, 4/5, 8/9, 1 are increasing): a contact *episode* runs while
@@ -30,12 +30,11 @@ import numpy as np
 from numba import njit
 
 from daebench import kernels, phase
+from daebench.capture.lcp import LCP_MAX_PIVOTS, LcpWork, lcp_work, solve_lcp
 from daebench.linalg import lu_factor, lu_solve
 from daebench.stepping import control, methods
 from daebench.stepping.methods import C_LU, C_RES
 
-LCP_MAX_PIVOTS = 1000   # Murty's method: pivots before giving up (finite for P-matrices)
-LCP_TOL = 1e-13         # relative tolerance of the complementarity check
 LOG_COLUMNS = 8         # contact, t_start, ġ⁻, ġ⁺, energy lost, impulse, t_end, min gap
 ST_NOT_FINITE, ST_SINGULAR, ST_LCP = 1, 2, 3
 FAIL_MESSAGES = {
@@ -80,11 +79,8 @@ class LcpAvgWork(NamedTuple):
     b: np.ndarray
     f: np.ndarray
     w: np.ndarray
-    S: np.ndarray       # LCP sub-system scratch
-    spiv: np.ndarray
-    sr: np.ndarray
-    idx: np.ndarray
-    act: np.ndarray
+    use: np.ndarray     # bool[nc]: every row of the LCP
+    lw: LcpWork         # scratch of the LCP solver
     sf: np.ndarray      # [7, nc] per stage: force, gap, gap rate, b
     sg: np.ndarray
     sgd: np.ndarray
@@ -101,60 +97,11 @@ def workspace(n: int, nc: int, log_capacity: int) -> LcpAvgWork:
     e = np.empty
     k = max(nc, 1)
     return LcpAvgWork(np.zeros((7, 2 * n)), e(2 * n), e(2 * n), e(2 * n), e((n, n)), np.zeros(n, np.int64), e(n),
-                      e(n), np.zeros((k, n)), np.zeros((k, n)), e((k, k)), e(k), np.zeros(k), e(k), e((k, k)),
-                      np.zeros(k, np.int64), e(k), np.zeros(k, np.int64), np.zeros(k, np.bool_), np.zeros((7, k)),
+                      e(n), np.zeros((k, n)), np.zeros((k, n)), e((k, k)), e(k), np.zeros(k), e(k), np.ones(k, np.bool_),
+                      lcp_work(k), np.zeros((7, k)),
                       np.zeros((7, k)), np.zeros((7, k)), np.zeros((7, k)), np.zeros(1), np.zeros(1, np.int64),
                       np.zeros((k, 6)), np.zeros((max(log_capacity, 1), LOG_COLUMNS)), np.zeros(1, np.int64),
                       np.zeros(3))
-
-
-@njit(cache=True)
-def solve_lcp(A, b, z, w, act, S, piv, r, idx):
-    """z ≥ 0 with w = A z + b ≥ 0 and zᵀw = 0, for a P-matrix A (here symmetric positive
-    definite). Murty's least-index principal pivoting: the active set (w = 0) starts as
-    {b < 0} and the lowest-index infeasible variable (z < 0 in it, w < 0 outside) is
-    flipped until none is left; finite for P-matrices from any start (Murty 1974). Exact:
-    the answer is the unique solution, up to the round-off of the small dense solves.
-    Returns the number of pivots, or −1 if LCP_MAX_PIVOTS did not suffice."""
-    n = b.shape[0]
-    scale = 1.0
-    for i in range(n):
-        scale = max(scale, abs(b[i]))
-        act[i] = b[i] < 0.0
-    tol = LCP_TOL * scale
-    for it in range(LCP_MAX_PIVOTS):
-        k = 0
-        for i in range(n):
-            if act[i]:
-                idx[k] = i
-                k += 1
-        for p in range(k):
-            r[p] = -b[idx[p]]
-            for s in range(k):
-                S[p, s] = A[idx[p], idx[s]]
-        Sk = S[:k, :k]
-        if k and lu_factor(Sk, piv[:k]) != 0:
-            return -1
-        if k:
-            lu_solve(Sk, piv[:k], r[:k])
-        for i in range(n):
-            z[i] = 0.0
-        for p in range(k):
-            z[idx[p]] = r[p]
-        bad = -1
-        for i in range(n):
-            acc = b[i]
-            for j in range(n):
-                acc += A[i, j] * z[j]
-            w[i] = acc
-            if bad < 0 and ((act[i] and z[i] < -tol) or (not act[i] and acc < -tol)):
-                bad = i
-        if bad < 0:
-            for i in range(n):
-                z[i] = max(z[i], 0.0)
-            return it
-        act[bad] = not act[bad]
-    return -1
 
 
 @njit(cache=True)
@@ -209,7 +156,7 @@ def rhs(meth, ws, ph, t, y, fy, s, cnt):
                     acc += ws.G[i, j] * ws.W[k, j]
                 ws.A[i, k] = c2 * acc
         A, b = ws.A[:nc, :nc], ws.b[:nc]
-        if solve_lcp(A, b, ws.f[:nc], ws.w[:nc], ws.act[:nc], ws.S, ws.spiv, ws.sr, ws.idx) < 0:
+        if solve_lcp(A, b, ws.use, ws.f[:nc], ws.w[:nc], ws.lw) < 0:
             return ST_LCP
         for i in range(nc):
             fi = ws.f[i]
