@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from daebench.models._planar_mesh import graded, rectangle, rounded_bar, symmetric_graded
+from daebench.models._planar_mesh import graded, rectangle, rounded_bar
 from daebench.models.planar import (CONTACT_SCHEMA, Body, Layout, PlanarBodies, Surface, check_contact,
                                     hertz_line_halfwidth)
 from daebench.params import Param
@@ -83,7 +83,8 @@ def build(scene: Scene) -> PlanarBodies:
     tol = 1e-6 * d
     arc = np.flatnonzero((rp[:, 0] >= x_end + tol) & (np.abs(np.hypot(rp[:, 0] - x_end, rp[:, 1]) - R) < tol))
     S, th = scene["plate.side"], scene["plate.thickness"]
-    ys = symmetric_graded(0.5 * S, hc, hf)
+    right = graded(0.5 * hc, 0.5 * S, hc, hf)              # no node at the centre: the tip's axis node
+    ys = np.concatenate([-right[::-1], right])              # meets a segment, not a kink between two
     xs = graded(0.0, th, hc, max(hc, th / 4.0))
     plate_mesh = rectangle(xs, ys)
     pp = plate_mesh.p
