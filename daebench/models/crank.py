@@ -121,7 +121,7 @@ def _mass_force(md, t, q, v, M, Q):
     e = q[3:]
     ed = v[3:]
     v1, v2 = v[0], v[1]
-    cp1, sp1, cp2, sp2 = math.cos(q[0]), math.sin(q[0]), math.cos(q[1]), math.sin(q[1])
+    cp1, cp2, sp2 = math.cos(q[0]), math.cos(q[1]), math.sin(q[1])
     c12_, s12 = math.cos(q[0] - q[1]), math.sin(q[0] - q[1])
     c1e, c1ed, c2e, c2ed, c12e, c12ed = c1 @ e, c1 @ ed, c2 @ e, c2 @ ed, c12 @ e, c12 @ ed
     MQe = MQ @ e          # MQ symmetric: MQQ(I) = Σ_J MQ(J, I) e_J

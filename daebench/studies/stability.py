@@ -1,0 +1,343 @@
+"""Stability map: the largest stable fixed step of each integrator, measured and predicted.
+
+Measured
+--------
+For one integrator setting and one scene, the largest step h for which a whole run
+*completes* — reaches the scene's t_end with its energy balance within the driver's
+divergence threshold (:data:`daebench.simulate.DIVERGENCE_ENERGY` × the energy scale; the
+run's status) — found by bisection in log h between ``h_min`` and ``h_max`` until the
+bracket [h_stable, h_unstable] is narrower than a factor 1 + ``tol``. Bisection assumes
+one boundary (stable below, unstable above), which linear theory predicts here.
+
+Predicted (linear theory, computed)
+-----------------------------------
+*The system*: the undamped frequencies ω_k at the start, from K φ = ω² M φ with
+K = −∂Q/∂q (symmetric part) and M = M(q0), restricted to the tangent space of the
+bilateral constraints when the model has any (:func:`linearize`). The suddenly applied
+load Q(q0) starts mode k with the oscillation energy E_k = f_k²/(2ω_k²), f_k = φ_kᵀQ(q0)
+(φ mass-normalized) — the seed an unstable mode grows from.
+
+*The method*: its spectral radius ρ(Ω) at Ω = hω on the undamped oscillator —
+ABM4-PECE (:class:`AbmPece`): the largest root of its characteristic polynomial on
+y′ = iωy; the Newmark family (:class:`NewmarkMember`): the largest eigenvalue of the
+amplification matrix of ẍ = −ω²x. A run of n = t_end/h steps lets a mode grow by ρⁿ,
+and the driver declares divergence when its energy E_k ρ²ⁿ passes DIVERGENCE_ENERGY × the
+energy scale. So the method's stability interval *for this run* is
+
+    Ω*(n, G) = sup{Ω : n ln ρ(Ω) ≤ ln G},   G = √(DIVERGENCE_ENERGY · E_scale / E_k),
+
+and the predicted h_max = min_k h with h ω_k = Ω*(t_end/h, G_k) (a fixed point in h). The
+strict interval {ρ ≤ 1} is reported too: ∞ for the unconditionally stable Newmark members;
+for ABM4-PECE it is empty — its principal root exceeds 1 by ≈ 0.16 Ω⁶ for small Ω (order
+4, no damping on the imaginary axis) and a parasitic root crosses |ζ| = 1 near Ω ≈ 0.93,
+beyond which growth is ≥ 3.6 % a step. On a short run the weak growth below 0.93 cannot
+reach the threshold and Ω* sits at that crossing; on long runs Ω* drops towards 0.5.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any, Callable, Iterable, Sequence
+
+import numpy as np
+import pandas as pd
+import scipy.linalg as sl
+
+from daebench.models import build_system
+from daebench.scene import Scene
+from daebench.simulate import DIVERGENCE_ENERGY
+
+OMEGA_GRID = np.concatenate([np.linspace(1e-3, 4.0, 4000), np.geomspace(4.0, 1e7, 600)[1:]])
+STRICT_SLACK = 1e-12    # ρ ≤ 1 + this counts as |ρ| ≤ 1 (round-off of the eigenvalue solver)
+
+
+# -- the methods on the undamped oscillator ------------------------------------------------------
+@dataclass(frozen=True)
+class AbmPece:
+    """Adams–Bashforth–Moulton 4, PECE mode (the stepper :mod:`daebench.stepping.abm`, its
+    coefficients): y_{n+1} = y_n + z[AM0 (y_n + z Σ AB_j y_{n−j}) + AM1 y_n + AM2 y_{n−1}
+    + AM3 y_{n−2}] on y′ = λy, z = hλ, i.e. the characteristic polynomial
+    ζ⁴ − (1 + z(AM0 + AM1) + z²AM0·AB0) ζ³ − (z AM2 + z²AM0·AB1) ζ² − (z AM3 + z²AM0·AB2) ζ
+    − z²AM0·AB3. The RK4 start (3 steps, imaginary-axis limit 2√2) does not bound h."""
+
+    name: str = "ABM4-PECE"
+
+    def radius_z(self, z: complex) -> float:
+        from daebench.stepping import abm
+
+        a0 = abm.AM0
+        c = [1.0, -(1.0 + z * (a0 + abm.AM1) + z * z * a0 * abm.AB0), -(z * abm.AM2 + z * z * a0 * abm.AB1),
+             -(z * abm.AM3 + z * z * a0 * abm.AB2), -(z * z * a0 * abm.AB3)]
+        return float(np.abs(np.roots(c)).max())
+
+    def radius(self, omega: float) -> float:
+        return self.radius_z(1j * omega)
+
+
+@dataclass(frozen=True)
+class NewmarkMember:
+    """A Newmark-family member (α_m, α_f, β, γ; force or acceleration averaging, as in
+    :mod:`daebench.stepping.newmark`) on ẍ + ω²x = 0 with Ω = hω."""
+
+    alpha_m: float
+    alpha_f: float
+    beta: float
+    gamma: float
+    accel_avg: bool = False
+    name: str = "Newmark family"
+
+    def matrix(self, omega: float) -> np.ndarray:
+        """The amplification matrix: state (x, h v, h² a) [and h² ẍ with acceleration averaging]."""
+        am, af, b, g, w2 = self.alpha_m, self.alpha_f, self.beta, self.gamma, omega * omega
+        # unknowns u = (x1, v1, a1[, ẍ1]); rows: equation of motion, x update, v update[, ẍ1 = −Ω² x1]
+        if not self.accel_avg:
+            L = np.array([[(1 - af) * w2, 0.0, 1 - am], [1.0, 0.0, -b], [0.0, 1.0, -g]])
+            R = np.array([[-af * w2, 0.0, -am], [1.0, 1.0, 0.5 - b], [0.0, 1.0, 1 - g]])
+        else:
+            L = np.array([[0.0, 0.0, 1 - am, -(1 - af)], [1.0, 0.0, -b, 0.0], [0.0, 1.0, -g, 0.0],
+                          [w2, 0.0, 0.0, 1.0]])
+            R = np.array([[0.0, 0.0, -am, af], [1.0, 1.0, 0.5 - b, 0.0], [0.0, 1.0, 1 - g, 0.0],
+                          [0.0, 0.0, 0.0, 0.0]])
+        return np.linalg.solve(L, R)
+
+    def radius(self, omega: float) -> float:
+        return float(np.abs(np.linalg.eigvals(self.matrix(omega))).max())
+
+
+def method_of(integrator: Any) -> AbmPece | NewmarkMember | None:
+    """The stability model of a built-in fixed-step integrator instance (None: not covered)."""
+    from daebench.integrators.baumgarte import BaumgarteABM4
+    from daebench.integrators.family import NewmarkFamily
+
+    if isinstance(integrator, BaumgarteABM4):
+        return AbmPece()
+    if isinstance(integrator, NewmarkFamily):
+        c = integrator.coefficients()
+        return NewmarkMember(c.alpha_m, c.alpha_f, c.beta, c.gamma, bool(c.accel_avg), type(integrator).__name__)
+    return None
+
+
+@functools.lru_cache(maxsize=64)
+def _log_radius(method: AbmPece | NewmarkMember) -> np.ndarray:
+    """ln ρ on :data:`OMEGA_GRID` (computed once per method)."""
+    return np.log(np.maximum([method.radius(float(w)) for w in OMEGA_GRID], 1e-300))
+
+
+def strict_interval(method: AbmPece | NewmarkMember) -> float:
+    """sup{Ω : ρ(ω') ≤ 1 for all ω' ≤ Ω} on :data:`OMEGA_GRID` (∞ if ρ ≤ 1 up to 1e7)."""
+    bad = np.flatnonzero(_log_radius(method) > math.log1p(STRICT_SLACK))
+    return float(OMEGA_GRID[bad[0]]) if bad.size else math.inf
+
+
+def run_interval(method: AbmPece | NewmarkMember, steps: float, log_growth: float) -> float:
+    """Ω*(n, G) = sup{Ω : n ln ρ(Ω') ≤ ln G for all Ω' ≤ Ω} (∞ if never exceeded up to 1e7)."""
+    bad = np.flatnonzero(steps * _log_radius(method) > log_growth)
+    if not bad.size:
+        return math.inf
+    i = int(bad[0])
+    lo, hi = (float(OMEGA_GRID[i - 1]) if i else 0.0), float(OMEGA_GRID[i])
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if steps * math.log(method.radius(mid)) > log_growth:
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
+# -- the system at the start ----------------------------------------------------------------------
+@dataclass
+class Linearization:
+    """Undamped frequencies ω_k [rad/s] at the start (ascending), the oscillation energy
+    E_k [J] the start load gives each mode, and the run's energy scale [J]."""
+
+    omega: np.ndarray
+    seed_energy: np.ndarray
+    energy_scale: float
+
+
+def linearize(scene: Scene) -> Linearization:
+    """Frequencies of K φ = ω² M φ at (q0, v0) (see the module docstring)."""
+    sysm = build_system(scene)
+    q0, v0 = sysm.initial_state()
+    q0, v0 = np.asarray(q0, float), np.asarray(v0, float)
+    M = sysm.mass(q0)
+    Kq, _ = sysm.force_jacobian(0.0, q0, v0)
+    K = -0.5 * (Kq + Kq.T)
+    Q0 = np.asarray(sysm.applied_force(0.0, q0, v0), float)
+    if sysm.n_bilateral:
+        N = sl.null_space(np.asarray(sysm.constraint_jacobian(0.0, q0)).reshape(sysm.n_bilateral, -1))
+        M, K, Q0 = N.T @ M @ N, N.T @ K @ N, N.T @ Q0
+    w2, phi = sl.eigh(K, M)                       # φᵀ M φ = I
+    keep = w2 > 0.0
+    omega = np.sqrt(w2[keep])
+    f = phi[:, keep].T @ Q0
+    scale = max(sum(abs(x) for x in sysm.energy(q0, v0).values()), 1e-12)
+    seed = np.maximum(f * f / (2.0 * omega * omega), (1e-16) ** 2 * scale)   # round-off seeds every mode
+    return Linearization(omega, seed, scale)
+
+
+def predict(method: AbmPece | NewmarkMember, lin: Linearization, t_end: float) -> dict[str, float]:
+    """Predicted h_max and the interval behind it: for each mode the fixed point
+    h ω_k = Ω*(t_end/h, G_k); the smallest h over the modes."""
+    best = {"h_pred": math.inf, "interval": math.inf, "omega_limiting": float(lin.omega.max(initial=0.0))}
+    for w, e0 in zip(lin.omega[::-1], lin.seed_energy[::-1]):
+        log_g = 0.5 * math.log(DIVERGENCE_ENERGY * lin.energy_scale / e0)
+        h = run_interval(method, 500.0, log_g) / w
+        for _ in range(8):                        # n = t_end/h depends on h: iterate to the fixed point
+            if not math.isfinite(h):
+                break
+            h_new = run_interval(method, max(t_end / h, 1.0), log_g) / w
+            if abs(h_new - h) <= 1e-6 * h:
+                h = h_new
+                break
+            h = h_new
+        if h < best["h_pred"]:
+            best = {"h_pred": h, "interval": h * w, "omega_limiting": float(w)}
+    return best
+
+
+def divergence_time(method: AbmPece | NewmarkMember, lin: Linearization, h: float) -> float:
+    """Predicted time [s] at which a run at fixed step h crosses the divergence threshold in
+    free flight: min_k h ln G_k / ln ρ(h ω_k) (∞ if no mode grows)."""
+    best = math.inf
+    for w, e0 in zip(lin.omega, lin.seed_energy):
+        growth = math.log(max(method.radius(h * w), 1e-300))
+        if growth > 0.0:
+            best = min(best, h * 0.5 * math.log(DIVERGENCE_ENERGY * lin.energy_scale / e0) / growth)
+    return best
+
+
+# -- measured: bisection on whole runs --------------------------------------------------------------
+@dataclass(frozen=True)
+class Task:
+    """One (integrator setting, scene) bisection."""
+
+    scene: Scene
+    integrator: str
+    settings: tuple[tuple[str, Any], ...]
+    label: str
+    n: int | None
+    h_min: float
+    h_max: float
+    tol: float
+    run_cap: float | None = None
+
+
+def run_is_stable(scene: Scene, integrator: str, settings: dict[str, Any], h: float,
+                  run_cap: float | None = None) -> tuple[bool, str]:
+    """(completed?, status) of one fixed-step run at h (h_contact = h)."""
+    from daebench.guards import RunTimeout
+    from daebench.runner import make_integrator, run_scene
+
+    integ = make_integrator(integrator, {**settings, "h": h, "h_contact": h})
+    try:
+        _, res = run_scene(scene, integ, write=False, force=True, run_cap=run_cap)
+    except RunTimeout:
+        return False, "timeout"
+    return res.status == "completed", res.status
+
+
+def bisect(task: Task, report: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Largest stable h of one task: the bracket [h_stable, h_unstable] (NaN where the
+    bounds were not crossed) and the status of the run at h_unstable."""
+    s = dict(task.settings)
+    runs = 1
+    ok, status = run_is_stable(task.scene, task.integrator, s, task.h_max, task.run_cap)
+    lo, hi, bad = math.nan, math.nan, ""
+    if ok:
+        lo = task.h_max
+    else:
+        hi, bad = task.h_max, status
+        runs += 1
+        ok, status = run_is_stable(task.scene, task.integrator, s, task.h_min, task.run_cap)
+        if ok:
+            lo = task.h_min
+        else:
+            hi, bad = task.h_min, status
+    while math.isfinite(lo) and math.isfinite(hi) and hi / lo > 1.0 + task.tol:
+        mid = math.sqrt(lo * hi)
+        runs += 1
+        ok, status = run_is_stable(task.scene, task.integrator, s, mid, task.run_cap)
+        if ok:
+            lo = mid
+        else:
+            hi, bad = mid, status
+    if report is not None:
+        report(f"{task.label:<34s} N = {task.n!s:>4}: h_max in [{lo:.4g}, {hi:.4g}] s ({runs} runs)")
+    return {"h_stable": lo, "h_unstable": hi, "unstable_status": bad, "runs": runs}
+
+
+def _solve(task: Task) -> dict[str, Any]:
+    import sys
+
+    return bisect(task, lambda line: print(line, file=sys.stderr, flush=True))
+
+
+def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n_values: Iterable[int] | None,
+                  *, n_key: str = "discretization.n", t_end: float | None = None, h_min: float = 1e-6,
+                  h_max: float = 1e-2, tol: float = 0.02, jobs: int = 1, run_cap: float | None = None,
+                  progress: Callable[[str], None] | None = None) -> pd.DataFrame:
+    """The stability table: one row per (integrator setting, N).
+
+    Parameters
+    ----------
+    scene : the case (its t_end is replaced by ``t_end`` when given)
+    methods : (integrator name, settings) pairs, e.g. ``("baumgarte", {"delta": 10, "epsilon": 50})``
+    n_values, n_key : values of the discretization key to sweep (None: the scene's own)
+    h_min, h_max, tol : bisection bounds [s] and relative bracket width
+    jobs : worker processes (one bisection per task; the tasks run in parallel)
+
+    Returns
+    -------
+    DataFrame with columns integrator, settings, label, N, omega_max [rad/s], method,
+    interval_strict, interval [hω], h_pred, h_stable, h_unstable [s], unstable_status,
+    runs, agrees (h_pred within one bisection step of the measured bracket).
+    """
+    from daebench.runner import make_integrator
+
+    base = scene.with_overrides({"t_end": t_end}) if t_end is not None else scene
+    ns = list(n_values) if n_values else [None]
+    tasks, meta = [], []
+    for name, settings in methods:
+        integ = make_integrator(name, settings)
+        if not integ.capabilities.fixed_step or integ.adaptive:
+            raise ValueError(f"integrator '{integ.name}' does not take fixed steps; the stability map bisects h")
+        label = name + ("" if not settings else " " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                                               for k, v in settings.items()))
+        meth = method_of(integ)
+        strict = strict_interval(meth) if meth is not None else math.nan
+        for n in ns:
+            sc = base.with_overrides({n_key: n}) if n is not None else base
+            lin = linearize(sc)
+            pred = predict(meth, lin, sc.t_end) if meth is not None else {"h_pred": math.nan, "interval": math.nan}
+            tasks.append(Task(sc, name, tuple(settings.items()), label, n, h_min, h_max, tol, run_cap))
+            meta.append({"integrator": name, "settings": dict(settings), "label": label, "N": n,
+                         "omega_max": float(lin.omega.max(initial=0.0)), "method": getattr(meth, "name", "n/a"),
+                         "interval_strict": strict, "interval": pred["interval"], "h_pred": pred["h_pred"]})
+    if jobs > 1 and len(tasks) > 1:
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
+            found = list(pool.map(_solve, tasks))
+    else:
+        found = [bisect(t, progress) for t in tasks]
+    rows = []
+    for m, f, t in zip(meta, found, tasks):
+        rows.append({**m, **f, "t_end": t.scene.t_end, "tol": tol, "agrees": agrees(m["h_pred"], f, tol, h_max)})
+    return pd.DataFrame(rows)
+
+
+def agrees(h_pred: float, found: dict[str, Any], tol: float, h_max: float) -> bool:
+    """Whether the prediction lies within one bisection step (a factor 1 + tol) of the
+    measured bracket; an unbounded prediction agrees when no instability was found below h_max."""
+    lo, hi = found["h_stable"], found["h_unstable"]
+    if not math.isfinite(h_pred):
+        return bool(math.isfinite(lo) and lo >= h_max)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return False
+    return lo / (1.0 + tol) <= h_pred <= hi * (1.0 + tol)

@@ -1,0 +1,115 @@
+"""The stability map: the methods' computed stability functions against closed forms, and
+the measured largest stable step against the linear prediction on beam-impact."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from daebench.integrators.family import chung_hulbert, hht_coefficients
+from daebench.scene import load_scene
+from daebench.studies.stability import (AbmPece, NewmarkMember, linearize, predict, run_interval, stability_map,
+                                        strict_interval)
+
+
+def member(c) -> NewmarkMember:
+    return NewmarkMember(c.alpha_m, c.alpha_f, c.beta, c.gamma, c.accel_avg)
+
+
+# -- the methods -----------------------------------------------------------------------------------
+def test_newmark_members_match_their_closed_forms():
+    trap = NewmarkMember(0.0, 0.0, 0.25, 0.5)
+    assert strict_interval(trap) == math.inf
+    assert max(abs(trap.radius(w) - 1.0) for w in (0.1, 1.0, 10.0, 1e4)) < 1e-12   # energy-conserving
+    # γ = ½, 2β < γ: stable for Ω ≤ 1/√(γ/2 − β) (Fox–Goodwin β = 1/12: √6)
+    for beta in (1.0 / 12.0, 1.0 / 6.0):
+        assert strict_interval(NewmarkMember(0.0, 0.0, beta, 0.5)) == pytest.approx(1.0 / math.sqrt(0.25 - beta),
+                                                                                    abs=2e-3)
+    for alpha in (-0.15, -1.0 / 3.0):          # HHT: unconditionally stable, ρ∞ = (1 + α)/(1 − α)
+        m = member(hht_coefficients(alpha))
+        assert strict_interval(m) == math.inf
+        assert m.radius(1e6) == pytest.approx((1 + alpha) / (1 - alpha), abs=2e-4)  # slow: double root
+    for rho in (0.0, 0.5, 0.74):               # generalized-α (acceleration averaging): ρ∞ as chosen
+        m = member(chung_hulbert(rho))
+        assert strict_interval(m) == math.inf
+        assert m.radius(1e6) == pytest.approx(rho, abs=2e-3)
+
+
+def test_abm4_pece_polynomial_is_fourth_order_and_weakly_unstable():
+    """The principal root follows e^{iΩ} to O(Ω⁵) (order 4), exceeds 1 for every Ω > 0
+    (no strict interval) and a parasitic root takes over near Ω = 0.93."""
+    from daebench.stepping import abm
+
+    m = AbmPece()
+    for w in (0.02, 0.05, 0.1):
+        z = 1j * w
+        coef = [1.0, -(1 + z * (abm.AM0 + abm.AM1) + z * z * abm.AM0 * abm.AB0),
+                -(z * abm.AM2 + z * z * abm.AM0 * abm.AB1), -(z * abm.AM3 + z * z * abm.AM0 * abm.AB2),
+                -(z * z * abm.AM0 * abm.AB3)]
+        roots = np.roots(coef)
+        principal = roots[np.argmin(np.abs(roots - np.exp(z)))]
+        # local error C₅Ω⁵ with the Adams–Moulton corrector's constant 19/720 (the predictor's enters at Ω⁶)
+        assert abs(principal - np.exp(z)) / w**5 == pytest.approx(19.0 / 720.0, rel=0.15)
+        assert m.radius(w) > 1.0
+    assert strict_interval(m) < 0.02
+    # short runs: the boundary is the parasitic root's crossing; long runs: the weak growth
+    assert 0.92 < run_interval(m, 500, math.log(1e6)) < 0.96
+    assert 0.4 < run_interval(m, 1e4, math.log(1e6)) < 0.6
+
+
+# -- measured against predicted -------------------------------------------------------------------
+def test_linearization_of_beam_impact_gives_the_pinned_free_frequencies():
+    lin = linearize(load_scene("beam-impact", {"discretization.n": 5}))
+    assert lin.omega.max() == pytest.approx(11144.5, rel=1e-4)  # J_h = 0: the top mode of the README
+    hub = linearize(load_scene("beam-impact", {"discretization.n": 5, "hub.inertia": 1e3}))
+    # a heavy hub clamps the rod: the 5th clamped–free bending frequency, 794.0 Hz (SEEDS.md G.2)
+    assert hub.omega.max() / (2 * math.pi) == pytest.approx(794.0, rel=2e-3)
+
+
+def _check_agreement(df):
+    for r in df.itertuples():
+        print(f"\n{r.label} N = {r.N}: predicted {r.h_pred:.4g} s, measured [{r.h_stable:.4g}, {r.h_unstable:.4g}] s")
+        assert r.agrees, r
+
+
+def test_baumgarte_boundary_agrees_with_the_prediction_reduced():
+    """N = 3, 5 (measured 2.371e-4–2.414e-4 and 8.354e-5–8.505e-5 s; predicted 2.36e-4 and 8.42e-5 s)."""
+    df = stability_map(load_scene("beam-impact"), [("baumgarte", {})], [3, 5], t_end=0.05, h_min=1e-5,
+                       h_max=1e-3, tol=0.02)
+    _check_agreement(df)
+    assert (df["unstable_status"] == "diverged").all()
+
+
+@pytest.mark.slow
+def test_stability_map_agrees_with_the_prediction_full():
+    methods = [("baumgarte", {}), ("baumgarte", {"delta": 1000.0, "epsilon": 5000.0}),
+               ("newmark", {"beta": 1.0 / 12.0}), ("hht", {"alpha": -0.15})]
+    df = stability_map(load_scene("beam-impact"), methods, [3, 5, 7, 9], t_end=0.05, jobs=2)
+    _check_agreement(df)
+
+
+def test_prediction_is_a_fixed_point_in_h():
+    lin = linearize(load_scene("beam-impact", {"discretization.n": 3}))
+    p = predict(AbmPece(), lin, 0.05)
+    assert p["h_pred"] * p["omega_limiting"] == pytest.approx(p["interval"])
+    assert p["omega_limiting"] == pytest.approx(lin.omega.max())
+
+
+def test_cli_writes_table_and_figure(tmp_path):
+    from daebench import cli_stability
+
+    app = typer.Typer()
+    app.command("noop")(lambda: None)
+    cli_stability.register(app)
+    res = CliRunner().invoke(app, ["stability", "beam-impact", "-m", "baumgarte", "--n", "3", "--tol", "0.3",
+                                   "--h-min", "1e-4", "--h-max", "1e-3", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    assert "| baumgarte | 3 |" in res.output and "1/1 rows agree" in res.output
+    for ext in ("md", "csv", "parquet", "png"):
+        assert (tmp_path / f"beam-impact-stability.{ext}").stat().st_size > 0
+    bad = CliRunner().invoke(app, ["stability", "beam-impact", "-m", "baumgarte:delta=-1", "--out", str(tmp_path)])
+    assert bad.exit_code == 2 and "delta" in bad.output
