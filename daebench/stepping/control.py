@@ -51,7 +51,7 @@ def adaptive(h0: float, rtol: float, atol: float, order: int) -> StepControl:
     return StepControl(True, float(h0), float(rtol), float(atol), 1.0 / (order + 1.0))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def land(t, t_stop, h_try):
     """(h, t_new) of a step of about ``h_try`` from t that ends exactly on t_stop when it
     comes within SNAP · h_try of it."""
@@ -61,7 +61,7 @@ def land(t, t_stop, h_try):
     return h_try, t + h_try
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def weighted_rms(e, y_new, y_old, rtol, atol):
     """‖e / (atol + rtol · max(|y_new|, |y_old|))‖_RMS."""
     n = e.shape[0]
@@ -72,7 +72,7 @@ def weighted_rms(e, y_new, y_old, rtol, atol):
     return math.sqrt(acc / n) if n else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def judge(ctl, err, h, h_try):
     """(accepted, next step) after a step of size h (tried as h_try) with error err."""
     if err > 1.0:
@@ -83,6 +83,6 @@ def judge(ctl, err, h, h_try):
     return True, h * fac
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def h_min(ctl, t):
     return ctl.h_min_rel * max(1.0, abs(t))

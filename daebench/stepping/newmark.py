@@ -184,7 +184,7 @@ def _start(meth, ws, ph, t, cur, cnt):
     return 0
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True)
 def _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va):
     """q, a, v of the iterate x (GGL: a = (q − q̂ − C_qᵀμ)/βh²)."""
     for i in range(n):
@@ -197,7 +197,7 @@ def _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va):
         va[i] = v_hat[i] + gah * aa[i]
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True)
 def _constraints_ok(meth, n, m, h, tol, qscale, Cq, C, Ct, va):
     """The constraint part of the convergence test, on C, C_q, C_t at the iterate."""
     if m == 0:
@@ -225,7 +225,7 @@ def _constraints_ok(meth, n, m, h, tol, qscale, Cq, C, Ct, va):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True)
 def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     """One step t → t + h (module docstring); returns (status, local error estimate)."""
     n = cur.q.shape[0]
@@ -394,7 +394,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     return 0, err
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True)
 def _accept(meth, ws, h, prev, cur):
     n = cur.q.shape[0]
     w1, wm, wf = weights(meth)

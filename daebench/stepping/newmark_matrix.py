@@ -14,19 +14,19 @@ from daebench.stepping.methods import C_JAC, C_LU
 ST_LU, ST_LUH, ST_PREV, ST_HOLD = range(4)  # ws.st: LU valid, h of the LU, previous step known, its h
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def weights(meth):
     """(w₁, w_m, w_f) = ((1−α_m), α_m, α_f) / (1−α_f)."""
     d = 1.0 - meth.alpha_f
     return (1.0 - meth.alpha_m) / d, meth.alpha_m / d, meth.alpha_f / d
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def uses_hM(meth):
     return meth.alpha_m != 0.0 or meth.accel_avg
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True)
 def factor(meth, ws, ph, n, m, nx, t1, h, q, v, a, lt, bh2, cnt):
     """Build and factorize the scaled iteration matrix J; returns a status."""
     M, Kq, Kv, KM, KC, Cq = ws.M, ws.Kq, ws.Kv, ws.KM, ws.KC, ws.Cq

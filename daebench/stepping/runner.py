@@ -23,7 +23,7 @@ C_REJECTED = N_COUNTERS          # counters: the methods' own, then rejected ste
 UNDERFLOW_FAIL, UNDERFLOW_ERROR = 100, 101  # statuses beyond the methods' own (1 … 99)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _copy(dst, src):
     dst.q[:] = src.q
     dst.v[:] = src.v

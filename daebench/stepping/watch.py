@@ -45,7 +45,7 @@ def blind(n_contacts: int) -> Watch:
                  np.zeros(3), math.inf, math.inf)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def gap_event(g, armed):
     """(closes, arms) for an open contact at gap g: it crossed its closing threshold (0
     once armed, −GAP_BAND before), or it left the band and re-arms."""
@@ -55,7 +55,7 @@ def gap_event(g, armed):
     return False, g > GAP_BAND
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def reached(t, t_next, t_end):
     """Whether an output time or the end was reached at t (with the driver's tolerances)."""
     return t_next <= t + 1e-12 * max(1.0, t_end) or t >= t_end - 1e-15 * max(1.0, t_end)
