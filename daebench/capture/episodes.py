@@ -13,6 +13,9 @@ log; a start record also keeps the state after the first step (the impact step).
 impact time = start of the first step with a positive impulse, ġ⁻, ġ⁺, energy change
 over the episode, total impulse, end time, smallest gap (< 0: penetration).
 
+The book also keeps the cumulative work of the contact impulses (:func:`propose_work`),
+which the driver books as ``W_contact`` in the energy balance.
+
 The log holds ``capacity`` records; a compiled call may take at most
 ``capacity // n_contacts − 1`` steps (each step writes at most one record per contact).
 """
@@ -40,12 +43,13 @@ class Episodes(NamedTuple):
     log: np.ndarray     # float[capacity, N_LOG]
     logx: np.ndarray    # float[capacity, 4n]: q, v of each record; start records: then q, v after the step
     nlog: np.ndarray    # int64[1]
+    work: np.ndarray    # float[3]: cumulative contact work before and after the last step, the proposed step's
 
 
 def episodes(n: int, nc: int, steps_per_call: int) -> Episodes:
     cap = max(nc, 1) * (steps_per_call + 1)
     return Episodes(np.zeros((max(nc, 1), 5)), np.zeros(1), np.zeros((max(nc, 1), 4)), np.zeros((cap, N_LOG)),
-                    np.zeros((cap, 4 * n)), np.zeros(1, np.int64))
+                    np.zeros((cap, 4 * n)), np.zeros(1, np.int64), np.zeros(3))
 
 
 @njit(cache=True)
@@ -59,6 +63,14 @@ def propose(ep, i, t, in_contact, impulse, g0, g1, gdot0):
     s[S_G0] = g0
     s[S_G1] = g1
     s[S_GDOT0] = gdot0
+
+
+@njit(cache=True)
+def propose_work(ep, w):
+    """The work of the contact impulses in the proposed step (the impulse times the mean of
+    the normal velocities before and after, Σ P (U⁻ + U⁺)/2: the impact's energy change by
+    Kelvin's theorem)."""
+    ep.work[2] = w
 
 
 @njit(cache=True)
@@ -87,6 +99,8 @@ def _record(ep, kind, i, t, gdot, impulse, gmin, steps, prev, cur):
 def commit(ep, nc, prev, cur):
     """The proposed step from ``prev`` to ``cur`` was accepted: update the episodes."""
     t = ep.t[0]
+    ep.work[0] = ep.work[1]
+    ep.work[1] += ep.work[2]
     for i in range(nc):
         s = ep.step[i]
         o = ep.open[i]
@@ -108,6 +122,8 @@ def commit(ep, nc, prev, cur):
 
 @njit(cache=True)
 def reset(ep):
-    """Forget open episodes and the log (a restart)."""
+    """Forget open episodes and the log (a restart; the cumulative work goes on)."""
     ep.open[:, :] = 0.0
     ep.nlog[0] = 0
+    ep.work[0] = ep.work[1]
+    ep.work[2] = 0.0

@@ -324,6 +324,14 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
         st = _project(meth, ws, ph, t1, n, nc, new.q, cnt)
         if st:
             return st, 0.0
+    work = 0.0
+    for i in range(nc):
+        if ws.active[i] and ws.P[i] > 0.0:
+            u = 0.0
+            for j in range(n):
+                u += ws.G[i, j] * (v[j] + v1[j])
+            work += 0.5 * ws.P[i] * u
+    _ep.propose_work(ws.ep, work)
     for i in range(nc):
         ws.g1[i], _ = kernels.gap(ph.model, i, new.q, new.v, ws.gq)
         gd = 0.0

@@ -360,6 +360,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
         new.v[i] = ws.uhat[i] + cu * x[i] + x[n + i]
         new.a[i] = x[i]
         ws.abar_new[i] = (af * cur.a[i] + (1.0 - af) * x[i] - am * ws.abar[i]) / (1.0 - am)
+    work = 0.0
     for k in range(nc):
         lam = x[3 * n + 2 * nc + k]
         ws.lam_new[k] = lam
@@ -371,8 +372,13 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
         for j in range(n):
             gd += ws.gq[j] * new.v[j]
         ws.gdn[k] = gd
+        u = 0.0
+        for j in range(n):
+            u += ws.W[k, j] * (cur.v[j] + new.v[j])
+        work += 0.5 * P * u
         touching = ws.sets[k] >= 1 and (P > 0.0 or kh > 0.0)
         _ep.propose(ws.ep, k, t, touching, P, ws.g0[k], ws.gn[k], ws.gdm[k])
+    _ep.propose_work(ws.ep, work)
     return 0, 0.0
 
 

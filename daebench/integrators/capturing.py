@@ -20,6 +20,11 @@ impact map. :class:`CapturingIntegrator` adds to
   ``t_end``, ``impulse`` (the sum over its steps), ``min_gap`` (smallest gap at its step
   boundaries, < 0: penetration) and ``closed`` (it lasted more than one step). An
   episode still open at the end of the run keeps NaN in ``vn_plus`` and ``t_end``;
+* the cumulative work of the contact impulses, Σ P (U⁻ + U⁺)/2 per step (the impact's
+  energy change by Kelvin's theorem, U = g_q v before and after the step), handed to the
+  driver in :class:`~daebench.integrators.base.Advance` (``contact_work``) and booked as
+  ``W_contact``: the energy residual is then the scheme's own error (exactly zero for
+  Moreau θ = ½ on linear systems), as the event-driven runs' is with the exact impact map;
 * :meth:`dense`: the scheme's own interpolant — v linear, q quadratic with q(t_k) = q_k,
   q̇(t_k) = v_k, q(t_{k+1}) = q_{k+1}, or linear across a step with an impulse — never a
   curve through the wall (a linear gap stays ≥ the smaller of its step-end values).
@@ -34,7 +39,7 @@ from typing import Any
 
 from daebench.capture import episodes as _ep
 from daebench.contact import Impact
-from daebench.integrators.base import IntegratorError
+from daebench.integrators.base import Advance, IntegratorError
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.system import State
 
@@ -74,7 +79,10 @@ class CapturingIntegrator(CompiledIntegrator):
             raise IntegratorError(f"integrator '{self.name}' does not treat bilateral constraints (this system "
                                   f"has {p.m}); use hht, genalpha or ida")
         self._episodes = {}
+        ws = getattr(self, "_ws", None)
+        carried = float(ws.ep.work[1]) if ws is not None else 0.0  # the contact work goes on over restarts
         super()._start()
+        self._ws.ep.work[:2] = carried
 
     # -- stepping: drain the episode log after each compiled call -----------------------------
     def _run(self, t_stop: float, w, max_steps: int) -> tuple[int, float, float]:
@@ -111,6 +119,14 @@ class CapturingIntegrator(CompiledIntegrator):
             imp.impulse = float(o[_ep.O_IMPULSE])
             imp.min_gap = float(o[_ep.O_GMIN])
             imp.closed = o[_ep.O_STEPS] > 1
+
+    def advance(self, t_stop: float, watch=None) -> Advance:
+        """As the compiled base, with the cumulative work of the contact impulses at the last
+        step's start and end (booked by the driver as ``W_contact``)."""
+        adv = super().advance(t_stop, watch)
+        w = self._ws.ep.work
+        adv.contact_work = (float(w[0]), float(w[1]))
+        return adv
 
     # -- output -------------------------------------------------------------------------------
     def dense(self, t: float) -> State:
