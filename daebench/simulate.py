@@ -360,6 +360,11 @@ class Driver:
             self.active.remove(i)
             self.armed[i] = False
             self.last_release_t[i] = t
+            for imp in reversed(self.impacts):  # the closed episode of contact i ends here
+                if imp.contact == i:
+                    if imp.closed and math.isnan(imp.t_end):
+                        imp.t_end = t
+                    break
         elif kind == "close":  # continuous law: first touch
             vn = float(sys_.gap_jacobian(q)[i] @ v)
             self.approach_speed[i] = max(-vn, 1e-12)
