@@ -20,11 +20,14 @@ load Q(q0) starts mode k with the oscillation energy E_k = f_k²/(2ω_k²), f_k 
 *The method*: its spectral radius ρ(Ω) at Ω = hω on the undamped oscillator —
 ABM4-PECE (:class:`AbmPece`): the largest root of its characteristic polynomial on
 y′ = iωy; the Newmark family (:class:`NewmarkMember`): the largest eigenvalue of the
-amplification matrix of ẍ = −ω²x. A run of n = t_end/h steps lets a mode grow by ρⁿ,
-and the driver declares divergence when its energy E_k ρ²ⁿ passes DIVERGENCE_ENERGY × the
-energy scale. So the method's stability interval *for this run* is
+amplification matrix of ẍ = −ω²x — and the amplitude factor g_n(Ω) after n steps from the
+method's own start (:func:`log_growth`: ρⁿ for the Newmark family, whose start is
+consistent; for ABM4-PECE the RK4-started history expanded on the polynomial's roots, since
+that start seeds the parasitic roots only weakly). The driver declares divergence when a
+mode's energy E_k g_n² passes DIVERGENCE_ENERGY × the energy scale. So the method's
+stability interval *for a run of n steps* is
 
-    Ω*(n, G) = sup{Ω : n ln ρ(Ω) ≤ ln G},   G = √(DIVERGENCE_ENERGY · E_scale / E_k),
+    Ω*(n, G) = sup{Ω : g_n(Ω') ≤ G for all Ω' ≤ Ω},   G = √(DIVERGENCE_ENERGY · E_scale / E_k),
 
 and the predicted h_max = min_k h with h ω_k = Ω*(t_end/h, G_k) (a fixed point in h). The
 strict interval {ρ ≤ 1} is reported too: ∞ for the unconditionally stable Newmark members;
@@ -60,21 +63,41 @@ class AbmPece:
     """Adams–Bashforth–Moulton 4, PECE mode (the stepper :mod:`daebench.stepping.abm`, its
     coefficients): y_{n+1} = y_n + z[AM0 (y_n + z Σ AB_j y_{n−j}) + AM1 y_n + AM2 y_{n−1}
     + AM3 y_{n−2}] on y′ = λy, z = hλ, i.e. the characteristic polynomial
-    ζ⁴ − (1 + z(AM0 + AM1) + z²AM0·AB0) ζ³ − (z AM2 + z²AM0·AB1) ζ² − (z AM3 + z²AM0·AB2) ζ
-    − z²AM0·AB3. The RK4 start (3 steps, imaginary-axis limit 2√2) does not bound h."""
+    ζ⁴ − c1 ζ³ − c2 ζ² − c3 ζ − c4 with c1 = 1 + z(AM0 + AM1) + z²AM0·AB0,
+    c2 = z AM2 + z²AM0·AB1, c3 = z AM3 + z²AM0·AB2, c4 = z²AM0·AB3. The history is started by
+    three RK4 steps, y_k = R(z)^k y_0 with R(z) = 1 + z + z²/2 + z³/6 + z⁴/24: this start
+    seeds the parasitic roots, which decide the boundary near hω ≈ 0.93 (:meth:`log_growth`)."""
 
     name: str = "ABM4-PECE"
 
-    def radius_z(self, z: complex) -> float:
+    def coefficients(self, z: np.ndarray) -> tuple[np.ndarray, ...]:
         from daebench.stepping import abm
 
         a0 = abm.AM0
-        c = [1.0, -(1.0 + z * (a0 + abm.AM1) + z * z * a0 * abm.AB0), -(z * abm.AM2 + z * z * a0 * abm.AB1),
-             -(z * abm.AM3 + z * z * a0 * abm.AB2), -(z * z * a0 * abm.AB3)]
-        return float(np.abs(np.roots(c)).max())
+        return (1.0 + z * (a0 + abm.AM1) + z * z * a0 * abm.AB0, z * abm.AM2 + z * z * a0 * abm.AB1,
+                z * abm.AM3 + z * z * a0 * abm.AB2, z * z * a0 * abm.AB3)
+
+    def radius_z(self, z: complex) -> float:
+        c1, c2, c3, c4 = self.coefficients(np.complex128(z))
+        return float(np.abs(np.roots([1.0, -c1, -c2, -c3, -c4])).max())
 
     def radius(self, omega: float) -> float:
         return self.radius_z(1j * omega)
+
+    def start_modes(self, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Roots ζ_k (len(omega) × 4) and the weights α_k of the RK4-started history
+        (y3, y2, y1, y0) = Σ_k α_k (ζ_k³, ζ_k², ζ_k, 1), so that y_{3+m} = Σ_k α_k ζ_k^{3+m}."""
+        z = 1j * np.asarray(omega, float)
+        c1, c2, c3, c4 = self.coefficients(z)
+        R = 1.0 + z + z**2 / 2.0 + z**3 / 6.0 + z**4 / 24.0
+        roots = np.empty((z.size, 4), complex)
+        alpha = np.empty((z.size, 4), complex)
+        for i in range(z.size):
+            C = np.array([[c1[i], c2[i], c3[i], c4[i]], [1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]], complex)
+            lam, V = np.linalg.eig(C)
+            roots[i] = lam
+            alpha[i] = np.linalg.solve(V, np.array([R[i] ** 3, R[i] ** 2, R[i], 1.0])) * V[0]
+        return roots, alpha
 
 
 @dataclass(frozen=True)
@@ -126,22 +149,46 @@ def _log_radius(method: AbmPece | NewmarkMember) -> np.ndarray:
     return np.log(np.maximum([method.radius(float(w)) for w in OMEGA_GRID], 1e-300))
 
 
+@functools.lru_cache(maxsize=8)
+def _abm_start_modes() -> tuple[np.ndarray, np.ndarray]:
+    return AbmPece().start_modes(OMEGA_GRID)
+
+
+def log_growth(method: AbmPece | NewmarkMember, steps: float, omega: float | None = None) -> np.ndarray:
+    """ln of the amplitude factor of a mode after ``steps`` steps from the method's start, on
+    :data:`OMEGA_GRID` (or at one Ω): for ABM4-PECE |y_n/y_0| from the RK4-started history
+    (parasitic roots included); for the Newmark family, whose start a_0 = q̈_0 is consistent,
+    n ln ρ(Ω)."""
+    if isinstance(method, AbmPece):
+        roots, alpha = method.start_modes(np.array([omega])) if omega is not None else _abm_start_modes()
+        m = max(float(steps) - 3.0, 0.0)
+        with np.errstate(over="ignore", divide="ignore"):
+            logs = np.log(np.abs(alpha)) + m * np.log(np.abs(roots))  # per root, then a stable log-sum
+            top = logs.max(axis=1, keepdims=True)
+            val = np.abs(np.sum(alpha * np.exp(m * np.log(roots + 0j) - top), axis=1))
+            out = top[:, 0] + np.log(np.maximum(val, 1e-300))
+        return out
+    if omega is not None:
+        return np.array([steps * math.log(max(method.radius(omega), 1e-300))])
+    return steps * _log_radius(method)
+
+
 def strict_interval(method: AbmPece | NewmarkMember) -> float:
     """sup{Ω : ρ(ω') ≤ 1 for all ω' ≤ Ω} on :data:`OMEGA_GRID` (∞ if ρ ≤ 1 up to 1e7)."""
     bad = np.flatnonzero(_log_radius(method) > math.log1p(STRICT_SLACK))
     return float(OMEGA_GRID[bad[0]]) if bad.size else math.inf
 
 
-def run_interval(method: AbmPece | NewmarkMember, steps: float, log_growth: float) -> float:
-    """Ω*(n, G) = sup{Ω : n ln ρ(Ω') ≤ ln G for all Ω' ≤ Ω} (∞ if never exceeded up to 1e7)."""
-    bad = np.flatnonzero(steps * _log_radius(method) > log_growth)
+def run_interval(method: AbmPece | NewmarkMember, steps: float, log_budget: float) -> float:
+    """Ω*(n, G) = sup{Ω : growth over n steps ≤ G for all Ω' ≤ Ω} (∞ if never exceeded up to 1e7)."""
+    bad = np.flatnonzero(log_growth(method, steps) > log_budget)
     if not bad.size:
         return math.inf
     i = int(bad[0])
     lo, hi = (float(OMEGA_GRID[i - 1]) if i else 0.0), float(OMEGA_GRID[i])
     for _ in range(40):
         mid = 0.5 * (lo + hi)
-        if steps * math.log(method.radius(mid)) > log_growth:
+        if log_growth(method, steps, mid)[0] > log_budget:
             hi = mid
         else:
             lo = mid
