@@ -134,15 +134,15 @@ def test_explicit_method_beyond_its_stability_limit_is_reported_diverged():
 
 @pytest.mark.parametrize("sets, integrator, opts", [
     ([], "hht", {"h": 5e-5}),                      # plastic impacts that are tensile at once
-    ([], "baumgarte", {"h": 5e-5}),
+    (["discretization.n=3"], "baumgarte", {"h": 5e-5}),
     (["contact.law=hertz"], "newmark", {"h_contact": 1e-6}),  # grazing re-contacts
 ])
 def test_whole_second_completes_through_chatter(sets, integrator, opts):
     """Regressions: these runs once stalled in the event logic or missed a re-contact.
-    They complete; the implicit ones keep the energy balance within a few % of E0.
-    (ABM4 at hω_max ≈ 0.55 completes but gains ≈ 1.5e3 J over the second: its stability
-    region hugs the imaginary axis — a property of the method, reported, not asserted.)"""
+    They complete and keep the energy balance within a few % of E0. (At N = 5, ABM4 at
+    hω_max ≈ 0.55 gains ~1e3 J over the second — its stability region hugs the imaginary
+    axis — and the driver calls that diverged: tests/test_hostile_inputs.py; at N = 3 it
+    completes through the chatter.)"""
     sc, rec, res = run(sets, integrator, opts, 1.0)
     assert len(res.impacts) >= 5
-    if integrator != "baumgarte":
-        assert rec.energy_residual < 0.05 * abs(res.history["E"].iloc[0])
+    assert rec.energy_residual < 0.05 * abs(res.history["E"].iloc[0])
