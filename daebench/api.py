@@ -24,6 +24,7 @@ import pandas as pd
 
 from daebench import metrics
 from daebench.integrators.base import Capabilities
+from daebench.models import build_system
 from daebench.params import Param
 from daebench.scene import Scene
 from daebench.scene import load_scene as _load_scene
@@ -96,9 +97,9 @@ class RunOutput:
     ----------
     t : (k,) output times [s]
     q, v : (k, n) generalized coordinates and velocities at the output times
-    lam : (k, m) multipliers of the bilateral constraints consistent with (q, v) at the
-        output times (an index-1 solve of the model's equations, not the integrator's own
-        λ; contact multipliers are the ``lambda_<i>`` observables while a contact is closed)
+    a : (k, n) accelerations at the output times (the integrator's own, dense output)
+    lam : (k, m) the integrator's multipliers of the bilateral constraints at the output
+        times (contact multipliers are the ``lambda_<i>`` observables while a contact is closed)
     observables : the history DataFrame (t, observables, energy terms, work, residuals)
     impacts : impacts as dicts (t, contact, vn_minus, vn_plus, energy_loss, closed)
     counters : steps, rejected, residual/Jacobian evaluations, LU factorizations, Newton iterations
@@ -117,6 +118,7 @@ class RunOutput:
     t: np.ndarray
     q: np.ndarray
     v: np.ndarray
+    a: np.ndarray
     lam: np.ndarray
     observables: pd.DataFrame
     impacts: list[dict[str, Any]]
@@ -134,55 +136,6 @@ class RunOutput:
     @property
     def ok(self) -> bool:
         return self.status == "completed"
-
-
-class _StateRecorder:
-    """Keeps (t, q, v) of every output row: the driver computes the observables of each
-    output state through ``system.observables``, which this wraps on the instance."""
-
-    def __init__(self) -> None:
-        self.rows: list[tuple[float, np.ndarray, np.ndarray]] = []
-        self.system: Any = None
-
-    def __call__(self, system: Any) -> None:
-        self.system = system
-        inner = system.observables
-
-        def observables(t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
-            self.rows.append((float(t), np.array(q, float), np.array(v, float)))
-            return inner(t, q, v)
-
-        system.observables = observables
-
-    def arrays(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        n = self.system.n if self.system is not None else 0
-        q = np.full((len(times), n), np.nan)
-        v = np.full((len(times), n), np.nan)
-        j = 0
-        for i, t in enumerate(times):  # match in order: the driver records each output time once
-            while j < len(self.rows) and self.rows[j][0] != t:
-                j += 1
-            if j < len(self.rows):
-                q[i], v[i] = self.rows[j][1], self.rows[j][2]
-                j += 1
-        return q, v
-
-
-def bilateral_multipliers(system: Any, t: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """λ of the bilateral constraints from M a + C_qᵀ λ = Q, C_q a = γ at each (t, q, v)."""
-    m = int(getattr(system, "n_bilateral", 0) or 0)
-    lam = np.full((len(t), m), np.nan)
-    if m == 0:
-        return lam
-    for i in range(len(t)):
-        if not np.all(np.isfinite(q[i])):
-            continue
-        M = system.mass(q[i])
-        Cq = np.asarray(system.constraint_jacobian(t[i], q[i])).reshape(m, -1)
-        A = np.block([[M, Cq.T], [Cq, np.zeros((m, m))]])
-        b = np.concatenate([system.applied_force(t[i], q[i], v[i]), system.constraint_gamma(t[i], q[i], v[i])])
-        lam[i] = np.linalg.solve(A, b)[-m:]
-    return lam
 
 
 def exact_or_reference_error(scene: Scene, system: Any, hist: pd.DataFrame) -> dict[str, Any]:
@@ -240,27 +193,21 @@ def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] |
 
     sc = load_scene(scene, overrides)
     integ = make_integrator(integrator, {**(settings or {}), **setting_kw})
-    rec_states = _StateRecorder()
     bar = RunProgress(f"{sc.name} with {integ.name}", sc.t_end) if progress is True else None
     cb = bar if bar is not None else (progress if callable(progress) else None)
     if bar is not None:
         bar.start()
     try:
         rec, res = run_scene(sc, integ, out_dir=out_dir, write=write, force=force, run_cap=run_cap,
-                             progress=cb, on_system=rec_states)
+                             progress=cb, record_states=True)
     finally:
         if bar is not None:
             bar.stop()
     hist = res.history
-    t = hist["t"].to_numpy(float) if len(hist) else np.zeros(0)
-    q, v = rec_states.arrays(t)
-    try:
-        lam = bilateral_multipliers(rec_states.system, t, q, v)
-    except (AttributeError, NotImplementedError, np.linalg.LinAlgError, ValueError):
-        lam = np.full((len(t), int(getattr(rec_states.system, "n_bilateral", 0) or 0)), np.nan)
-    return RunOutput(sc, rec.integrator, rec.settings, rec.status, rec.message, rec.wall_s, t, q, v, lam, hist,
-                     rec.impacts, rec.counters, rec.energy_residual, rec.constraint_max, rec.history,
-                     exact_or_reference_error(sc, rec_states.system, hist), rec)
+    st = res.states
+    return RunOutput(sc, rec.integrator, rec.settings, rec.status, rec.message, rec.wall_s, st["t"], st["q"],
+                     st["v"], st["a"], st["lam"], hist, rec.impacts, rec.counters, rec.energy_residual,
+                     rec.constraint_max, rec.history, exact_or_reference_error(sc, build_system(sc), hist), rec)
 
 
 # ---- references and sweeps ----------------------------------------------------------------------

@@ -98,7 +98,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
               options: Iterable[str] | dict[str, Any] = (), out_dir: str | Path | None = None,
               write: bool = True, *, force: bool = False, run_cap: float | None = None,
               progress: Callable[[float], None] | None = None,
-              on_system: Callable[[Any], None] | None = None) -> tuple[RunRecord, RunResult]:
+              record_states: bool = False) -> tuple[RunRecord, RunResult]:
     """Run ``scene`` with ``integrator`` (an instance, or a name plus ``options``).
 
     Parameters
@@ -108,7 +108,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
     force : run even when the step count or history size is beyond :mod:`daebench.guards`' limits
     run_cap : wall-time cap in seconds (:class:`daebench.guards.RunTimeout` beyond it)
     progress : called with the simulated time, at most every 0.25 s of wall time
-    on_system : called with the built system before the run (e.g. to record states)
+    record_states : keep the integrator's (t, q, v, a, λ) at the output times (``RunResult.states``)
 
     Raises
     ------
@@ -124,12 +124,11 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
         guards.ensure_writable_dir(history_dir(out_dir), "history folder")
     system = build_system(scene)
     guards.check_observables(scene, system)
-    if on_system is not None:
-        on_system(system)
     # the history keeps every observable (modal participations included); the scene's
     # output.observables are the ones scored (see bench)
     with guards.deadline(run_cap):
-        result = simulate(system, integ, scene.t_end, scene["output.dt"], progress=progress)
+        result = simulate(system, integ, scene.t_end, scene["output.dt"], progress=progress,
+                          record_states=record_states)
     path = None
     if write:
         path = write_history(result, scene, integ, out_dir)

@@ -64,6 +64,8 @@ class RunResult:
     energy_residual: float = math.nan
     final: State | None = None
     phases: int = 0
+    states: dict[str, np.ndarray] | None = None  # with record_states: t, q, v, a, lam at the output times
+
 
     @property
     def ok(self) -> bool:
@@ -79,7 +81,7 @@ class Driver:
 
     def __init__(self, system: MechanicalSystem, integrator: Integrator, t_end: float,
                  output_dt: float, observables: list[str] | None = None,
-                 progress: Callable[[float], None] | None = None):
+                 progress: Callable[[float], None] | None = None, record_states: bool = False):
         if t_end <= 0:
             raise ValueError(f"t_end must be positive, got {t_end}")
         if output_dt <= 0:
@@ -92,6 +94,7 @@ class Driver:
             else np.append(np.arange(0.0, t_end, output_dt), t_end)
         self.observables = observables
         self.progress = progress
+        self.record_states = record_states
         self._progress_wall = 0.0
         law = system.contact_law
         check_capabilities(type(integrator), system.n_bilateral > 0 or (law is not None and not law.continuous
@@ -117,6 +120,7 @@ class Driver:
             self.penetrating = {int(i) for i in np.flatnonzero(sys_.gap(q) < 0.0)}
         self.impacts: list[Impact] = []
         self.rows: list[dict[str, float]] = []
+        self._states: list[tuple] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
         self.approach_speed = np.full(sys_.n_contacts, np.nan)  # v₀ of each continuous-law episode
         self._current = self._problem()
@@ -166,7 +170,7 @@ class Driver:
         res = float(np.nanmax(np.abs(hist["energy_residual"]))) if len(hist) else math.nan
         return RunResult(status, message, self._t_last, time.perf_counter() - wall0,
                          self.integ.counters_snapshot(), hist, self.impacts, dict(self.cmax), res,
-                         self._last_state, phases)
+                         self._last_state, phases, self._states_arrays())
 
     _t_last = 0.0
     _last_state: State | None = None
@@ -457,7 +461,26 @@ class Driver:
                 for j, c in enumerate(self.active):
                     row[f"lambda_{c}"] = float(s.lam[k + j]) if s.lam.size > k + j else math.nan
             self.rows.append(row)
+            if self.record_states:
+                self._states.append(self._state_row(to, s))
             self.out_i += 1
+
+    def _state_row(self, t: float, s: State) -> tuple:
+        """(t, q, v, a, λ of the bilateral constraints) of an output state; NaN where the
+        integrator's state does not carry a or λ."""
+        n, nb = self.system.n, self.system.n_bilateral
+        a = s.a if s.a.size == n else np.full(n, np.nan)
+        lam = s.lam[:nb] if s.lam.size >= nb else np.full(nb, np.nan)
+        return t, s.q.copy(), s.v.copy(), np.array(a, float), np.array(lam, float)
+
+    def _states_arrays(self) -> dict[str, np.ndarray] | None:
+        if not self.record_states:
+            return None
+        n, nb = self.system.n, self.system.n_bilateral
+        rows = self._states
+        return {"t": np.array([r[0] for r in rows]),
+                **{k: (np.array([r[j] for r in rows]) if rows else np.zeros((0, size)))
+                   for j, (k, size) in enumerate((("q", n), ("v", n), ("a", n), ("lam", nb)), start=1)}}
 
     def _track_constraints(self, s: State, problem: Problem) -> None:
         if problem.m == 0:
@@ -506,9 +529,11 @@ def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[n
 
 def simulate(system: MechanicalSystem, integrator: Integrator, t_end: float, output_dt: float,
              observables: list[str] | None = None,
-             progress: Callable[[float], None] | None = None) -> RunResult:
+             progress: Callable[[float], None] | None = None, record_states: bool = False) -> RunResult:
     """Run ``integrator`` on ``system`` over [0, t_end] with events; see :class:`Driver`.
 
     ``progress(t)`` is called with the simulated time reached, at most every
-    ``PROGRESS_EVERY`` seconds of wall time (for progress bars)."""
-    return Driver(system, integrator, t_end, output_dt, observables, progress).run()
+    ``PROGRESS_EVERY`` seconds of wall time (for progress bars). With ``record_states``
+    the result's ``states`` holds the integrator's own (t, q, v, a, λ_bilateral) at every
+    output time, as arrays."""
+    return Driver(system, integrator, t_end, output_dt, observables, progress, record_states).run()
