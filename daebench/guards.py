@@ -182,27 +182,34 @@ def _all_effects_observables(scene: Any) -> set[str]:
 
 
 def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
-    """An integrator that resolves contacts itself needs a scene whose contacts are left to
-    it; name a scene key value the scene accepts, or the scenes that offer one."""
+    """An integrator that resolves contacts itself needs a scene with contacts that are left
+    to it ('complementarity') or closed by the ``constraint`` law (whose restitution it
+    applies; :func:`daebench.integrators.base.check_capabilities` is the driver's rule);
+    name a scene key value the scene accepts, or the scenes that offer one."""
     if not cls.capabilities.contacts:
         return
     law = scene.schema.get("contact.law")
-    if scene.get("contact.law") == "complementarity":
+    current = scene.get("contact.law")
+    if current in cls.contact_laws and scene.get("effects.contact", True):
         return
-    if law is not None and law.choices and "complementarity" in law.choices:
-        raise IntegratorError(f"integrator '{cls.name}' resolves contacts itself; run it with "
-                         f"`--set contact.law=complementarity` (scene '{scene.name}' uses '{scene['contact.law']}')")
+    if law is not None and law.choices:
+        fits = [c for c in cls.contact_laws if c in law.choices]
+        if fits:
+            raise IntegratorError(f"integrator '{cls.name}' resolves contacts itself; run it with "
+                                  + " or ".join(f"`--set contact.law={c}`" for c in fits)
+                                  + (" and `--set effects.contact=true`" if scene.get("effects.contact") is False else "")
+                                  + f" (scene '{scene.name}' uses '{current}')")
     from daebench.scene import list_scenes, load_scene
 
     offer = []
     for name, _ in list_scenes():
         p = load_scene(name).schema.get("contact.law")
-        if p is not None and p.choices and "complementarity" in p.choices:
+        if p is not None and p.choices and any(c in p.choices for c in cls.contact_laws):
             offer.append(name)
-    hint = (f"scenes that offer it: {', '.join(offer)} (with --set contact.law=complementarity)" if offer
-            else "no installed scene offers it")
-    raise IntegratorError(f"integrator '{cls.name}' resolves contacts itself (contact law 'complementarity'), which "
-                     f"scene '{scene.name}' (model {scene.model}) does not offer; {hint}")
+    laws = " or ".join(f"'{c}'" for c in cls.contact_laws)
+    hint = f"scenes that offer it: {', '.join(offer)}" if offer else "no installed scene offers it"
+    raise IntegratorError(f"integrator '{cls.name}' resolves contacts itself (contact law {laws}), which "
+                          f"scene '{scene.name}' (model {scene.model}) does not offer; {hint}")
 
 
 def ensure_writable_dir(path: str | Path, what: str = "output folder") -> Path:

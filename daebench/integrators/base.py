@@ -148,6 +148,9 @@ class Integrator:
     description: ClassVar[str] = ""
     capabilities: ClassVar[Capabilities] = Capabilities(order=1)
     settings_spec: ClassVar[tuple[Setting, ...]] = ()
+    #: contact laws whose contacts it takes over (``capabilities.contacts`` only):
+    #: "complementarity" = left to it (no law), "constraint" = the impact law's restitution applies
+    contact_laws: ClassVar[tuple[str, ...]] = ("complementarity", "constraint")
 
     def __init__(self, **settings: Any) -> None:
         spec = {s.name: s for s in self.settings_spec}
@@ -402,11 +405,12 @@ def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
             f"integrator '{cls.name}' resolves contacts itself and needs a case with contacts "
             f"(`--set effects.contact=true`); {what} has none."
         )
-    if cap.contacts and contact_law not in (None, "constraint"):
+    if cap.contacts and (contact_law or "complementarity") not in cls.contact_laws:
         raise IntegratorError(
-            f"integrator '{cls.name}' resolves contacts itself; {what} has the continuous contact law "
-            f"'{contact_law}', which would count the contact twice. Use `--set contact.law=constraint` "
-            f"(its restitution applies) or `--set contact.law=complementarity`."
+            f"integrator '{cls.name}' resolves contacts itself and takes over contacts with the law "
+            + " or ".join(f"'{c}'" for c in cls.contact_laws) + f"; {what} has '{contact_law}'"
+            + (" (a continuous law would count the contact twice)" if contact_law not in ("constraint", None) else "")
+            + ". Choose one with `--set contact.law=...`."
         )
     if problem_needs_constraints and not cap.constraints:
         raise IntegratorError(

@@ -143,6 +143,7 @@ class ComplementarityLCP(Integrator):
     description: ClassVar[str] = ("complementarity contact: trapezoidal rule + one LCP per step on the "
                                   "time-averaged gap (contact.law = complementarity)")
     capabilities: ClassVar[Capabilities] = Capabilities(order=2, fixed_step=True, constraints=False, contacts=True)
+    contact_laws: ClassVar[tuple[str, ...]] = ("complementarity",)  # no impact law of its own
     settings_spec: ClassVar[tuple[Setting, ...]] = STEP_SETTINGS + (
         Setting("gap_weight", float, 0.5, "θ in ḡ = (1−θ) g_n + θ g_{n+1}; 0.5 = time-averaged gap",
                 low=0.5, high=1.0),
@@ -168,9 +169,10 @@ class ComplementarityLCP(Integrator):
         law = p.contact_law
         if law is not None:
             raise IntegratorError(
-                f"integrator 'lcp' needs `--set contact.law=complementarity`; this system already has "
-                f"the contact law '{law.name}', so the contact would be counted twice. For '{law.name}' "
-                f"use another integrator (newmark, hht, ida).")
+                f"integrator 'lcp' has no impact law of its own (no restitution): it runs only systems whose "
+                f"contacts are left to it (`--set contact.law=complementarity`, e.g. chain-impact); this one has "
+                f"the contact law '{law.name}'. Use moreau or nsgenalpha for event-capturing runs with the "
+                f"constraint law's restitution.")
         if self.problem.m:
             raise IntegratorError("integrator 'lcp' integrates ODE models only (no bilateral constraints)")
         st = self.state
