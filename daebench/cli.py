@@ -362,9 +362,11 @@ def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke te
     out(f"written: {res['folder']}/perf.json, perf.md")
 
 
-from daebench import cli_plot  # noqa: E402  (registers `daebench plot …`)
+from daebench import cli_plot, cli_seed003, cli_stability  # noqa: E402  (study commands)
 
 app.add_typer(cli_plot.plot_app, name="plot")
+cli_seed003.register(app)
+cli_stability.register(app)
 
 
 def main() -> None:  # pragma: no cover

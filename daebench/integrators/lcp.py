@@ -68,9 +68,9 @@ V. Acary, "Energy conservation and dissipation properties of time-integration me
 for nonsmooth elastodynamics with contact", ZAMM 96 (2016) 585–603.
 K. G. Murty, "Note on a Bard-type scheme for solving the complementarity problem",
 Opsearch 11 (1974) 123–130 (least-index principal pivoting).
-The source of the chain-impact case (a linear-complementarity contact model with a
-time-averaged gap) was not available to this project; this is the standard
-formulation described above, documented as this project's reading.
+This is the trapezoidal variant written before the source paper's formulation was read;
+the paper's own scheme (the force-level LCP on the gap averaged over a window, inside
+an adaptive explicit Runge–Kutta) is :class:`daebench.integrators.lcp_avg.LcpAvg`.
 """
 
 from __future__ import annotations

@@ -110,6 +110,7 @@ class LcpAvg(CompiledIntegrator):
                                   "right-hand side of adaptive Dormand–Prince 5(4)")
     capabilities: ClassVar[Capabilities] = Capabilities(order=5, fixed_step=True, adaptive=True,
                                                         constraints=False, contacts=True)
+    contact_laws: ClassVar[tuple[str, ...]] = ("complementarity",)  # no restitution: its own law only
     settings_spec: ClassVar[tuple[Setting, ...]] = STEP_SETTINGS + (
         Setting("adaptive", bool, True, "choose the step from the embedded 4th-order error estimate"),
         Setting("rtol", float, 1e-4, "relative tolerance (adaptive; the source's ode45 RelTol)", low=1e-14, high=1.0),
