@@ -125,6 +125,8 @@ class Driver:
         self.approach_speed = np.full(sys_.n_contacts, np.nan)  # v₀ of each continuous-law episode
         self._current = self._problem()
         self.work: dict[str, float] = {k: 0.0 for k in self._power_terms(0.0, q, v)}  # W(0) = 0, not NaN
+        if self.integ.capabilities.contacts:
+            self.work["contact"] = 0.0  # booked from Advance.contact_work; the t = 0 row too
         self._contact_work: tuple[float, ...] | None = None
         self.d_impacts = 0.0
         terms0 = sys_.energy(q, v)
