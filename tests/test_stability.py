@@ -148,3 +148,37 @@ def test_linear_theory_predicts_when_a_full_run_diverges():
     print(f"\npredicted {t_pred:.4f} s, diverged at {res.t_final:.4f} s: {res.message}")
     assert res.status == "diverged" and not res.impacts
     assert t_pred <= res.t_final <= t_pred + 2e-3
+
+
+# -- the hub variant (issue 16, item 2) --------------------------------------------------------------
+def test_hub_variant_is_beam_impact_with_a_hub():
+    a, b = load_scene("beam-impact"), load_scene("beam-impact-hub")
+    diff = {k for k in set(a.values) | set(b.values) if a.values.get(k) != b.values.get(k)}
+    assert diff == {"name", "description", "hub.inertia"}
+    assert b["hub.inertia"] == 0.03
+    lin = linearize(b.with_overrides({"discretization.n": 7}))
+    assert lin.omega.max() / (2 * math.pi) == pytest.approx(1657.0, rel=2e-3)  # clamped–free mode 7 (SEEDS G.2)
+
+
+def _baumgarte_run(n: int, h: float):
+    from daebench.runner import make_integrator, run_scene
+
+    sc = load_scene("beam-impact-hub", {"discretization.n": n})
+    return run_scene(sc, make_integrator("baumgarte", {"h": h, "h_contact": 1e-6}), write=False)[1]
+
+
+def test_hub_variant_n9_diverges_at_3e_5_when_predicted():
+    """N = 9 at h = 3e-5 s: hω_top = 0.53, free-flight growth reaches the threshold at 0.181 s
+    (predicted), before the first impact; measured 0.182 s."""
+    sc = load_scene("beam-impact-hub", {"discretization.n": 9})
+    t_pred = divergence_time(AbmPece(), linearize(sc), 3e-5)
+    res = _baumgarte_run(9, 3e-5)
+    assert res.status == "diverged" and t_pred <= res.t_final <= t_pred + 2e-3
+
+
+@pytest.mark.slow
+def test_hub_variant_reproduces_the_published_baumgarte_pattern_at_3e_5():
+    """N = 3, 5, 7 complete the second (with 5, 13, 19 impacts), N = 9 diverges; at the
+    published h = 1e-4 s N = 5 diverges already (0.59 s)."""
+    assert [_baumgarte_run(n, 3e-5).status for n in (3, 5, 7, 9)] == ["completed"] * 3 + ["diverged"]
+    assert _baumgarte_run(5, 1e-4).status == "diverged"

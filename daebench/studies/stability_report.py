@@ -20,11 +20,11 @@ def _omega(x: float) -> str:
 def markdown(df: pd.DataFrame, h_max: float) -> str:
     """One row per (setting, N): the measured bracket beside the prediction."""
     lines = ["| integrator, settings | N | ω_max [rad/s] | method | strict interval hω | run interval hω* "
-             "| predicted h_max [s] | measured h_max [s] (bracket) | first unstable run | agrees |",
+             "| predicted h_max [s] | measured h_max [s]: stable – unstable | first unstable run | agrees |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in df.itertuples():
         if math.isfinite(r.h_stable) and math.isfinite(r.h_unstable):
-            meas = f"{r.h_stable:.4g} ({r.h_stable:.4g}–{r.h_unstable:.4g})"
+            meas = f"{r.h_stable:.4g} – {r.h_unstable:.4g}"
         elif math.isfinite(r.h_stable):
             meas = f"≥ {r.h_stable:.3g} (no instability up to the bound)"
         else:
@@ -43,32 +43,41 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    from matplotlib.lines import Line2D
+
+    fig, ax = plt.subplots(figsize=(10.0, 5.0))
     labels = list(dict.fromkeys(df["label"]))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    handles = []
     for i, lab in enumerate(labels):
         d = df[df["label"] == lab]
         n = d["N"].to_numpy(float) + 0.06 * (i - 0.5 * (len(labels) - 1))  # side by side, not on top
         c = colours[i % len(colours)]
         lo, hi = d["h_stable"].to_numpy(float), d["h_unstable"].to_numpy(float)
         both = np.isfinite(lo) & np.isfinite(hi)
-        ax.errorbar(n[both], lo[both], yerr=[np.zeros(both.sum()), (hi - lo)[both]], fmt="o", color=c, ms=5,
-                    capsize=2, label=f"{lab}: measured")
+        if both.any():
+            ax.errorbar(n[both], lo[both], yerr=[np.zeros(both.sum()), (hi - lo)[both]], fmt="o", color=c, ms=5,
+                        capsize=2)
         up = np.isfinite(lo) & ~np.isfinite(hi)
         if up.any():
-            ax.plot(n[up], lo[up], "^", color=c, ms=7, label=f"{lab}: stable up to the bound")
+            ax.plot(n[up], lo[up], "^", color=c, ms=7)
         pred = d["h_pred"].to_numpy(float)
         fin = np.isfinite(pred)
         if fin.any():
-            ax.plot(n[fin], pred[fin], "--", color=c, lw=1.2, label=f"{lab}: predicted")
+            ax.plot(n[fin], pred[fin], "--", color=c, lw=1.2)
+        handles.append(Line2D([], [], color=c, marker="o", ls="", label=lab))
+    handles += [Line2D([], [], color="k", marker="o", ls="", label="measured (bar: last bracket)"),
+                Line2D([], [], color="k", marker="^", ls="", label=f"no instability up to {h_max:g} s"),
+                Line2D([], [], color="k", ls="--", label="predicted (∞: not drawn)")]
     if mark_h:
-        ax.axhline(mark_h, color="0.3", ls=":", lw=1.0, label=f"h = {mark_h:g} s")
+        ax.axhline(mark_h, color="0.3", ls=":", lw=1.0)
+        handles.append(Line2D([], [], color="0.3", ls=":", label=f"h = {mark_h:g} s"))
     ax.set_yscale("log")
     ax.set_xlabel("modes per direction N [–]")
     ax.set_ylabel("largest stable step h_max [s]")
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="best", ncol=2)
+    ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=150)
