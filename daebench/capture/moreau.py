@@ -3,12 +3,17 @@
 One step t_k → t_{k+1} = t_k + h (θ-method on the smooth part, contact impulses P ≥ 0 of
 the step, Newton's impact law at velocity level)::
 
-    M (v_{k+1} − v_k) = h [(1 − θ) Q(t_k, q_k, v_k) + θ Q(t_{k+1}, q_{k+1}, v_{k+1})] + Σ_i g_{q,i}ᵀ P_i
+    v_{k+1} − v_k = h [(1 − θ) a_k + θ a_{k+1}] + M_{k+1}⁻¹ Σ_i g_{q,i}ᵀ P_i,     a = M(q)⁻¹ Q(t, q, v)
     q_{k+1} = q_k + h [(1 − θ) v_k + θ v_{k+1}]
     i ∈ I:   0 ≤ U_i + e U_i⁻  ⟂  P_i ≥ 0,      U = g_q v_{k+1},  U⁻ = g_q v_k
     i ∉ I:   P_i = 0
 
-M, g_q at q_{k+1}. The index set I is fixed at the step's start by the predicted gap
+M, g_q at q_{k+1}; solved in the form M_{k+1} (v_{k+1} − v_k − h(1−θ) a_k) = hθ Q_{k+1} + g_qᵀP.
+The θ-method acts on the accelerations a = M⁻¹Q, each at its own configuration: the
+form often written M(v_{k+1} − v_k) = h[(1−θ)Q_k + θQ_{k+1}] + g_qᵀP weighs Q_k with
+M(q_{k+1})⁻¹, an O(h²) local error wherever M depends on q (the hub–beam's energy then
+oscillated 40× more after an impact). a_k is M⁻¹Q of the last iterate of the previous
+step (one small LU of M per step), recomputed after a restart or a projection. The index set I is fixed at the step's start by the predicted gap
 g_i(q_k) + γ h ġ_i(q_k, v_k) ≤ 0 (Siconos' MoreauJeanOSI; γ = ½ there by default).
 
 Solution: Newton on v_{k+1}, each linearization an LCP for P (:mod:`daebench.capture.lcp`):
@@ -54,7 +59,7 @@ FAIL_MESSAGES = {
     ST_LCP: "contact LCP unsolvable (dependent contact Jacobians?)",
     ST_PROJECTION: "position projection onto g ≥ 0 did not converge",
 }
-W_LU, W_LUH, W_Q0, W_G0 = range(4)  # ws.st: S factorized, its h; Q, gaps at the step start known
+W_LU, W_LUH, W_A0, W_G0 = range(4)  # ws.st: S factorized, its h; a = M⁻¹Q and gaps at the step start known
 
 
 class MoreauMethod(NamedTuple):
@@ -74,7 +79,8 @@ class MoreauWork(NamedTuple):
     M: np.ndarray
     Kq: np.ndarray
     Kv: np.ndarray
-    Q0: np.ndarray
+    a0: np.ndarray      # n: the smooth acceleration M⁻¹Q at the step's start
+    a1: np.ndarray      # n: … at the proposed step's end (the next start)
     Q1: np.ndarray
     q1: np.ndarray
     v1: np.ndarray
@@ -106,7 +112,7 @@ class MoreauWork(NamedTuple):
 def workspace(n: int, nc: int, steps_per_call: int) -> MoreauWork:
     k = max(nc, 1)
     z = np.zeros
-    per_n = ("Q0", "Q1", "q1", "v1", "vfree", "r", "tmp", "gq", "apred", "qt")
+    per_n = ("a0", "a1", "Q1", "q1", "v1", "vfree", "r", "tmp", "gq", "apred", "qt")
     per_k = ("g0", "gd0", "g1", "gd1", "b", "P", "w", "z")
     return MoreauWork(st=z(4), LU=z((n, n)), piv=z(n, np.int64), M=z((n, n)), Kq=z((n, n)), Kv=z((n, n)),
                       G=z((k, n)), active=z(k, np.bool_), SG=z((n, k)), A=z((k, k)), lcp=lcp_work(k),
@@ -118,6 +124,15 @@ def workspace(n: int, nc: int, steps_per_call: int) -> MoreauWork:
 def _start(meth, ws, ph, t, cur, cnt):
     ws.st[:] = 0.0
     _ep.reset(ws.ep)
+    return 0
+
+
+@njit(cache=True)
+def _mass_solve(ws, x):
+    """x ← M⁻¹x with M in ws.LUm (factorized here); returns 1 if M is singular."""
+    if lu_factor(ws.LUm, ws.pivm) != 0:
+        return 1
+    lu_solve(ws.LUm, ws.pivm, x)
     return 0
 
 
@@ -236,9 +251,11 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
                 gd += ws.gq[j] * v[j]
             ws.gd0[i] = gd
         ws.active[i] = ws.g0[i] + meth.gamma * h * ws.gd0[i] <= 0.0
-    if th < 1.0 and ws.st[W_Q0] == 0.0:
-        phase.mass_force(ph, t, q, v, ws.M, ws.Q0)
+    if th < 1.0 and ws.st[W_A0] == 0.0:
+        phase.mass_force(ph, t, q, v, ws.LUm, ws.a0)
         cnt[C_RES] += 1
+        if _mass_solve(ws, ws.a0):
+            return ST_SINGULAR, 0.0
     if ws.st[W_LU] != 0.0 and (not meth.reuse or max(h / ws.st[W_LUH], ws.st[W_LUH] / h) > 2.0):
         ws.st[W_LU] = 0.0
     for i in range(n):
@@ -257,10 +274,8 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
         for i in range(n):
             s = 0.0
             for j in range(n):
-                s += ws.M[i, j] * (v1[j] - v[j])
+                s += ws.M[i, j] * (v1[j] - v[j] - h * (1.0 - th) * ws.a0[j])
             s -= h * th * ws.Q1[i]
-            if th < 1.0:
-                s -= h * (1.0 - th) * ws.Q0[i]
             if not math.isfinite(s):
                 return ST_NOT_FINITE, 0.0
             r[i] = s
@@ -320,6 +335,12 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     for i in range(n):
         new.v[i] = v1[i]
         new.a[i] = (v1[i] - v[i]) / h
+    if th < 1.0 and not meth.projection:
+        # a_{k+1} = M⁻¹Q of the last iterate (within the Newton tolerance of the solution)
+        ws.LUm[:, :] = ws.M
+        ws.a1[:] = ws.Q1
+        if _mass_solve(ws, ws.a1):
+            return ST_SINGULAR, 0.0
     if meth.projection:
         st = _project(meth, ws, ph, t1, n, nc, new.q, cnt)
         if st:
@@ -345,19 +366,16 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
 
 @njit(cache=True)
 def _accept(meth, ws, h, prev, cur):
-    n = cur.q.shape[0]
     _ep.commit(ws.ep, ws.ep.step.shape[0], prev, cur)
     ws.g0[:] = ws.g1
     ws.gd0[:] = ws.gd1
     ws.st[W_G0] = 1.0
-    # Q(t_{k+1}) of the last iterate starts the next step (within the Newton tolerance);
-    # a projection moved q: evaluate it again
-    if meth.projection:
-        ws.st[W_Q0] = 0.0
+    # a_{k+1} of the last iterate starts the next step; a projection moved q: evaluate again
+    if meth.projection or meth.theta == 1.0:
+        ws.st[W_A0] = 0.0
     else:
-        for i in range(n):
-            ws.Q0[i] = ws.Q1[i]
-        ws.st[W_Q0] = 1.0
+        ws.a0[:] = ws.a1
+        ws.st[W_A0] = 1.0
 
 
 methods.start.register(MoreauMethod, _start)

@@ -39,11 +39,19 @@ from typing import Any
 
 from daebench.capture import episodes as _ep
 from daebench.contact import Impact
-from daebench.integrators.base import Advance, IntegratorError
+from daebench.integrators.base import STEP_SETTINGS, Advance, IntegratorError, Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.system import State
 
 STEPS_PER_CALL = 500   # a compiled call's step limit (bounds the episode log)
+
+#: the step settings of an event-capturing integrator: h; h_contact accepted (the paper's
+#: protocol passes it) but unused — no phase is "in contact" for the driver
+CAPTURE_STEP_SETTINGS = (
+    STEP_SETTINGS[0],
+    Setting("h_contact", float, 0.0, "accepted for the paper's protocol and unused: contacts are resolved "
+            "inside the steps of size h", low=0.0, high=1.0),
+)
 
 
 class CapturingIntegrator(CompiledIntegrator):

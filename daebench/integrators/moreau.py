@@ -5,8 +5,8 @@ from __future__ import annotations
 from typing import ClassVar
 
 from daebench.capture import moreau as _mj
-from daebench.integrators.base import STEP_SETTINGS, Capabilities, Setting
-from daebench.integrators.capturing import CapturingIntegrator
+from daebench.integrators.base import Capabilities, Setting
+from daebench.integrators.capturing import CAPTURE_STEP_SETTINGS, CapturingIntegrator
 
 
 class MoreauJean(CapturingIntegrator):
@@ -16,13 +16,16 @@ class MoreauJean(CapturingIntegrator):
 
     One step (formulation and solver: :mod:`daebench.capture.moreau`)::
 
-        M (v_{k+1} − v_k) = h [(1−θ) Q_k + θ Q_{k+1}] + g_qᵀ P,   q_{k+1} = q_k + h [(1−θ) v_k + θ v_{k+1}]
+        v_{k+1} − v_k = h [(1−θ) a_k + θ a_{k+1}] + M⁻¹ g_qᵀ P,   a = M(q)⁻¹ Q(t, q, v)
+        q_{k+1} = q_k + h [(1−θ) v_k + θ v_{k+1}]
         g_i(q_k) + γ h ġ_i ≤ 0:   0 ≤ g_q,i v_{k+1} + e g_q,i v_k  ⟂  P_i ≥ 0,   else P_i = 0
 
     Conventions (the literature has several): θ weights the end of the step in both the
-    force and the position update (Jean 1999; Siconos' MoreauJeanOSI, whose γ is the
+    acceleration and the position update (Jean 1999; Siconos' MoreauJeanOSI, whose γ is the
     activation weight here too); Moreau's own midpoint scheme is θ = γ = ½ with the force
-    at the midpoint. M and g_q are taken at q_{k+1}. e is the restitution of the scene's
+    at the midpoint. The θ-method acts on a = M⁻¹Q at each end (with a configuration-
+    dependent M, weighing Q_k with M(q_{k+1})⁻¹ would be an O(h²) local error);
+    M and g_q of the impulse are taken at q_{k+1}. e is the restitution of the scene's
     ``constraint`` law; without a law (``complementarity``) e = 0.
 
     Settings
@@ -85,7 +88,7 @@ class MoreauJean(CapturingIntegrator):
     capabilities: ClassVar[Capabilities] = Capabilities(order=1, fixed_step=True, adaptive=False, constraints=False,
                                                         contacts=True)
     settings_spec: ClassVar[tuple[Setting, ...]] = (
-        *STEP_SETTINGS,
+        *CAPTURE_STEP_SETTINGS,
         Setting("theta", float, 0.5, "θ of the smooth part (½ trapezoidal, 1 backward Euler)", low=0.5, high=1.0),
         Setting("gamma", float, 0.5, "activation weight: a contact enters the step's LCP when g + γhġ ≤ 0",
                 low=0.0, high=1.0),

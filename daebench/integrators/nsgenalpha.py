@@ -5,8 +5,8 @@ from __future__ import annotations
 from typing import ClassVar
 
 from daebench.capture import nsgenalpha as _ns
-from daebench.integrators.base import STEP_SETTINGS, Capabilities, Setting
-from daebench.integrators.capturing import CapturingIntegrator
+from daebench.integrators.base import Capabilities, Setting
+from daebench.integrators.capturing import CAPTURE_STEP_SETTINGS, CapturingIntegrator
 from daebench.integrators.family import chung_hulbert
 
 
@@ -64,7 +64,7 @@ class NonsmoothGeneralizedAlpha(CapturingIntegrator):
     capabilities: ClassVar[Capabilities] = Capabilities(order=1, fixed_step=True, adaptive=False, constraints=False,
                                                         contacts=True)
     settings_spec: ClassVar[tuple[Setting, ...]] = (
-        *STEP_SETTINGS,
+        *CAPTURE_STEP_SETTINGS,
         Setting("rho_inf", float, 0.9, "spectral radius at h ω → ∞ (1: no dissipation, 0: most)", low=0.0,
                 high=1.0),
         Setting("newton_tol", float, 1e-12, "semismooth Newton tolerance on the scaled increment of q and h·u",
