@@ -185,3 +185,23 @@ def test_penetration():
             assert -g <= h * v1
     depth = [-pen[("mj", h)] for h in SWEEP]
     assert 0.7 <= slope(SWEEP, depth) <= 1.3
+
+
+def test_capture_cli_registers_its_commands():
+    """`register(app)` adds `capture page|rates`; bad --steps are refused with exit 2."""
+    import typer
+    from typer.testing import CliRunner
+
+    from daebench.cli_eventcapture import register
+
+    app = typer.Typer()
+
+    @app.command()
+    def other() -> None:  # a second command, so that `capture` stays a sub-command
+        pass
+
+    register(app)
+    r = CliRunner().invoke(app, ["capture", "--help"])
+    assert r.exit_code == 0 and "page" in r.output and "rates" in r.output
+    r = CliRunner().invoke(app, ["capture", "page", "beam-impact", "--steps", "1e-4,abc"])
+    assert r.exit_code == 2 and "comma-separated numbers" in r.output
