@@ -162,7 +162,7 @@ def exact_or_reference_error(scene: Scene, system: Any, hist: pd.DataFrame) -> d
     except (ReferenceMissing, ReferenceDamaged):
         return {}
     scored = [o for o in scene.get("output.observables") or [] if o in hist.columns]
-    acc = metrics.accuracy(hist, ref.history, scored or None)
+    acc = metrics.accuracy(hist, ref.history, scored or None, ref_impacts=ref.impacts)
     return {"against": f"cached reference (IDA rtol {ref.rtol:g})",
             **{k: v for k, v in acc.items() if k.endswith("_max")}}
 
@@ -234,7 +234,7 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str, *, steps: Sequence
           tols: Sequence[float] | None = None, grid: dict[str, Sequence[Any]] | None = None,
           options: dict[str, Any] | None = None, overrides: Iterable[str] | dict[str, Any] | None = None,
           reference: str = "auto", jobs: int = 1, name: str | None = None, write: bool = True,
-          resume: bool = False, overwrite: bool = False, run_cap: float | None = None, repeats: int = 1,
+          resume: bool = False, overwrite: bool = False, run_cap: float | None = None, repeats: int = 3,
           scheduler: Any = None, executor: str = "process", progress: bool = False,
           force: bool = False) -> pd.DataFrame:
     """Sweep integrators × grid × steps (or tolerances) on a scene; one scored row per run.
@@ -251,7 +251,8 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str, *, steps: Sequence
     name, write, resume, overwrite : the table results/bench/<name>.parquet (unique name
         by default; rows stored as they finish; ``resume`` completes an interrupted sweep)
     run_cap : wall-time cap of one run [s]; a run over it is a 'timeout' row
-    repeats : timed repeats (minimum taken; > 1 adds a warm-up run)
+    repeats : timed runs (minimum taken) after a warm-up run, made while a run takes
+        under a second (:data:`daebench.metrics.REPEATS`); 1: one cold run, no warm-up
     scheduler : Dask scheduler address, 'local', or a Client
     executor : 'process' (default), 'inline' (this process, no isolation) or 'dask'
 

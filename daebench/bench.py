@@ -30,7 +30,7 @@ from typing import Any, Callable, Sequence
 
 import pandas as pd
 
-from daebench import CallableModule, executors, guards, sweepstore
+from daebench import CallableModule, executors, guards, metrics, sweepstore
 from daebench.guards import RunTimeout, deadline  # noqa: F401  (re-exported: studies use them)
 from daebench.integrators import base
 from daebench.integrators.base import IntegratorError
@@ -242,8 +242,9 @@ def _int_at_least_1(value: Any, what: str, high: int) -> int:
 
 
 def run_specs(specs: Sequence[RunSpec], scene: Scene, jobs: int = 1, executor: str = "process",
-              scheduler: Any = None, reference_mode: str = "auto", repeats: int = 1, warmup: bool = False,
-              time_cap: float = 600.0, progress: bool = True, description: str = "runs",
+              scheduler: Any = None, reference_mode: str = "auto", repeats: int = metrics.REPEATS,
+              warmup: bool = True, time_cap: float = metrics.TIME_CAP_S, progress: bool = True,
+              description: str = "runs",
               history_dir: str | Path | None = None, run_cap: float | None = None,
               store: SweepStore | None = None) -> pd.DataFrame:
     """Execute planned runs; one row each, in plan order.
@@ -319,8 +320,8 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
               steps: Sequence[float] | None = None, tols: Sequence[float] | None = None,
               jobs: int = 1, executor: str = "process", scheduler: Any = None,
               options: dict[str, Any] | None = None, name: str | None = None,
-              reference_mode: str = "auto", repeats: int = 1, warmup: bool = False,
-              time_cap: float = 600.0, write: bool = True, progress: bool = True,
+              reference_mode: str = "auto", repeats: int = metrics.REPEATS, warmup: bool = True,
+              time_cap: float = metrics.TIME_CAP_S, write: bool = True, progress: bool = True,
               run_cap: float | None = None, resume: bool = False, overwrite: bool = False,
               force: bool = False, folder: str | Path | None = None) -> pd.DataFrame:
     """Plan, run and score a sweep; one tidy row per run.
@@ -337,7 +338,9 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
     options : fixed integrator settings for every run that has them
     name : table name under results/bench/ (default: unique, ``<scene>-<time>-<hex>``)
     reference_mode : 'auto' | 'require' | 'compute' | 'none'
-    repeats, warmup, time_cap : timing (see :func:`daebench.metrics.time_call`)
+    repeats, warmup, time_cap : timing: by default a warm-up run (stopped after 1 s) and the
+        minimum of 3 timed runs for runs under a second, one for longer runs
+        (:data:`daebench.metrics.REPEATS`, :func:`daebench.metrics.time_call`)
     write : store rows on disk as they finish and write the table (False: memory only)
     progress : bars on stderr for references and runs
     run_cap : wall-time cap of one run in seconds (None: no cap)

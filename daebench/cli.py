@@ -280,7 +280,8 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
               help="run on Dask: a scheduler address (tcp://host:8786), or 'local' for a local cluster of --jobs workers"),
           ref_mode: str = typer.Option("require", "--reference",
                                        help="require (error if missing) | compute | auto (score if cached) | none"),
-          repeats: int = typer.Option(1, "--repeats", help="timed repeats (min taken; > 1 adds a warm-up run)"),
+          repeats: int = typer.Option(3, "--repeats", help="timed runs after a warm-up, for runs under 1 s "
+                                      "(min taken; 1: one cold run, no warm-up)"),
           name: Optional[str] = typer.Option(None, "--name", help="table name under results/bench/ (default: unique)"),
           resume: bool = typer.Option(False, "--resume", help="complete the interrupted sweep --name (same arguments)"),
           overwrite: bool = typer.Option(False, "--overwrite", help="replace the existing table --name"),

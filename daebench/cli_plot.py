@@ -22,10 +22,15 @@ def _fail(msg: str) -> None:
 @plot_app.command("wp")
 def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv)"),
             x: str = typer.Option("wall_s", "--x", help="cost column (wall_s, cpu_s, steps, ...)"),
-            y: str = typer.Option("err_theta_max", "--y", help="error column"),
+            y: str = typer.Option("err_theta_max", "--y",
+                                  help="error column(s), comma-separated for one panel each: err_theta_max (whole "
+                                       "run), err_pre_theta_max (before the 1st impact), err_impact1_t, "
+                                       "err_win_theta_max (re-synchronised windows), impact_loss_dev_max, "
+                                       "energy_resid_max, …"),
             group: str = typer.Option("label", "--group", help="one line per value of this column"),
             out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
-    """Work-precision diagram (log–log, Pareto front marked) as PNG and SVG."""
+    """Work-precision diagram (log–log, Pareto front marked) as PNG and SVG; one panel per
+    --y column (the error measures every sweep row stores: see daebench/impact_metrics.py)."""
     from daebench import plots, provenance
     from daebench.sweepstore import read_table
 
@@ -41,9 +46,10 @@ def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .c
         prov = json.loads(side.read_text())["provenance"]
     except (OSError, ValueError, KeyError, TypeError):
         prov = provenance.collect()
-    stem = Path(out) if out else p.with_name(f"{p.stem}-wp-{y}-vs-{x}")
+    ys = [c.strip() for c in y.split(",") if c.strip()]
+    stem = Path(out) if out else p.with_name(f"{p.stem}-wp-{'+'.join(ys)}-vs-{x}")
     try:
-        _, files = plots.work_precision(df, x, y, group, stem, prov, title=plots.sweep_title(df))
+        _, files = plots.work_precision(df, x, ys, group, stem, prov, title=plots.sweep_title(df))
     except KeyError as exc:
         _fail(str(exc.args[0]))
     except OSError as exc:

@@ -6,10 +6,13 @@ residuals) and returns plain numbers in a dict, so that a sweep row is the union
 the dicts. Nothing here runs a simulation, except :func:`time_call`, which only
 times a callable.
 
-Accuracy is measured in the spirit of DiffEqDevTools: both histories are linearly
-interpolated onto one uniform grid on the common time span, and the final, the max
-and the L2 (root-mean-square over the grid, i.e. √(∫e² dt / T)) errors are stored for
-every observable; a plot later picks one.
+Accuracy is measured in the spirit of DiffEqDevTools: a run is compared at its own
+output times against the reference's dense interpolation (:func:`dense`, within the
+reference's smooth segments between impacts), and the final, the max and the L2
+(root-mean-square over the output times, i.e. √(∫e² dt / T)) errors are stored for
+every observable; a plot later picks one. The impact-aware measures (before the first
+impact, per re-synchronised window, energy per impact) are in
+:mod:`daebench.impact_metrics`.
 """
 
 from __future__ import annotations
@@ -76,12 +79,15 @@ def error_norms(err: np.ndarray, prefix: str) -> dict[str, float]:
 
 
 def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] | None = None,
-             n_grid: int = GRID_POINTS) -> dict[str, float]:
+             n_grid: int | None = None, ref_impacts: Sequence[float] = ()) -> dict[str, float]:
     """Errors of ``hist`` against ``ref`` for every observable both hold.
 
-    Both are interpolated onto one uniform grid over the reference's time span.
-    A history that stops before the reference ends (a diverged or failed run) gets
-    NaN errors: a partial trajectory has no comparable error.
+    By default (as DiffEqDevTools' ``errors``) the run is compared at its own output
+    times over the reference's span, the reference interpolated there by :func:`dense`
+    within each smooth segment between its ``ref_impacts`` (never across a velocity
+    jump). With ``n_grid`` both are instead linearly interpolated onto one uniform grid
+    of that many points. A history that stops before the reference ends (a diverged or
+    failed run) gets NaN errors: a partial trajectory has no comparable error.
 
     Raises
     ------
@@ -94,25 +100,99 @@ def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] |
     dict
         ``err_<obs>_{final,max,l2}`` per observable (``theta_deg`` is named
         ``theta``, in degrees) and ``err_<point>_{final,max,l2}`` for the Euclidean
-        error of a position pair (``tip``: tip_x/tip_y; ``pos``: x/y).
+        error of a position pair (``tip``: tip_x/tip_y; ``pos``: x/y). L2 is the RMS
+        over the samples (uniform output times: √(∫e² dt / T)).
     """
     if observables:
         absent = [c for c in observables if c not in ref.columns]
         if absent:  # a score silently missing from a row reads as "not measured", not as an error
             raise ValueError(f"the reference has no column {', '.join(absent)}; it cannot score this run")
     cols = list(observables) if observables else observable_columns(ref)
-    grid = uniform_grid(float(ref["t"].iloc[0]), float(ref["t"].iloc[-1]), n_grid)
-    reaches = len(hist) > 0 and float(hist["t"].iloc[-1]) >= grid[-1] - 1e-9 * max(1.0, abs(grid[-1]))
+    t0, t1 = float(ref["t"].iloc[0]), float(ref["t"].iloc[-1])
+    reaches = len(hist) > 0 and float(hist["t"].iloc[-1]) >= t1 - 1e-9 * max(1.0, abs(t1))
+    pair_cols = [c for cx_cy in POSITION_PAIRS.values() for c in cx_cy if c in ref.columns]
+    need = list(dict.fromkeys(cols + pair_cols))
+    if n_grid is not None:
+        grid = uniform_grid(t0, t1, n_grid)
+        ref_i = {c: interpolate(ref, c, grid) for c in need}
+        run_i = {c: interpolate(hist, c, grid) if (reaches and c in hist.columns) else np.full_like(grid, np.nan)
+                 for c in need}
+    else:
+        run_i, ref_i = _at_run_times(hist, ref, need, ref_impacts, reaches, t0, t1)
     out: dict[str, float] = {}
-    ref_i = {c: interpolate(ref, c, grid) for c in cols}
-    run_i = {c: interpolate(hist, c, grid) if (reaches and c in hist.columns) else np.full_like(grid, np.nan)
-             for c in cols}
     for c in cols:
         out.update(error_norms(run_i[c] - ref_i[c], f"err_{score_name(c)}"))
     for name, (cx, cy) in POSITION_PAIRS.items():
         if cx in ref_i and cy in ref_i:
             e = np.hypot(run_i[cx] - ref_i[cx], run_i[cy] - ref_i[cy])
             out.update(error_norms(e, f"err_{name}"))
+    return out
+
+
+def _at_run_times(hist: pd.DataFrame, ref: pd.DataFrame, cols: Sequence[str], ref_impacts: Sequence[float],
+                  reaches: bool, t0: float, t1: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The run's samples at its output times in [t0, t1] and the reference there, segment by segment."""
+    if not reaches:
+        nan = np.full(1, np.nan)
+        return {c: nan for c in cols}, {c: nan for c in cols}
+    run = hist[~hist["t"].duplicated(keep="last")]
+    t = run["t"].to_numpy(float)
+    sel = (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
+    run, t = run[sel], t[sel]
+    ref_i = {c: np.full(t.size, np.nan) for c in cols}
+    cuts = [-math.inf, *sorted(float(x) for x in ref_impacts), math.inf]
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        seg = smooth_rows(ref, a, b)
+        k = (t > a) & (t < b)
+        for c in cols:
+            ref_i[c][k] = dense(seg, c, t[k])
+    # samples the reference cannot give (between its last row and an impact) are dropped
+    ok = np.all([np.isfinite(v) for v in ref_i.values()], axis=0) if cols else np.ones(t.size, bool)
+    run_i = {c: run[c].to_numpy(float)[ok] if c in run.columns else np.full(int(ok.sum()), np.nan) for c in cols}
+    return run_i, {c: v[ok] for c, v in ref_i.items()}
+
+
+#: column → (column of its time derivative, factor): θ [deg] has dθ/dt = ω [rad/s]·180/π
+DERIVATIVES: dict[str, tuple[str, float]] = {"theta_deg": ("omega", 180.0 / math.pi)}
+
+
+def smooth_rows(hist: pd.DataFrame, lo: float, hi: float) -> pd.DataFrame:
+    """Rows with lo < t < hi, duplicate times dropped (the last kept: the state after an
+    event)."""
+    t = hist["t"].to_numpy(float)
+    sel = (t > lo) & (t < hi)
+    seg = hist[sel]
+    return seg[~seg["t"].duplicated(keep="last")]
+
+
+def dense(seg: pd.DataFrame, column: str, times: np.ndarray) -> np.ndarray:
+    """``seg[column]`` at ``times``: cubic Hermite with the derivative column of
+    :data:`DERIVATIVES` when ``seg`` holds it (error ≈ (ωΔt)⁴/384 of a tone's amplitude
+    at output spacing Δt, against (ωΔt)²/8 linearly), else linear; NaN outside
+    ``seg``'s span. ``seg`` must be one smooth segment (no velocity jump between rows)."""
+    times = np.asarray(times, float)
+    out = np.full(times.shape, np.nan)
+    if len(seg) < 2 or column not in seg.columns:
+        if len(seg) == 1 and column in seg.columns:
+            out[np.isclose(times, float(seg["t"].iloc[0]), rtol=0, atol=1e-12)] = float(seg[column].iloc[0])
+        return out
+    t = seg["t"].to_numpy(float)
+    y = seg[column].to_numpy(float)
+    inside = (times >= t[0] - 1e-12) & (times <= t[-1] + 1e-12)
+    if not inside.any():
+        return out
+    x = np.clip(times[inside], t[0], t[-1])
+    deriv = DERIVATIVES.get(column)
+    if deriv is None or deriv[0] not in seg.columns:
+        out[inside] = np.interp(x, t, y)
+        return out
+    d = seg[deriv[0]].to_numpy(float) * deriv[1]
+    k = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
+    h = t[k + 1] - t[k]
+    s = (x - t[k]) / h
+    h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
+    h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
+    out[inside] = h00 * y[k] + h10 * h * d[k] + h01 * y[k + 1] + h11 * h * d[k + 1]
     return out
 
 
@@ -235,6 +315,19 @@ def stability_verdict(status: str, message: str, t_final: float, t_end: float) -
 
 
 # -- timing ---------------------------------------------------------------------------------
+#: The timing rule of every sweep row (a work-precision line must reflect the method, not
+#: start-up: a first call in a process loads compiled code from the numba cache, 0.4 s for
+#: beam-impact, and warms the CPU caches):
+#: one warm-up call, stopped after WARMUP_CAP_S of wall time (a warm-up only has to load
+#: what the run uses), then timed calls — REPEATS of them while each takes less than
+#: SHORT_RUN_S (the minimum is kept), one for a longer run (its start-up is then a small
+#: part of its time), and none after TIME_CAP_S of timed wall in total.
+REPEATS = 3
+SHORT_RUN_S = 1.0
+WARMUP_CAP_S = 1.0
+TIME_CAP_S = 60.0
+
+
 @dataclass
 class Timing:
     """Minimum wall and CPU time of the timed repeats, and how many were made."""
@@ -245,22 +338,24 @@ class Timing:
     result: Any = None
 
 
-def time_call(fn: Callable[[], Any], repeats: int = 3, warmup: bool = True,
-              time_cap: float = 60.0) -> Timing:
-    """Time ``fn()``: one warm-up call (JIT compilation, caches), then the minimum
-    wall (perf_counter) and CPU (process_time) of up to ``repeats`` calls.
+def time_call(fn: Callable[[], Any], repeats: int = REPEATS, warmup: bool = True,
+              time_cap: float = TIME_CAP_S, short_s: float = SHORT_RUN_S,
+              warmup_fn: Callable[[], Any] | None = None) -> Timing:
+    """Time ``fn()`` by the rule above: a warm-up call (``warmup_fn`` if given, e.g. the
+    run under a wall-time cap, else ``fn``), then the minimum wall (perf_counter) and CPU
+    (process_time) of up to ``repeats`` calls, repeating only while a call takes less
+    than ``short_s`` and the timed calls total less than ``time_cap``.
 
-    Repeats stop once their total wall time exceeds ``time_cap`` (at least one timed
-    call is always made; the warm-up is skipped when it alone exceeds the cap, in
-    which case the warm-up call is the timed one). The last result is returned.
+    At least one timed call is always made. Without ``warmup_fn``, a warm-up that alone
+    exceeds ``time_cap`` is the timed call. The last result is returned.
     """
     result = None
     walls, cpus = [], []
     if warmup:
         w0, c0 = time.perf_counter(), time.process_time()
-        result = fn()
+        result = (warmup_fn or fn)()
         w, c = time.perf_counter() - w0, time.process_time() - c0
-        if w > time_cap:
+        if warmup_fn is None and w > time_cap:
             return Timing(w, c, 1, result)
     spent = 0.0
     for _ in range(max(1, int(repeats))):
@@ -269,7 +364,7 @@ def time_call(fn: Callable[[], Any], repeats: int = 3, warmup: bool = True,
         walls.append(time.perf_counter() - w0)
         cpus.append(time.process_time() - c0)
         spent += walls[-1]
-        if spent > time_cap:
+        if spent > time_cap or walls[-1] >= short_s:
             break
     return Timing(min(walls), min(cpus), len(walls), result)
 

@@ -29,13 +29,28 @@ LABELS = {"wall_s": "wall time [s]", "cpu_s": "CPU time [s]", "steps": "steps",
           "energy_residual": "energy residual [J]", "E": "total energy [J]"}
 
 
+#: what the error columns measure (err_<what>_<norm>), with units
+_ERR_WHAT = {"theta": "θ [deg]", "tip": "tip position [m]", "pre_theta": "θ before the 1st impact [deg]",
+             "pre_tip": "tip before the 1st impact [m]", "win_theta": "θ per re-synchronised window [deg]",
+             "win_tip": "tip per re-synchronised window [m]", "winm_theta": "θ per matched window [deg]",
+             "winm_tip": "tip per matched window [m]"}
+_OTHER = {"err_impact1_t": "error of the 1st impact time [s]", "err_impact2_t": "error of the 2nd impact time [s]",
+          "err_impact_t_max": "max error of matched impact times [s]",
+          "err_impact1_loss": "error of the energy lost at the 1st impact [J]",
+          "impact_loss_dev_max": "max |energy lost − exact impact map| per impact [J]",
+          "impact_loss_dev_rel": "max |energy lost − exact impact map| / loss",
+          "energy_resid_max": "max |energy-balance residual| [J]", "energy_resid_rel": "max energy residual / energy scale"}
+
+
 def label_of(col: str) -> str:
     """Axis label for a column name (err_theta_max → 'max error of θ [deg]')."""
     if col in LABELS:
         return LABELS[col]
+    if col in _OTHER:
+        return _OTHER[col]
     m = re.fullmatch(r"err_(.+)_(final|max|l2)", col)
     if m:
-        what = {"theta": "θ [deg]", "tip": "tip position [m]"}.get(m.group(1), m.group(1))
+        what = _ERR_WHAT.get(m.group(1), m.group(1))
         return f"{ {'final': 'final', 'max': 'max', 'l2': 'L2'}[m.group(2)]} error of {what}"
     return col
 
@@ -69,38 +84,46 @@ def pareto_front(x: Sequence[float], y: Sequence[float]) -> np.ndarray:
     return mask
 
 
-def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str = "err_theta_max", group: str = "label",
-                   stem: str | Path | None = None, prov: dict[str, Any] | None = None,
+def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] = "err_theta_max",
+                   group: str = "label", stem: str | Path | None = None, prov: dict[str, Any] | None = None,
                    title: str = "") -> tuple[Any, list[Path]]:
     """Error (y) against cost (x), log–log, one line per ``group``, the Pareto front
-    marked. Runs without a finite positive x and y (failed, diverged) are listed in
-    the legend as not shown."""
-    for c in (x, y):
+    marked. Several ``y`` columns give one panel each, side by side, with one legend.
+    Runs without a finite positive x and y (failed, diverged) are listed in the legend
+    as not shown."""
+    ys_cols = [y] if isinstance(y, str) else list(y)
+    for c in (x, *ys_cols):
         if c not in df.columns:
             raise KeyError(f"column '{c}' is not in the table; columns: {', '.join(map(str, df.columns))}")
-    fig, ax = plt.subplots(figsize=(7.0, 5.0))
+    n = len(ys_cols)
+    fig, axes = plt.subplots(1, n, figsize=(7.0 if n == 1 else 4.6 * n, 5.0), squeeze=False)
     xs = pd.to_numeric(df[x], errors="coerce").to_numpy(float)
-    ys = pd.to_numeric(df[y], errors="coerce").to_numpy(float)
     keys = df[group].astype(str) if group in df.columns else df["integrator"].astype(str)
-    for k in dict.fromkeys(keys):
-        sel = (keys == k).to_numpy() & np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
-        n_bad = int(((keys == k).to_numpy() & ~sel).sum())
-        lab = k + (f" ({n_bad} not shown)" if n_bad else "")
-        if sel.any():
-            order = np.argsort(xs[sel])
-            ax.loglog(xs[sel][order], ys[sel][order], "o-", ms=4, label=lab)
-        else:
-            ax.plot([], [], "x", label=lab)
-    front = pareto_front(xs, ys)
-    if front.any():
-        o = np.argsort(xs[front])
-        ax.step(xs[front][o], ys[front][o], where="post", color="k", lw=0.8, ls="--", alpha=0.6)
-        ax.scatter(xs[front], ys[front], s=90, facecolors="none", edgecolors="k", label="Pareto front", zorder=5)
-    ax.set_xlabel(label_of(x))
-    ax.set_ylabel(label_of(y))
-    ax.set_title(title or "work–precision")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    for j, (ax, yc) in enumerate(zip(axes[0], ys_cols)):
+        ys = pd.to_numeric(df[yc], errors="coerce").to_numpy(float)
+        for i, k in enumerate(dict.fromkeys(keys)):
+            sel = (keys == k).to_numpy() & np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
+            n_bad = int(((keys == k).to_numpy() & ~sel).sum())
+            lab = k + (f" ({n_bad} not shown)" if n_bad else "")
+            if sel.any():
+                order = np.argsort(xs[sel])
+                ax.loglog(xs[sel][order], ys[sel][order], "o-", ms=4, color=f"C{i % 10}", label=lab)
+            else:
+                ax.plot([], [], "x", color=f"C{i % 10}", label=lab)
+        front = pareto_front(xs, ys)
+        if front.any():
+            o = np.argsort(xs[front])
+            ax.step(xs[front][o], ys[front][o], where="post", color="k", lw=0.8, ls="--", alpha=0.6)
+            ax.scatter(xs[front], ys[front], s=90, facecolors="none", edgecolors="k", label="Pareto front", zorder=5)
+        ax.set_xlabel(label_of(x))
+        ax.set_ylabel(label_of(yc))
+        ax.grid(True, which="both", alpha=0.3)
+        if j == 0:
+            ax.legend(fontsize=7)
+    if n == 1:
+        axes[0][0].set_title(title or "work–precision")
+    else:
+        fig.suptitle(title or "work–precision")
     fig.tight_layout(rect=(0, 0.03, 1, 1))
     return fig, (save(fig, stem, prov) if stem is not None else [])
 

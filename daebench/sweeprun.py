@@ -10,9 +10,10 @@ import traceback
 from pathlib import Path
 from typing import Any
 
-from daebench import metrics
+from daebench import impact_metrics, metrics
 from daebench.guards import RunTimeout
 from daebench.integrators import base
+from daebench.models import build_system
 from daebench.references import ReferenceMissing, load_reference
 from daebench.runner import run_scene
 from daebench.scene import Scene
@@ -22,6 +23,12 @@ def _nan_errors(row: dict[str, Any]) -> None:
     for k in list(row):
         if k.startswith("err_"):
             row[k] = math.nan
+
+
+def _restitution(scene: Scene) -> float:
+    """The scene's coefficient of restitution (NaN for a scene without one)."""
+    e = scene.get("contact.restitution")
+    return float(e) if isinstance(e, (int, float)) else math.nan
 
 
 def base_row(spec: Any, scene: Scene) -> dict[str, Any]:
@@ -37,12 +44,15 @@ def outcome_row(spec: Any, scene: Scene, status: str, message: str) -> dict[str,
             "verdict_reason": message}
 
 
-def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int = 1,
-            warmup: bool = False, time_cap: float = 600.0, history_dir: str | Path | None = None,
+def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int = metrics.REPEATS,
+            warmup: bool = True, time_cap: float = metrics.TIME_CAP_S, history_dir: str | Path | None = None,
             run_cap: float | None = None) -> dict[str, Any]:
     """Run one spec and score it; never raises for a failure of the run — an exception is
     an 'error' row, a run over ``run_cap`` seconds a 'timeout' row.
 
+    Timing follows :data:`daebench.metrics.REPEATS`' rule (a warm-up stopped after
+    WARMUP_CAP_S, then up to ``repeats`` timed runs while a run is shorter than
+    SHORT_RUN_S; ``warmup=False, repeats=1`` times one cold run).
     ``reference_mode``: 'auto' (score if a valid cached reference exists), 'require' or
     'compute' (the caller made sure it exists: :func:`prepare_references`), 'none'. With
     ``history_dir`` the history is kept as ``<history_dir>/<run>-<integrator>.parquet``
@@ -57,10 +67,16 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
             return row
         cls = base.get_integrator(spec.integrator)  # entry-point loading stays out of the timing
 
-        def one_run():
-            return run_scene(sc, cls(**spec.options), write=False, force=True, run_cap=run_cap)
+        def one_run(cap: float | None = run_cap):
+            return run_scene(sc, cls(**spec.options), write=False, force=True, run_cap=cap)
 
-        timing = metrics.time_call(one_run, repeats=repeats, warmup=warmup, time_cap=time_cap)
+        def warm_up() -> None:  # loads what the run uses; stopped after WARMUP_CAP_S (metrics' timing rule)
+            try:
+                one_run(min(metrics.WARMUP_CAP_S, run_cap or math.inf))
+            except RunTimeout:
+                pass
+
+        timing = metrics.time_call(one_run, repeats=repeats, warmup=warmup, time_cap=time_cap, warmup_fn=warm_up)
         rec, res = timing.result
         row.update(status=res.status, message=res.message, wall_s=timing.wall_s, cpu_s=timing.cpu_s,
                    repeats=timing.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
@@ -90,8 +106,10 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
             scored = [o for o in wanted if o in hist.columns]  # the others: an effect of this scene is off
             if len(scored) < len(wanted):
                 row["unscored_observables"] = ",".join(o for o in wanted if o not in scored)
-            row.update(metrics.accuracy(hist, ref.history, scored or None))
+            row.update(metrics.accuracy(hist, ref.history, scored or None, ref_impacts=ref.impacts))
             row.update(metrics.event_errors(hist, impacts, ref.history, ref.impacts))
+            row.update(impact_metrics.impact_scores(hist, res.impacts, ref.history, ref.impacts,
+                                                    build_system(sc), _restitution(sc)))
         else:
             row.update(metrics.impact_time_errors(impacts, []))
         if res.status != "completed":

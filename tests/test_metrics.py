@@ -125,6 +125,12 @@ def test_time_call_takes_minimum_and_respects_cap():
     import time
     tm = metrics.time_call(lambda: time.sleep(0.05), repeats=5, time_cap=0.01)
     assert tm.repeats == 1
+    # the default rule: a capped warm-up (warmup_fn), then repeats only while a run is short
+    warm = []
+    tm = metrics.time_call(lambda: time.sleep(0.03), short_s=0.02, warmup_fn=lambda: warm.append(1))
+    assert tm.repeats == 1 and warm == [1] and tm.wall_s >= 0.03
+    tm = metrics.time_call(lambda: None, short_s=0.02)
+    assert tm.repeats == metrics.REPEATS == 3
 
 
 @pytest.mark.parametrize("w1, w2", [(1100.0, 9000.0), (1103.7, 9011.3)])  # on and off the FFT bins
