@@ -228,7 +228,8 @@ def _residual(meth, ws, ph, n, nc, t1, h, first, cnt):
         if first:
             s = 0.0
             for j in range(n):
-                s += ws.W[k, j] ** 2 / ws.M[j, j]
+                if ws.M[j, j] > 0.0:  # a massless coordinate adds no inertia to the estimate
+                    s += ws.W[k, j] ** 2 / ws.M[j, j]
             ws.rprox[k] = 1.0 / s if s > 0.0 else 1.0
         xi = meth.e * ws.gdm[k]
         gdd = -gam

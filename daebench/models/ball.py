@@ -22,7 +22,7 @@ Energy: E = ½ m v² + m g x + ½ k (x − x_r)², conserved between impacts.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -178,7 +178,7 @@ def _next_impact(ball: Ball, x0: float, v0: float) -> float:
     return t
 
 
-def exact_motion(ball: Ball, t_end: float) -> tuple[list[tuple[float, float, float]], callable]:
+def exact_motion(ball: Ball, t_end: float) -> tuple[list[tuple[float, float, float]], Callable]:
     """The exact piecewise motion up to t_end: impacts [(t, v⁻, v⁺)] and a function
     t ↦ (x, v) (arrays). A mass that stops on the wall (v⁺ = 0 under a force into it)
     rests there."""
