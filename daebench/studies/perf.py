@@ -25,7 +25,10 @@
 
 Plus steps per second of every integrator on beam-impact N = 5 under the protocol, and the
 per-step cost of the example plugin written against the compiled interfaces
-(tests/plugin_pkg, :func:`.perf_peers.compiled_plugin`) beside the built-ins'.
+(tests/plugin_pkg, :func:`.perf_peers.compiled_plugin`) beside the built-ins', the
+event-capturing steppers' steps/s beside hht (:func:`.eventcapture.step_rates`), and
+with ``coldstart`` the first-run times of the main commands with an empty kernel cache
+(:mod:`.coldstart`).
 Compile time (numba, first call in a process; loaded from the on-disk cache after the
 first process) is measured first and reported separately; nothing else includes it.
 Everything is written to ``results/perf/perf.json`` and ``perf.md``.
@@ -44,6 +47,7 @@ import numpy as np
 from daebench import provenance
 from daebench.runner import results_dir, run_scene
 from daebench.scene import load_scene
+from daebench.studies import coldstart, eventcapture
 from daebench.studies.perf_bounds import adaptive, resolution_bound
 from daebench.studies.perf_common import PUBLISHED_TABLE1_TOTAL_S, PerfSettings, _timed
 from daebench.studies.perf_peers import compiled_plugin, exudyn_compare
@@ -129,6 +133,12 @@ def run_perf(s: PerfSettings, out: str | Path | None = None) -> dict[str, Any]:
     save()
     res["plugin"] = compiled_plugin(s)
     save()
+    if s.capture:
+        res["capture"] = eventcapture.step_rates(t_end=s.rates_t_end, repeats=s.capture_repeats).to_dict("records")
+        save()
+    if s.coldstart:
+        res["coldstart"] = [c.__dict__ for c in coldstart.measure()]
+        save()
     paper_steps = next((r["steps"] for r in res["step_rates"] if r["integrator"] == "hht"), None)
     if res["table1"]:
         paper_steps = next((r["steps"] for r in res["table1"]["runs"]

@@ -32,12 +32,16 @@ class PerfSettings:
     bound_dt: float = 2.5e-5       # its output interval: Nyquist 1.26e5 rad/s
     bound_min_window: float = 0.05 # free-flight windows shorter than this are left out
     rates_t_end: float = 1.0
+    capture: bool = True           # event-capturing steppers' steps/s beside hht (issue 13)
+    capture_repeats: int = 3
+    coldstart: bool = False        # first-run times with an empty kernel cache (minutes; opt-in)
 
     @classmethod
     def quick(cls) -> "PerfSettings":
         return cls(jobs=1, table=False, scaling_Ns=(3, 5), scaling_t_end=0.01, pendulum_T=0.1, beam_T=0.01,
                    beam_hs=(2e-4, 1e-4), beam_ref_h=2.5e-5, ancf_elements=2, adaptive_tols=(1e-6,),
-                   adaptive_t_end=0.02, rates_t_end=0.005, bound_min_window=0.01)
+                   adaptive_t_end=0.02, rates_t_end=0.005, bound_min_window=0.01,
+                   capture_repeats=1)
 
 
 def _timed(fn):

@@ -54,6 +54,15 @@ def markdown(r: dict[str, Any]) -> str:
                  + ", ".join(f"{k} {_f(v['us_per_step'])} µs/step" for k, v in pl["rows"].items())
                  + f"; plugin/hht = {_f(pl['plugin_over_hht'])}, plugin/genalpha = {_f(pl['plugin_over_genalpha'])} "
                  f"(target ≤ 2), plain-Python twin {_f(pl['python_over_compiled_plugin'])}× slower")
+    cap = r.get("capture")
+    if cap:
+        L.append("   event-capturing vs event-driven, beam-impact N = 5, h = 1e-4 s: "
+                 + ", ".join(f"{x['label']} {_f(x['steps_per_s'], '.0f')} steps/s" for x in cap))
+    cold = r.get("coldstart")
+    if cold:
+        L.append("   first run with an empty kernel cache: "
+                 + "; ".join(f"`{c['command']}` {_f(c['cold_s'])} s (warm {_f(c['warm_s'])} s, first output "
+                             f"{_f(c['first_output_s'])} s, longest silence {_f(c['longest_silence_s'])} s)" for c in cold))
     a = r["adaptive"]
     if a.get("best"):
         b = a["best"]
