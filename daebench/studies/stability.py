@@ -2,18 +2,20 @@
 
 Measured
 --------
-For one integrator setting and one scene, the largest step h for which a whole run
-*completes* — reaches the scene's t_end with its energy balance within the driver's
-divergence threshold (:data:`daebench.simulate.DIVERGENCE_ENERGY` × the energy scale; the
-run's status) — found by bisection in log h between ``h_min`` and ``h_max`` until the
-bracket [h_stable, h_unstable] is narrower than a factor 1 + ``tol``. Bisection assumes
-one boundary (stable below, unstable above), which linear theory predicts here.
+For one integrator setting and one scene, the largest step h for which a whole trial run
+*completes* — reaches its end with its energy balance within the driver's divergence
+threshold (:data:`daebench.simulate.DIVERGENCE_ENERGY` × the energy scale; the run's
+status) — found by bisection in log h between ``h_min`` and ``h_max`` until the bracket
+[h_stable, h_unstable] is narrower than a factor 1 + ``tol``. Bisection assumes one
+boundary (stable below, unstable above); the trial length (:func:`trial_length`, 80
+periods of the fastest mode by default) is chosen so that linear theory predicts one.
 
 Predicted (linear theory, computed)
 -----------------------------------
-*The system*: the undamped frequencies ω_k at the start, from K φ = ω² M φ with
-K = −∂Q/∂q (symmetric part) and M = M(q0), restricted to the tangent space of the
-bilateral constraints when the model has any (:func:`linearize`). The suddenly applied
+*The system*: the undamped frequencies ω_k at the start, from K φ = ω² M φ with the
+tangent stiffness K = ∂(M q̈0)/∂q − ∂Q/∂q + ∂(C_qᵀλ0)/∂q (symmetric part) and M = M(q0),
+restricted to the tangent space of the bilateral constraints when the model has any
+(:func:`linearize`). The suddenly applied
 load Q(q0) starts mode k with the oscillation energy E_k = f_k²/(2ω_k²), f_k = φ_kᵀQ(q0)
 (φ mass-normalized) — the seed an unstable mode grows from.
 
@@ -53,6 +55,7 @@ from daebench.models import build_system
 from daebench.scene import Scene
 from daebench.simulate import DIVERGENCE_ENERGY
 
+MIN_STEPS = 100         # the largest step tried gives a trial this many steps (hω_max ≤ 5 at 80 periods)
 OMEGA_GRID = np.concatenate([np.linspace(1e-3, 4.0, 4000), np.geomspace(4.0, 1e7, 600)[1:]])
 STRICT_SLACK = 1e-12    # ρ ≤ 1 + this counts as |ρ| ≤ 1 (round-off of the eigenvalue solver)
 
@@ -207,13 +210,21 @@ class Linearization:
 
 
 def linearize(scene: Scene) -> Linearization:
-    """Frequencies of K φ = ω² M φ at (q0, v0) (see the module docstring)."""
+    """Frequencies of K φ = ω² M φ at (q0, v0) (see the module docstring), with the tangent
+    stiffness of M(q) q̈ − Q + C_qᵀλ at the start's consistent (q̈0, λ0):
+    K = ∂(M q̈0)/∂q − ∂Q/∂q + ∂(C_qᵀλ0)/∂q (symmetric part), restricted to the null space of C_q
+    (a pendulum's stiffness is all in the last term)."""
+    from daebench.problem import Problem
+
     sysm = build_system(scene)
     q0, v0 = sysm.initial_state()
     q0, v0 = np.asarray(q0, float), np.asarray(v0, float)
+    prob = Problem(sysm)
+    a0, lam0 = prob.acceleration(0.0, q0, v0)
     M = sysm.mass(q0)
     Kq, _ = sysm.force_jacobian(0.0, q0, v0)
-    K = -0.5 * (Kq + Kq.T)
+    Kt = sysm.mass_jacobian_product(q0, a0) - Kq + prob.constraint_force_jacobian(0.0, q0, lam0)
+    K = 0.5 * (Kt + Kt.T)
     Q0 = np.asarray(sysm.applied_force(0.0, q0, v0), float)
     if sysm.n_bilateral:
         N = sl.null_space(np.asarray(sysm.constraint_jacobian(0.0, q0)).reshape(sysm.n_bilateral, -1))
@@ -227,9 +238,9 @@ def linearize(scene: Scene) -> Linearization:
     return Linearization(omega, seed, scale)
 
 
-def predict(method: AbmPece | NewmarkMember, lin: Linearization, t_end: float) -> dict[str, float]:
+def predict(method: AbmPece | NewmarkMember, lin: Linearization, t_trial: float) -> dict[str, float]:
     """Predicted h_max and the interval behind it: for each mode the fixed point
-    h ω_k = Ω*(t_end/h, G_k); the smallest h over the modes."""
+    h ω_k = Ω*(t_trial/h, G_k); the smallest h over the modes."""
     best = {"h_pred": math.inf, "interval": math.inf, "omega_limiting": float(lin.omega.max(initial=0.0))}
     for w, e0 in zip(lin.omega[::-1], lin.seed_energy[::-1]):
         log_g = 0.5 * math.log(DIVERGENCE_ENERGY * lin.energy_scale / e0)
@@ -237,7 +248,7 @@ def predict(method: AbmPece | NewmarkMember, lin: Linearization, t_end: float) -
         for _ in range(8):                        # n = t_end/h depends on h: iterate to the fixed point
             if not math.isfinite(h):
                 break
-            h_new = run_interval(method, max(t_end / h, 1.0), log_g) / w
+            h_new = run_interval(method, max(t_trial / h, 1.0), log_g) / w
             if abs(h_new - h) <= 1e-6 * h:
                 h = h_new
                 break
@@ -271,16 +282,20 @@ class Task:
     h_min: float
     h_max: float
     tol: float
+    t_trial: float
     run_cap: float | None = None
 
 
-def run_is_stable(scene: Scene, integrator: str, settings: dict[str, Any], h: float,
+def run_is_stable(scene: Scene, integrator: str, settings: dict[str, Any], h: float, t_trial: float | None = None,
                   run_cap: float | None = None) -> tuple[bool, str]:
-    """(completed?, status) of one fixed-step run at h (h_contact = h)."""
+    """(completed?, status) of one fixed-step run at h (h_contact = h) to ``t_trial`` (the
+    scene's t_end when None)."""
     from daebench.guards import RunTimeout
     from daebench.runner import make_integrator, run_scene
 
     integ = make_integrator(integrator, {**settings, "h": h, "h_contact": h})
+    if t_trial is not None:
+        scene = scene.with_overrides({"t_end": t_trial})
     try:
         _, res = run_scene(scene, integ, write=False, force=True, run_cap=run_cap)
     except RunTimeout:
@@ -293,14 +308,14 @@ def bisect(task: Task, report: Callable[[str], None] | None = None) -> dict[str,
     bounds were not crossed) and the status of the run at h_unstable."""
     s = dict(task.settings)
     runs = 1
-    ok, status = run_is_stable(task.scene, task.integrator, s, task.h_max, task.run_cap)
+    ok, status = run_is_stable(task.scene, task.integrator, s, task.h_max, task.t_trial, task.run_cap)
     lo, hi, bad = math.nan, math.nan, ""
     if ok:
         lo = task.h_max
     else:
         hi, bad = task.h_max, status
         runs += 1
-        ok, status = run_is_stable(task.scene, task.integrator, s, task.h_min, task.run_cap)
+        ok, status = run_is_stable(task.scene, task.integrator, s, task.h_min, task.t_trial, task.run_cap)
         if ok:
             lo = task.h_min
         else:
@@ -308,7 +323,7 @@ def bisect(task: Task, report: Callable[[str], None] | None = None) -> dict[str,
     while math.isfinite(lo) and math.isfinite(hi) and hi / lo > 1.0 + task.tol:
         mid = math.sqrt(lo * hi)
         runs += 1
-        ok, status = run_is_stable(task.scene, task.integrator, s, mid, task.run_cap)
+        ok, status = run_is_stable(task.scene, task.integrator, s, mid, task.t_trial, task.run_cap)
         if ok:
             lo = mid
         else:
@@ -324,30 +339,49 @@ def _solve(task: Task) -> dict[str, Any]:
     return bisect(task, lambda line: print(line, file=sys.stderr, flush=True))
 
 
+def trial_length(scene: Scene, lin: Linearization, periods: float) -> float:
+    """The run length of one trial: ``periods`` periods of the fastest mode at the start,
+    capped at the scene's t_end. With 80 periods (≈ 500 rad) a run near ABM4-PECE's boundary
+    takes ≈ 530 steps: beyond it the parasitic root grows ≥ 3.6 % a step (e^18 over the run),
+    below it the principal root's weak growth (≤ 0.7 % a step, e^3.4) cannot reach the
+    threshold — so the stable steps form one interval and the boundary is the method's.
+    Longer runs add a band of weak instability below that boundary (:func:`divergence_time`
+    predicts when it ends a whole run)."""
+    w = float(lin.omega.max(initial=0.0))
+    return scene.t_end if w <= 0.0 else min(scene.t_end, periods * 2.0 * math.pi / w)
+
+
 def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n_values: Iterable[int] | None,
-                  *, n_key: str = "discretization.n", t_end: float | None = None, h_min: float = 1e-6,
-                  h_max: float = 1e-2, tol: float = 0.02, jobs: int = 1, run_cap: float | None = None,
-                  progress: Callable[[str], None] | None = None) -> pd.DataFrame:
+                  *, n_key: str = "discretization.n", t_end: float | None = None, periods: float = 80.0,
+                  h_min: float = 1e-6, h_max: float = 1e-2, tol: float = 0.02, jobs: int = 1,
+                  run_cap: float | None = None, progress: Callable[[str], None] | None = None) -> pd.DataFrame:
     """The stability table: one row per (integrator setting, N).
 
     Parameters
     ----------
-    scene : the case (its t_end is replaced by ``t_end`` when given)
+    scene : the case
     methods : (integrator name, settings) pairs, e.g. ``("baumgarte", {"delta": 10, "epsilon": 50})``
     n_values, n_key : values of the discretization key to sweep (None: the scene's own)
-    h_min, h_max, tol : bisection bounds [s] and relative bracket width
+    t_end, periods : run length of the trials [s]; None: ``periods`` periods of the fastest
+        mode (:func:`trial_length`)
+    h_min, h_max, tol : bisection bounds [s] and relative bracket width; the upper bound is
+        lowered to t_trial/:data:`MIN_STEPS` (a trial of fewer steps shows no instability)
     jobs : worker processes (one bisection per task; the tasks run in parallel)
 
     Returns
     -------
     DataFrame with columns integrator, settings, label, N, omega_max [rad/s], method,
     interval_strict, interval [hω], h_pred, h_stable, h_unstable [s], unstable_status,
-    runs, agrees (h_pred within one bisection step of the measured bracket).
+    runs, t_trial [s], agrees (h_pred within one bisection step of the measured bracket).
     """
     from daebench.runner import make_integrator
 
-    base = scene.with_overrides({"t_end": t_end}) if t_end is not None else scene
-    ns = list(n_values) if n_values else [None]
+    scenes = []
+    for n in (list(n_values) if n_values else [None]):
+        sc = scene.with_overrides({n_key: n}) if n is not None else scene
+        lin = linearize(sc)
+        te = min(t_end, sc.t_end) if t_end is not None else trial_length(sc, lin, periods)
+        scenes.append((n, sc, lin, te))
     tasks, meta = [], []
     for name, settings in methods:
         integ = make_integrator(name, settings)
@@ -357,11 +391,11 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
                                                                for k, v in settings.items()))
         meth = method_of(integ)
         strict = strict_interval(meth) if meth is not None else math.nan
-        for n in ns:
-            sc = base.with_overrides({n_key: n}) if n is not None else base
-            lin = linearize(sc)
-            pred = predict(meth, lin, sc.t_end) if meth is not None else {"h_pred": math.nan, "interval": math.nan}
-            tasks.append(Task(sc, name, tuple(settings.items()), label, n, h_min, h_max, tol, run_cap))
+        for n, sc, lin, te in scenes:
+            pred = predict(meth, lin, te) if meth is not None else {"h_pred": math.nan, "interval": math.nan}
+            top = min(h_max, te / MIN_STEPS)       # never fewer than MIN_STEPS steps in a trial
+            tasks.append(Task(sc, name, tuple(settings.items()), label, n, min(h_min, 0.5 * top), top, tol, te,
+                              run_cap))
             meta.append({"integrator": name, "settings": dict(settings), "label": label, "N": n,
                          "omega_max": float(lin.omega.max(initial=0.0)), "method": getattr(meth, "name", "n/a"),
                          "interval_strict": strict, "interval": pred["interval"], "h_pred": pred["h_pred"]})
@@ -375,7 +409,8 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
         found = [bisect(t, progress) for t in tasks]
     rows = []
     for m, f, t in zip(meta, found, tasks):
-        rows.append({**m, **f, "t_end": t.scene.t_end, "tol": tol, "agrees": agrees(m["h_pred"], f, tol, h_max)})
+        rows.append({**m, **f, "t_trial": t.t_trial, "h_top": t.h_max, "tol": tol,
+                     "agrees": agrees(m["h_pred"], f, tol, t.h_max)})
     return pd.DataFrame(rows)
 
 

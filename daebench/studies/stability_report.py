@@ -19,18 +19,20 @@ def _omega(x: float) -> str:
 
 def markdown(df: pd.DataFrame, h_max: float) -> str:
     """One row per (setting, N): the measured bracket beside the prediction."""
-    lines = ["| integrator, settings | N | ω_max [rad/s] | method | strict interval hω | run interval hω* "
-             "| predicted h_max [s] | measured h_max [s]: stable – unstable | first unstable run | agrees |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| integrator, settings | N | ω_max [rad/s] | trial [s] | method | strict interval hω "
+             "| run interval hω* | predicted h_max [s] | measured h_max [s]: stable – unstable | first unstable run "
+             "| agrees |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in df.itertuples():
         if math.isfinite(r.h_stable) and math.isfinite(r.h_unstable):
             meas = f"{r.h_stable:.4g} – {r.h_unstable:.4g}"
         elif math.isfinite(r.h_stable):
-            meas = f"≥ {r.h_stable:.3g} (no instability up to the bound)"
+            meas = f"≥ {r.h_stable:.3g} (no instability up to the upper bound)"
         else:
             meas = f"< {r.h_unstable:.3g} (unstable at the lower bound)"
         lines.append(f"| {r.label} | {'' if r.N is None or (isinstance(r.N, float) and math.isnan(r.N)) else int(r.N)} "
-                     f"| {r.omega_max:.5g} | {r.method} | {_omega(r.interval_strict)} | {_omega(r.interval)} "
+                     f"| {r.omega_max:.5g} | {r.t_trial:.3g} | {r.method} | {_omega(r.interval_strict)} "
+                     f"| {_omega(r.interval)} "
                      f"| {_h(r.h_pred)} | {meas} | {r.unstable_status or '—'} | {'yes' if r.agrees else 'NO'} |")
     return "\n".join(lines)
 
@@ -67,7 +69,7 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
             ax.plot(n[fin], pred[fin], "--", color=c, lw=1.2)
         handles.append(Line2D([], [], color=c, marker="o", ls="", label=lab))
     handles += [Line2D([], [], color="k", marker="o", ls="", label="measured (bar: last bracket)"),
-                Line2D([], [], color="k", marker="^", ls="", label=f"no instability up to {h_max:g} s"),
+                Line2D([], [], color="k", marker="^", ls="", label="no instability up to the upper bound"),
                 Line2D([], [], color="k", ls="--", label="predicted (∞: not drawn)")]
     if mark_h:
         ax.axhline(mark_h, color="0.3", ls=":", lw=1.0)
