@@ -57,6 +57,34 @@ def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .c
     typer.echo("wrote " + ", ".join(map(str, files)))
 
 
+@plot_app.command("order")
+def plot_order(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv) over --steps or --tols"),
+               x: str = typer.Option("h", "--x", help="h (fixed steps) or tol"),
+               y: str = typer.Option("err_pre_theta_max,err_impact1_t", "--y",
+                                     help="error column(s), comma-separated for one panel each"),
+               group: str = typer.Option("label", "--group", help="one line per value of this column"),
+               out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
+    """Convergence: error against h (log–log), one panel per --y column, the measured order of
+    each line in its legend, a slope-2 guide."""
+    from daebench import plots, provenance
+    from daebench.sweepstore import read_table
+
+    p = Path(table)
+    try:
+        df = read_table(p)
+    except ParamError as exc:
+        _fail(str(exc))
+    ys = [c.strip() for c in y.split(",") if c.strip()]
+    stem = Path(out) if out else p.with_name(f"{p.stem}-order-{'+'.join(ys)}")
+    try:
+        case = ", ".join(sorted(set(df["case"].astype(str)))) if "case" in df.columns else p.stem
+        _, files = plots.convergence(df, x, ys, group, stem, provenance.collect(),
+                                     title=f"{case}: convergence ({len(df)} runs)")
+    except KeyError as exc:
+        _fail(str(exc.args[0]))
+    typer.echo("wrote " + ", ".join(map(str, files)))
+
+
 @plot_app.command("history")
 def plot_history(files: list[str] = typer.Argument(..., help="history files written by `daebench run`"),
                  out: str = typer.Option("results/figures/history", "--out", help="output stem"),

@@ -212,6 +212,31 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
                           f"scene '{scene.name}' (model {scene.model}) does not offer; {hint}")
 
 
+def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> None:
+    """Refuse, before anything runs, an integrator that cannot run this scene: the contact
+    fit (:func:`check_contacts_fit`) and the capability check the driver makes at its
+    start (:func:`daebench.integrators.base.check_capabilities`, with the driver's
+    arguments: constraints are needed for bilateral joints, and for impact-law contacts
+    the integrator does not resolve itself). Refusals an integrator makes only in its own
+    start (e.g. a model type it does not support) still come at run time.
+
+    Raises
+    ------
+    IntegratorError
+    """
+    from daebench.integrators.base import check_capabilities
+    from daebench.models import build_system
+
+    check_contacts_fit(scene, cls)
+    system = system if system is not None else build_system(scene)
+    law = system.contact_law
+    needs_constraints = system.n_bilateral > 0 or (law is not None and not law.continuous and system.n_contacts > 0
+                                                   and not cls.capabilities.contacts)
+    check_capabilities(cls, needs_constraints, contacts_by_integrator=system.contacts_by_integrator,
+                       contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
+                       what=f"scene '{scene.name}'")
+
+
 def ensure_writable_dir(path: str | Path, what: str = "output folder") -> Path:
     """Create ``path`` if needed and prove it writable (a file is made and removed), so
     that a run never finishes only to fail when it writes."""

@@ -13,6 +13,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib import ticker  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
@@ -84,6 +85,54 @@ def pareto_front(x: Sequence[float], y: Sequence[float]) -> np.ndarray:
     return mask
 
 
+def tidy_log_ticks(ax: Any) -> None:
+    """Minor tick labels of a log axis only at 2× and 5× a power of ten (matplotlib labels
+    every minor tick of a short range, and the labels collide)."""
+    def minor(x: float, _pos: Any) -> str:
+        m = x / 10 ** np.floor(np.log10(x) + 1e-12)
+        return f"{x:g}" if round(m) in (2, 5) and abs(m - round(m)) < 1e-6 else ""
+
+    for axis in (ax.xaxis, ax.yaxis):
+        if axis.get_scale() == "log":
+            axis.set_minor_formatter(ticker.FuncFormatter(minor))
+
+
+def convergence(df: pd.DataFrame, x: str = "h", y: str | Sequence[str] = "err_pre_theta_max", group: str = "label",
+                stem: str | Path | None = None, prov: dict[str, Any] | None = None,
+                title: str = "") -> tuple[Any, list[Path]]:
+    """Error against step size (or tolerance), log–log, one panel per ``y`` column, one
+    line per ``group`` with its measured order (least-squares slope of log e over log x)
+    in the legend, and a slope-2 guide."""
+    ys_cols = [y] if isinstance(y, str) else list(y)
+    for c in (x, *ys_cols):
+        if c not in df.columns:
+            raise KeyError(f"column '{c}' is not in the table; columns: {', '.join(map(str, df.columns))}")
+    n = len(ys_cols)
+    fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 4.3), squeeze=False)
+    xs = pd.to_numeric(df[x], errors="coerce").to_numpy(float)
+    keys = df[group].astype(str) if group in df.columns else df["integrator"].astype(str)
+    for j, (ax, yc) in enumerate(zip(axes[0], ys_cols)):
+        ys = pd.to_numeric(df[yc], errors="coerce").to_numpy(float)
+        for i, k in enumerate(dict.fromkeys(keys)):
+            sel = (keys == k).to_numpy() & np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
+            if sel.sum() < 2:
+                continue
+            o = np.argsort(xs[sel])
+            xv, yv = xs[sel][o], ys[sel][o]
+            p = float(np.polyfit(np.log(xv), np.log(yv), 1)[0])
+            ax.loglog(xv, yv, "o-", ms=4, color=f"C{i % 10}", label=f"{k}: order {p:.2f}")
+            if i == 0:
+                ax.loglog(xv, 0.4 * yv[-1] * (xv / xv[-1]) ** 2, "k:", lw=0.8, label="slope 2")
+        ax.set_xlabel({"h": "step h [s]", "tol": "tolerance"}.get(x, label_of(x)))
+        ax.set_ylabel(label_of(yc))
+        ax.grid(True, which="both", alpha=0.3)
+        tidy_log_ticks(ax)
+        ax.legend(fontsize=7)
+    fig.suptitle(title or "convergence")
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    return fig, (save(fig, stem, prov) if stem is not None else [])
+
+
 def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] = "err_theta_max",
                    group: str = "label", stem: str | Path | None = None, prov: dict[str, Any] | None = None,
                    title: str = "") -> tuple[Any, list[Path]]:
@@ -118,6 +167,7 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
         ax.set_xlabel(label_of(x))
         ax.set_ylabel(label_of(yc))
         ax.grid(True, which="both", alpha=0.3)
+        tidy_log_ticks(ax)
         if j == 0:
             ax.legend(fontsize=7)
     if n == 1:

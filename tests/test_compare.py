@@ -1,0 +1,83 @@
+"""`daebench compare`: the protocol's plan, every row scored, the shipped reference fingerprint.
+
+Independent truths: the pendulum's exact solution (errors of the compared runs against it
+must equal the scored errors against the IDA reference to the reference's accuracy), the
+integrators' declared capabilities (which ones may run a constraint-contact scene), and —
+slow — a reference recomputed from scratch reproducing the fingerprint shipped with the
+repository.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from daebench import compare as C
+from daebench import fingerprints
+from daebench.scene import load_scene
+
+
+def test_beam_impact_protocol_plans_every_applicable_integrator():
+    sc = load_scene("beam-impact")
+    specs, refused = C.plan(sc, C.protocol_for(sc))
+    planned = {s.integrator for s in specs}
+    # constraint contact with an impact law: ODE-only and complementarity-only methods cannot run it
+    assert set(refused) == {"central", "lcp", "lcp-avg"}
+    assert {"hht", "newmark", "genalpha", "baumgarte", "ida", "moreau", "nsgenalpha"} <= planned
+    hht = sorted(s.options["h"] for s in specs if s.integrator == "hht")
+    assert hht == [2.5e-5, 5e-5, 1e-4] and all(s.options["h_contact"] == 1e-6 for s in specs if s.integrator == "hht")
+    assert [s.index for s in specs] == list(range(len(specs)))
+
+
+def test_compare_scores_every_row_and_writes_table_and_figure(tmp_path, monkeypatch):
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path / "results"))
+    sc = load_scene("pendulum", {"t_end": 0.5})
+    proto = C.Protocol((C.Entry("hht", (1e-2, 5e-3), options={"alpha": 0.0}), C.Entry("central")),
+                       measures=("err_theta_max", "err_pos_max"))
+    res = C.run_compare(sc, jobs=1, out=tmp_path / "cmp", progress=False, protocol=proto)
+    df = res.table
+    assert list(df["status"]) == ["completed", "completed"] and "central" in res.not_applicable
+    assert np.all(np.isfinite(df["err_theta_max"])) and np.all(df["repeats"] >= 1)
+    # the scored error against the IDA reference is the error against the exact solution
+    from daebench import api
+    for _, r in df.iterrows():
+        run = api.run(sc, "hht", h=float(r["h"]), alpha=0.0)
+        assert run.error["against"] == "exact solution"
+        assert r["err_theta_max"] == pytest.approx(run.error["err_theta_max"], rel=1e-4)
+    assert (tmp_path / "cmp" / "table.csv").exists() and (tmp_path / "cmp" / "wp-pendulum.png").exists()
+    cols, rows = C.table_rows(df)
+    assert len(rows) == 2 and cols[0] == "run"
+
+
+def test_fingerprint_refuses_a_reference_that_disagrees(monkeypatch):
+    import pandas as pd
+
+    from daebench.references import Reference, ReferenceDamaged
+
+    sc = load_scene("beam-impact")
+    t = np.linspace(0.0, sc.t_end, 20001)
+    hist = pd.DataFrame({"t": t, "theta_deg": 45.0 * np.cos(3 * t), "tip_y": 0.7 * np.cos(3 * t)})
+    good = Reference(hist, [0.37, 0.79], {"settings": {"rtol": 1e-11}}, Path("ref.parquet"))
+    monkeypatch.setattr(fingerprints, "_load", lambda: {sc.hash: fingerprints.make(sc, good)})
+    fingerprints.check(sc, good)
+    late = Reference(hist, [0.37, 0.79 + 1e-7], good.meta, good.path)
+    assert "impact times" in " ".join(fingerprints.differences(sc, late))
+    bent = Reference(hist.assign(theta_deg=hist["theta_deg"] + 1e-3), [0.37, 0.79], good.meta, good.path)
+    with pytest.raises(ReferenceDamaged, match="theta_deg differs"):
+        fingerprints.check(sc, bent)
+
+
+@pytest.mark.slow
+def test_shipped_beam_impact_reference_is_reproduced_from_scratch(tmp_path, monkeypatch):
+    """The reference `daebench compare beam-impact` scores against (IDA rtol 1e-11, computed
+    when missing) reproduces the fingerprint shipped in cases/reference-fingerprints.json."""
+    from daebench.references import compute_reference
+
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    sc = load_scene("beam-impact")
+    ref = compute_reference(sc)
+    assert sc.hash in fingerprints._load(), "no fingerprint shipped for the default beam-impact scene"
+    assert fingerprints.differences(sc, ref) == []
+    assert ref.meta["agreement"]["err_impact_t_max"] < 1e-8
