@@ -252,7 +252,7 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str, *, steps: Sequence
         by default; rows stored as they finish; ``resume`` completes an interrupted sweep)
     run_cap : wall-time cap of one run [s]; a run over it is a 'timeout' row
     repeats : timed runs (minimum taken) after a warm-up run, made while a run takes
-        under a second (:data:`daebench.metrics.REPEATS`); 1: one cold run, no warm-up
+        under a second (:data:`daebench.timing.REPEATS`); 1: one cold run, no warm-up
     scheduler : Dask scheduler address, 'local', or a Client
     executor : 'process' (default), 'inline' (this process, no isolation) or 'dask'
 

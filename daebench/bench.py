@@ -30,7 +30,7 @@ from typing import Any, Callable, Sequence
 
 import pandas as pd
 
-from daebench import CallableModule, executors, guards, metrics, sweepstore
+from daebench import CallableModule, executors, guards, sweepstore, timing
 from daebench.guards import RunTimeout, deadline  # noqa: F401  (re-exported: studies use them)
 from daebench.integrators import base
 from daebench.integrators.base import IntegratorError
@@ -242,8 +242,8 @@ def _int_at_least_1(value: Any, what: str, high: int) -> int:
 
 
 def run_specs(specs: Sequence[RunSpec], scene: Scene, jobs: int = 1, executor: str = "process",
-              scheduler: Any = None, reference_mode: str = "auto", repeats: int = metrics.REPEATS,
-              warmup: bool = True, time_cap: float = metrics.TIME_CAP_S, progress: bool = True,
+              scheduler: Any = None, reference_mode: str = "auto", repeats: int = timing.REPEATS,
+              warmup: bool = True, time_cap: float = timing.TIME_CAP_S, progress: bool = True,
               description: str = "runs",
               history_dir: str | Path | None = None, run_cap: float | None = None,
               store: SweepStore | None = None) -> pd.DataFrame:
@@ -320,8 +320,8 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
               steps: Sequence[float] | None = None, tols: Sequence[float] | None = None,
               jobs: int = 1, executor: str = "process", scheduler: Any = None,
               options: dict[str, Any] | None = None, name: str | None = None,
-              reference_mode: str = "auto", repeats: int = metrics.REPEATS, warmup: bool = True,
-              time_cap: float = metrics.TIME_CAP_S, write: bool = True, progress: bool = True,
+              reference_mode: str = "auto", repeats: int = timing.REPEATS, warmup: bool = True,
+              time_cap: float = timing.TIME_CAP_S, write: bool = True, progress: bool = True,
               run_cap: float | None = None, resume: bool = False, overwrite: bool = False,
               force: bool = False, folder: str | Path | None = None) -> pd.DataFrame:
     """Plan, run and score a sweep; one tidy row per run.
@@ -340,7 +340,7 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
     reference_mode : 'auto' | 'require' | 'compute' | 'none'
     repeats, warmup, time_cap : timing: by default a warm-up run (stopped after 1 s) and the
         minimum of 3 timed runs for runs under a second, one for longer runs
-        (:data:`daebench.metrics.REPEATS`, :func:`daebench.metrics.time_call`)
+        (:data:`daebench.timing.REPEATS`, :func:`daebench.timing.time_call`)
     write : store rows on disk as they finish and write the table (False: memory only)
     progress : bars on stderr for references and runs
     run_cap : wall-time cap of one run in seconds (None: no cap)

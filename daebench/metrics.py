@@ -18,9 +18,7 @@ impact, per re-synchronised window, energy per impact) are in
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import dataclass
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -312,61 +310,6 @@ def stability_verdict(status: str, message: str, t_final: float, t_end: float) -
     reason = message or ("reached t_end" if status == "completed" else "")
     return {"verdict": status, "verdict_t": float(t_final) if t_final == t_final else math.nan,
             "verdict_reason": reason, "t_reached": float(t_final) / float(t_end) if t_end else math.nan}
-
-
-# -- timing ---------------------------------------------------------------------------------
-#: The timing rule of every sweep row (a work-precision line must reflect the method, not
-#: start-up: a first call in a process loads compiled code from the numba cache, 0.4 s for
-#: beam-impact, and warms the CPU caches):
-#: one warm-up call, stopped after WARMUP_CAP_S of wall time (a warm-up only has to load
-#: what the run uses), then timed calls — REPEATS of them while each takes less than
-#: SHORT_RUN_S (the minimum is kept), one for a longer run (its start-up is then a small
-#: part of its time), and none after TIME_CAP_S of timed wall in total.
-REPEATS = 3
-SHORT_RUN_S = 1.0
-WARMUP_CAP_S = 1.0
-TIME_CAP_S = 60.0
-
-
-@dataclass
-class Timing:
-    """Minimum wall and CPU time of the timed repeats, and how many were made."""
-
-    wall_s: float
-    cpu_s: float
-    repeats: int
-    result: Any = None
-
-
-def time_call(fn: Callable[[], Any], repeats: int = REPEATS, warmup: bool = True,
-              time_cap: float = TIME_CAP_S, short_s: float = SHORT_RUN_S,
-              warmup_fn: Callable[[], Any] | None = None) -> Timing:
-    """Time ``fn()`` by the rule above: a warm-up call (``warmup_fn`` if given, e.g. the
-    run under a wall-time cap, else ``fn``), then the minimum wall (perf_counter) and CPU
-    (process_time) of up to ``repeats`` calls, repeating only while a call takes less
-    than ``short_s`` and the timed calls total less than ``time_cap``.
-
-    At least one timed call is always made. Without ``warmup_fn``, a warm-up that alone
-    exceeds ``time_cap`` is the timed call. The last result is returned.
-    """
-    result = None
-    walls, cpus = [], []
-    if warmup:
-        w0, c0 = time.perf_counter(), time.process_time()
-        result = (warmup_fn or fn)()
-        w, c = time.perf_counter() - w0, time.process_time() - c0
-        if warmup_fn is None and w > time_cap:
-            return Timing(w, c, 1, result)
-    spent = 0.0
-    for _ in range(max(1, int(repeats))):
-        w0, c0 = time.perf_counter(), time.process_time()
-        result = fn()
-        walls.append(time.perf_counter() - w0)
-        cpus.append(time.process_time() - c0)
-        spent += walls[-1]
-        if spent > time_cap or walls[-1] >= short_s:
-            break
-    return Timing(min(walls), min(cpus), len(walls), result)
 
 
 def summarize(values: Iterable[float]) -> float:

@@ -10,7 +10,7 @@ import traceback
 from pathlib import Path
 from typing import Any
 
-from daebench import impact_metrics, metrics
+from daebench import impact_metrics, metrics, timing
 from daebench.guards import RunTimeout
 from daebench.integrators import base
 from daebench.models import build_system
@@ -44,13 +44,13 @@ def outcome_row(spec: Any, scene: Scene, status: str, message: str) -> dict[str,
             "verdict_reason": message}
 
 
-def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int = metrics.REPEATS,
-            warmup: bool = True, time_cap: float = metrics.TIME_CAP_S, history_dir: str | Path | None = None,
+def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int = timing.REPEATS,
+            warmup: bool = True, time_cap: float = timing.TIME_CAP_S, history_dir: str | Path | None = None,
             run_cap: float | None = None) -> dict[str, Any]:
     """Run one spec and score it; never raises for a failure of the run — an exception is
     an 'error' row, a run over ``run_cap`` seconds a 'timeout' row.
 
-    Timing follows :data:`daebench.metrics.REPEATS`' rule (a warm-up stopped after
+    Timing follows :data:`daebench.timing.REPEATS`' rule (a warm-up stopped after
     WARMUP_CAP_S, then up to ``repeats`` timed runs while a run is shorter than
     SHORT_RUN_S; ``warmup=False, repeats=1`` times one cold run).
     ``reference_mode``: 'auto' (score if a valid cached reference exists), 'require' or
@@ -70,16 +70,16 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
         def one_run(cap: float | None = run_cap):
             return run_scene(sc, cls(**spec.options), write=False, force=True, run_cap=cap)
 
-        def warm_up() -> None:  # loads what the run uses; stopped after WARMUP_CAP_S (metrics' timing rule)
+        def warm_up() -> None:  # loads what the run uses; stopped after WARMUP_CAP_S (daebench.timing's rule)
             try:
-                one_run(min(metrics.WARMUP_CAP_S, run_cap or math.inf))
+                one_run(min(timing.WARMUP_CAP_S, run_cap or math.inf))
             except RunTimeout:
                 pass
 
-        timing = metrics.time_call(one_run, repeats=repeats, warmup=warmup, time_cap=time_cap, warmup_fn=warm_up)
-        rec, res = timing.result
-        row.update(status=res.status, message=res.message, wall_s=timing.wall_s, cpu_s=timing.cpu_s,
-                   repeats=timing.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
+        tm = timing.time_call(one_run, repeats=repeats, warmup=warmup, time_cap=time_cap, warmup_fn=warm_up)
+        rec, res = tm.result
+        row.update(status=res.status, message=res.message, wall_s=tm.wall_s, cpu_s=tm.cpu_s,
+                   repeats=tm.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
         row.update(res.counters)
         row.update(metrics.stability_verdict(res.status, res.message, res.t_final, sc.t_end))
         hist = res.history

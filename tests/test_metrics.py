@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.special import ellipj, ellipk
 
-from daebench import metrics
+from daebench import metrics, timing
 from daebench.integrators.hht import HHT
 from daebench.models.pendulum import Pendulum, exact_theta
 from daebench.runner import run_scene
@@ -119,18 +120,18 @@ def test_time_call_takes_minimum_and_respects_cap():
         calls.append(1)
         return len(calls)
 
-    tm = metrics.time_call(fn, repeats=3)
+    tm = timing.time_call(fn, repeats=3)
     assert len(calls) == 4 and tm.repeats == 3 and tm.result == 4
     assert 0.0 <= tm.wall_s < 0.1 and tm.cpu_s >= 0.0
     import time
-    tm = metrics.time_call(lambda: time.sleep(0.05), repeats=5, time_cap=0.01)
+    tm = timing.time_call(lambda: time.sleep(0.05), repeats=5, time_cap=0.01)
     assert tm.repeats == 1
     # the default rule: a capped warm-up (warmup_fn), then repeats only while a run is short
     warm = []
-    tm = metrics.time_call(lambda: time.sleep(0.03), short_s=0.02, warmup_fn=lambda: warm.append(1))
+    tm = timing.time_call(lambda: time.sleep(0.03), short_s=0.02, warmup_fn=lambda: warm.append(1))
     assert tm.repeats == 1 and warm == [1] and tm.wall_s >= 0.03
-    tm = metrics.time_call(lambda: None, short_s=0.02)
-    assert tm.repeats == metrics.REPEATS == 3
+    tm = timing.time_call(lambda: None, short_s=0.02)
+    assert tm.repeats == timing.REPEATS == 3
 
 
 @pytest.mark.parametrize("w1, w2", [(1100.0, 9000.0), (1103.7, 9011.3)])  # on and off the FFT bins
@@ -170,3 +171,24 @@ def test_accuracy_refuses_a_reference_without_a_requested_observable():
     ref = pd.DataFrame({"t": t, "theta_deg": t})
     with pytest.raises(ValueError, match="no column x"):
         metrics.accuracy(ref, ref, ["theta_deg", "x"])
+
+
+def test_time_call_does_not_count_a_call_in_which_numba_compiled():
+    """A capped warm-up can stop before a code path (e.g. the first impact) compiles; the
+    timed call that then compiles is made again, so compilation never enters a row's time."""
+    import numba
+
+    @numba.njit
+    def fresh(x):           # a new dispatcher: its first call compiles
+        return x + 1.0
+
+    calls = []
+
+    def fn():
+        calls.append(1)
+        if len(calls) == 1:
+            time.sleep(0.05)
+            fresh(1.0)
+
+    tm = timing.time_call(fn, repeats=2, warmup=False)
+    assert len(calls) == 3 and tm.repeats == 2 and tm.wall_s < 0.04
