@@ -227,9 +227,9 @@ def _rms_window(h: pd.DataFrame, col: str, t0: float, t1: float) -> float:
 
 def claim5(df, hists, p, stem, prov):
     """Impact excites high modes (W of mode 7 grows); α ≠ 0 damps them, not mode 1."""
-    N = max(p.Ns) if max(p.Ns) >= 7 else p.n_main
+    N = p.n_modal if p.n_modal in p.Ns else p.n_main
     top = min(7, N)
-    set_ = "table" if N in p.Ns and N != p.n_main else "rebound"
+    set_ = "table" if N in p.Ns else "rebound"
     _, h0, r0 = _hist(df, hists, set=set_, N=N, setting="HHT α=0")
     _, h3, r3 = _hist(df, hists, set=set_, N=N, setting="HHT α=-1/3")
     hm = {k: v for k, v in (("HHT α=0", h0), ("HHT α=-1/3", h3)) if v is not None}
@@ -250,7 +250,7 @@ def claim5(df, hists, p, stem, prov):
 
 def claim6(df, hists, p, stem, prov):
     """HHT keeps Ċ ~ 1e-14, C̈ up to 1e4; Baumgarte Ċ ~ 1e-1 (1000,5000), 1e-4 (10,50)."""
-    N = p.n_main if p.n_main in p.Ns else p.Ns[0]
+    N = p.n_modal if p.n_modal in p.Ns else p.Ns[0]
     rows = _pick(df, set="table", N=N)
     # a run that did not complete has no residuals to compare (it may never have touched the plane)
     val = {r["setting"]: (r.get("Cdot_max", math.nan), r.get("Cddot_max", math.nan), r["status"])
