@@ -124,9 +124,10 @@ def plan(scene: Scene, protocol: Protocol) -> tuple[list[bench.RunSpec], dict[st
 
 
 def _refused_at_start(row: pd.Series) -> bool:
-    """A run that stopped at t = 0 without a step: the integrator refused the model."""
+    """A run that stopped at t = 0 without a step with an IntegratorError: the integrator
+    refused the model (any other error stays a row: it is a failure, not a refusal)."""
     return row["status"] in ("failed", "error") and not (float(row.get("t_final", 0.0) or 0.0) > 0.0) \
-        and not (float(row.get("steps", 0) or 0) > 0)
+        and not (float(row.get("steps", 0) or 0) > 0) and "IntegratorError" in str(row.get("message", ""))
 
 
 def run_compare(scene: Scene, jobs: int = 2, out: str | Path | None = None, progress: bool = True,

@@ -9,7 +9,10 @@ command line).
 The wall-time cap (:func:`deadline`) raises :class:`RunTimeout` in the thread that runs
 the simulation, from a watchdog thread. It works in any thread (a Dask worker runs tasks
 in threads, where SIGALRM cannot reach) and takes effect at the next Python bytecode of
-the run; the driver returns to Python at least every compiled batch of steps.
+the run; the driver returns to Python at least every compiled batch of steps. It waits
+while numba compiles in that thread: an exception raised inside numba's compiler (LLVM
+calls back into Python) killed the worker process or left an error on a cold cache, so
+a cap that falls inside a compilation takes effect when the compilation ends.
 """
 
 from __future__ import annotations
@@ -45,6 +48,40 @@ def _raise_in(thread_id: int, exc: type[BaseException] | None) -> None:
                                                ctypes.py_object(exc) if exc is not None else None)
 
 
+class _CompileDepth:
+    """Per thread, how deep it is inside numba's compiler lock (numba's event API; the
+    callbacks run in the compiling thread)."""
+
+    def __init__(self) -> None:
+        self.depth: dict[int, int] = {}
+
+    def on_start(self, event: Any) -> None:
+        tid = threading.get_ident()
+        self.depth[tid] = self.depth.get(tid, 0) + 1
+
+    def on_end(self, event: Any) -> None:
+        tid = threading.get_ident()
+        self.depth[tid] = self.depth.get(tid, 1) - 1
+
+    def compiling(self, thread_id: int) -> bool:
+        return self.depth.get(thread_id, 0) > 0
+
+
+def _install_compile_depth() -> _CompileDepth:
+    from numba.core import event
+
+    class Listener(_CompileDepth, event.Listener):
+        pass
+
+    listener = Listener()
+    event.register("numba:compiler_lock", listener)
+    return listener
+
+
+COMPILE_DEPTH = _install_compile_depth()
+RECHECK_S = 0.05    # while the capped thread compiles, the watchdog looks again this often
+
+
 @contextmanager
 def deadline(seconds: float | None) -> Iterator[None]:
     """Raise :class:`RunTimeout` in the calling thread once ``seconds`` of wall time have
@@ -63,22 +100,33 @@ def deadline(seconds: float | None) -> Iterator[None]:
     lock = threading.Lock()
     state = {"active": True, "fired": False}
 
+    timers: list[threading.Timer] = []
+
+    def arm(delay: float) -> None:
+        timer = threading.Timer(delay, fire)
+        timer.daemon = True
+        timers.append(timer)
+        timer.start()
+
     def fire() -> None:
         with lock:
-            if state["active"]:
-                state["fired"] = True
-                _raise_in(target, RunTimeout)
+            if not state["active"]:
+                return
+            if COMPILE_DEPTH.compiling(target):
+                arm(RECHECK_S)          # never inside numba's compiler: once it is done
+                return
+            state["fired"] = True
+            _raise_in(target, RunTimeout)
 
-    timer = threading.Timer(float(seconds), fire)
-    timer.daemon = True
-    timer.start()
+    arm(float(seconds))
     try:
         yield
     except RunTimeout:
         raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s") from None
     finally:
-        timer.cancel()
         with lock:
+            for timer in timers:
+                timer.cancel()
             state["active"] = False
             pending = state["fired"]
         if pending:

@@ -81,3 +81,15 @@ def test_shipped_beam_impact_reference_is_reproduced_from_scratch(tmp_path, monk
     assert sc.hash in fingerprints._load(), "no fingerprint shipped for the default beam-impact scene"
     assert fingerprints.differences(sc, ref) == []
     assert ref.meta["agreement"]["err_impact_t_max"] < 1e-8
+
+
+def test_an_error_at_the_start_is_a_row_not_a_refusal():
+    """Only an IntegratorError at t = 0 means 'not applicable'; any other failure before the
+    first step (e.g. a compilation that broke) stays in the table as an error row."""
+    import pandas as pd
+
+    refusal = pd.Series({"status": "failed", "t_final": 0.0, "steps": 0,
+                         "message": "t = 0 s: IntegratorError: integrator 'imm' runs the planar FE models"})
+    broken = pd.Series({"status": "error", "t_final": 0.0, "steps": 0,
+                        "message": "RuntimeError: no compiled object yet for <Library '_start'>"})
+    assert C._refused_at_start(refusal) and not C._refused_at_start(broken)

@@ -10,10 +10,12 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import ClassVar
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -237,3 +239,29 @@ def test_concurrent_sweeps_lose_no_row(tmp_path):
     first.send_signal(signal.SIGINT)
     first.communicate(timeout=60)
     assert first.returncode == 130 and stored_rows(res, "same") >= 1
+
+
+def test_wall_time_cap_waits_for_numba_compilation():
+    """A cap that falls inside a numba compilation takes effect after it: an exception
+    raised inside the compiler (LLVM calls back into Python) killed workers on a cold cache
+    when the 1-s warm-up cap fired there."""
+    import time
+
+    import numba
+
+    from daebench.guards import COMPILE_DEPTH, RunTimeout, deadline
+
+    @numba.njit
+    def fresh(x):                       # a new dispatcher: its first call compiles (≫ 10 ms)
+        s = 0.0
+        for i in range(10):
+            s += np.sin(x * i) / (1.0 + i)
+        return s
+
+    done = []
+    with pytest.raises(RunTimeout):
+        with deadline(0.01):
+            fresh(1.0)
+            done.append(time.perf_counter())
+            time.sleep(2.0)             # the cap lands here, after the compilation
+    assert done and fresh.signatures and not COMPILE_DEPTH.compiling(threading.get_ident())
