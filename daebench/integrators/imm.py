@@ -62,15 +62,12 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar
 
-import numpy as np
 
 from daebench.contact import Impact
-from daebench.integrators import _imm_local as loc
 from daebench.integrators.base import Capabilities, IntegratorError, Setting
 from daebench.integrators.central import method_for, workspace as central_workspace
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.integrators.family import hht_coefficients
-from daebench.models._planar_kernels import PlanarData
 from daebench.stepping import newmark as _nm
 
 
@@ -112,21 +109,29 @@ class InteractiveMode(CompiledIntegrator):
         Setting("maxiter", int, 20, "local Newton iterations", low=1, high=200),
         Setting("max_local_nodes", int, 400, "capacity of the local statics module (free nodes)", low=1, high=100000),
     )
-    fail_messages = {**_nm.FAIL_MESSAGES, **loc.FAIL_MESSAGES}
+    fail_messages = dict(_nm.FAIL_MESSAGES)   # + the local module's, once the model is known (_local)
 
     def __init__(self, **settings: Any) -> None:
         super().__init__(**settings)
         self.stats: dict[str, int] = {}
 
-    def _check_model(self) -> PlanarData:
-        md = self.problem.system.kernel_data()
-        if not isinstance(md, PlanarData):
+    def _local(self) -> Any:
+        """The model's local statics module (a module with ImmMethod, workspace,
+        smallest_element, FAIL_MESSAGES and the S_* statistics slots): the local region's
+        statics is the model's own FE structure, so the model provides it
+        (``local_statics_module()``) and this integrator imports no model."""
+        provide = getattr(self.problem.system, "local_statics_module", None)
+        if provide is None:
             raise IntegratorError(f"integrator 'imm' runs the planar FE models (rod-wall, rod-plate, slider-slot); "
-                                  f"{type(self.problem.system).__name__} is not one")
-        return md
+                                  f"{type(self.problem.system).__name__} is not one (it provides no local statics "
+                                  f"module)")
+        loc = provide()
+        self.fail_messages = {**_nm.FAIL_MESSAGES, **loc.FAIL_MESSAGES}
+        return loc
 
-    def method(self) -> loc.ImmMethod:
-        md = self._check_model()
+    def method(self) -> Any:
+        loc = self._local()
+        md = self.problem.system.kernel_data()
         s = self.settings
         if s["global_method"] == "central":
             inner = method_for(self.problem.system)
@@ -135,10 +140,11 @@ class InteractiveMode(CompiledIntegrator):
             inner = _nm.NewmarkMethod(c.alpha_m, c.alpha_f, c.beta, c.gamma, False, False, 1e-12, 8, True)
         radius = float(s["radius"]) or float(getattr(self.problem.system, "imm_radius", 0.0))
         return loc.ImmMethod(inner, radius, float(s["tol"]), int(s["maxiter"]), 4 * md.slave.shape[0] + 8,
-                             _smallest_element(md))
+                             loc.smallest_element(md))
 
-    def workspace(self, n: int, m: int) -> loc.ImmWork:
-        md = self._check_model()
+    def workspace(self, n: int, m: int) -> Any:
+        loc = self._local()
+        md = self.problem.system.kernel_data()
         inner_ws = central_workspace(n) if self.settings["global_method"] == "central" else _nm.workspace(n, 0, False)
         return loc.workspace(inner_ws, md, int(self.settings["max_local_nodes"]))
 
@@ -164,22 +170,7 @@ class InteractiveMode(CompiledIntegrator):
             self.report_contact(Impact(float(t0), int(i), float(vn0), float(vn1), math.nan, closed=False,
                                        impulse=float(imp), t_end=float(t1), min_gap=float(gmin)))
         ws.n_log[0] = 0
-        st = ws.stats
+        st, loc = ws.stats, self._local()
         self.stats = {"contact_steps": int(st[loc.S_CONTACT_STEPS]), "region_rebuilds": int(st[loc.S_REBUILDS]),
                       "active_set_changes": int(st[loc.S_SET_CHANGES]), "max_free_nodes": int(st[loc.S_MAX_FREE]),
                       "episodes_lost": int(st[loc.S_LOG_LOST])}
-
-
-def _smallest_element(md: PlanarData) -> float:
-    """The smallest element edge in the reference configuration (the tolerance's scale)."""
-    en, X = md.elem_nodes, md.Xref.reshape(-1, 2)
-    h = math.inf
-    for k in range(en.shape[1]):
-        a, b = en[:, k], en[:, (k + 1) % en.shape[1]]
-        b = np.where(b < 0, en[:, 0], b)
-        ok = a >= 0
-        d = np.linalg.norm(X[a[ok]] - X[b[ok]], axis=1)
-        d = d[d > 0.0]
-        if d.size:
-            h = min(h, float(d.min()))
-    return h

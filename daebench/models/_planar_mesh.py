@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.spatial import Delaunay
@@ -176,3 +177,19 @@ def assemble(mesh: Mesh2D, E: float, nu: float, rho: float, thickness: float) ->
     elem_K = np.zeros((nel, 8, 8))
     elem_K[:, :2 * k, :2 * k] = form.elemental(basis).tolocal()
     return BodyMatrices(masses[0::2].copy(), K, elem_nodes, elem_K)
+
+
+def smallest_element(md: Any) -> float:
+    """The smallest element edge in the reference configuration (the local Newton
+    tolerance's scale)."""
+    en, X = md.elem_nodes, md.Xref.reshape(-1, 2)
+    h = math.inf
+    for k in range(en.shape[1]):
+        a, b = en[:, k], en[:, (k + 1) % en.shape[1]]
+        b = np.where(b < 0, en[:, 0], b)
+        ok = a >= 0
+        d = np.linalg.norm(X[a[ok]] - X[b[ok]], axis=1)
+        d = d[d > 0.0]
+        if d.size:
+            h = min(h, float(d.min()))
+    return h

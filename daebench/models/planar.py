@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 from daebench.contact import make_contact_law
-from daebench.models import _planar_kernels as pk
+from daebench.models import _planar_imm, _planar_kernels as pk
 from daebench.models._planar_mesh import Mesh2D, assemble
 from daebench.params import Param
 from daebench.scene import Scene, SceneError
@@ -179,6 +179,11 @@ class PlanarBodies(KernelSystem):
 
     # -- what integrators may ask ---------------------------------------------------------
     @property
+    def local_statics_module(self):  # noqa: ANN201  (a module)
+        """The local statics module of the interactive-mode method (``imm``): the contact
+        region's FE statics around each contact, written on this model's kernels."""
+        return _planar_imm
+
     def lumped_mass(self) -> np.ndarray:
         """The constant diagonal of M; the mass_force kernel accepts an M with no rows
         (force only) — what :mod:`daebench.integrators.central` relies on."""

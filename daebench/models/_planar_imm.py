@@ -1,10 +1,10 @@
-"""The interactive-mode method's compiled parts: the local statics module and the stepper
-that couples it to a global dynamics stepper (:mod:`daebench.integrators.imm` explains
-the method, its sources and the choices made where the paper is silent).
-
-Model: the planar bodies of :mod:`daebench.models._planar_kernels` (``PlanarData``).
-The held contact force f_c lives in the model data (``md.fc``, ``md.lam``): the model's
-force kernel adds it, so any global stepper integrates M q̈ = f + f_c unchanged.
+"""The planar model's local statics module for the interactive-mode method (``imm``,
+:mod:`daebench.integrators.imm` explains the method, its sources and the choices made
+where the paper is silent) and the stepper coupling it to a global dynamics stepper. It
+lives with the model because the local region is the model's FE structure; the model
+offers it as ``PlanarBodies.local_statics_module()``. The held contact force f_c is in
+the model data (``md.fc``, ``md.lam``) and the model's force kernel adds it, so any
+global stepper integrates M q̈ = f + f_c unchanged.
 
 Local statics at a global state q (:func:`local_solve`):
 
@@ -27,7 +27,6 @@ Local statics at a global state q (:func:`local_solve`):
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -37,6 +36,7 @@ from daebench.dispatch import generic
 from daebench.integrators.central import CentralMethod
 from daebench.linalg import lu_factor, lu_solve
 from daebench.models import _planar_kernels as pk
+from daebench.models._planar_mesh import smallest_element  # noqa: F401  (part of this module's interface, for imm)
 from daebench.stepping import methods
 from daebench.stepping.methods import C_LU, C_NEWTON
 from daebench.stepping.newmark import NewmarkMethod
@@ -242,7 +242,6 @@ def _assemble_KL(md, ws, q, nf):
 def _newton(meth, ws, md, q, nf, idx, na, cnt):
     """Local statics for the free nodes and the active pairs idx[:na]; λ in ws.lam_try.
     Returns a status (0: converged)."""
-    n = q.shape[0]
     nd = 2 * nf
     dim = nd + na
     ws.q_loc[:] = q
@@ -443,3 +442,4 @@ def _accept(meth, ws, h, prev, cur):
 methods.start.register(ImmMethod, _start)
 methods.step.register(ImmMethod, _step)
 methods.accept.register(ImmMethod, _accept)
+
