@@ -77,9 +77,8 @@ def plot_order(table: str = typer.Argument(..., help="a sweep table (.parquet or
     ys = [c.strip() for c in y.split(",") if c.strip()]
     stem = Path(out) if out else p.with_name(f"{p.stem}-order-{'+'.join(ys)}")
     try:
-        case = ", ".join(sorted(set(df["case"].astype(str)))) if "case" in df.columns else p.stem
         _, files = plots.convergence(df, x, ys, group, stem, provenance.collect(),
-                                     title=f"{case}: convergence ({len(df)} runs)")
+                                     title=plots.sweep_title(df, "convergence"))
     except KeyError as exc:
         _fail(str(exc.args[0]))
     typer.echo("wrote " + ", ".join(map(str, files)))

@@ -302,11 +302,13 @@ def history_label(path: str | Path, taken: set[str] = frozenset()) -> str:
     return label if label not in taken else f"{label} [{p.stem}]"
 
 
-def sweep_title(df: pd.DataFrame) -> str:
-    """Title of a work–precision figure: the case, how many runs, and the scene overrides
-    shared by every run."""
+def sweep_title(df: pd.DataFrame, what: str = "work–precision") -> str:
+    """Title of a sweep figure: what it shows, the case, the scene overrides shared by
+    every run, how many runs."""
     case = str(df["case"].iloc[0]) if "case" in df.columns and len(df) else "sweep"
-    over = ""
-    if "overrides" in df.columns and df["overrides"].nunique() == 1 and str(df["overrides"].iloc[0]) not in ("{}", "nan"):
-        over = " " + ", ".join(f"{k}={v}" for k, v in json.loads(df["overrides"].iloc[0]).items())
-    return f"work–precision, {case}{over} ({len(df)} runs)"
+    shared: dict[str, Any] = {}
+    for col in ("scene_set", "overrides"):     # --set of the sweep, then a grid's per-run overrides
+        if col in df.columns and df[col].nunique() == 1 and str(df[col].iloc[0]) not in ("{}", "nan", "None"):
+            shared.update(json.loads(df[col].iloc[0]))
+    over = (" " + ", ".join(f"{k}={v}" for k, v in shared.items())) if shared else ""
+    return f"{what}, {case}{over} ({len(df)} runs)"

@@ -124,6 +124,14 @@ class Scene:
             values[key] = validate_key(key, raw, self.schema, "--set")
         return checked(Scene(self.name, self.model, values, self.schema, self.source))
 
+    def changes(self) -> dict[str, Any]:
+        """The values that differ from the scene file's (the ``--set`` overrides in effect;
+        empty for a scene not read from a file)."""
+        if not self.source or not Path(self.source).is_file():
+            return {}
+        base = load_scene(self.source).values
+        return {k: v for k, v in self.values.items() if base.get(k) != v}
+
     def effects(self) -> dict[str, bool]:
         return {k.split(".", 1)[1]: bool(v) for k, v in self.values.items() if k.startswith("effects.")}
 

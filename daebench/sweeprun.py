@@ -35,7 +35,8 @@ def base_row(spec: Any, scene: Scene) -> dict[str, Any]:
     """The columns every row has, whatever happened to the run."""
     return {"run": spec.index, "case": scene.name, "integrator": spec.integrator, "label": spec.label,
             **spec.varied, "settings": json.dumps(spec.options, sort_keys=True, default=str),
-            "overrides": json.dumps(spec.scene_overrides, sort_keys=True, default=str)}
+            "overrides": json.dumps(spec.scene_overrides, sort_keys=True, default=str),
+            "scene_set": json.dumps(scene.changes(), sort_keys=True, default=str)}
 
 
 def outcome_row(spec: Any, scene: Scene, status: str, message: str) -> dict[str, Any]:
