@@ -14,10 +14,13 @@ are numba's own (``NUMBA_CACHE_DIR`` if set, else ``__pycache__`` beside the sou
 from __future__ import annotations
 
 import hashlib
+import io
 import os
+import pickle
 import re
 from importlib.metadata import entry_points
 from pathlib import Path
+from typing import Any
 
 from numba.core import caching, config
 
@@ -80,19 +83,42 @@ class InTreeLocator(_PackageStampMixin, caching.InTreeCacheLocator):
     """``__pycache__`` beside the source, with the package stamp."""
 
 
-_load_index = caching.IndexDataCacheFile._load_index
+class Unavailable:
+    """Stands in, in a loaded cache index, for a class this process cannot import (a
+    plugin's model or method type): the entries that name it can never match a lookup
+    here, and every other entry of the index stays usable."""
 
 
-def _tolerant_load_index(self):
-    """numba's index loader, but an index it cannot unpickle is a cache miss, not a crash.
+class _IndexUnpickler(pickle.Unpickler):
+    def find_class(self, module: str, name: str) -> Any:
+        try:
+            return super().find_class(module, name)
+        except (ImportError, AttributeError):
+            return Unavailable
+
+
+def _tolerant_load_index(self: Any) -> dict:
+    """numba's index loader (``IndexDataCacheFile._load_index``), but a class the index
+    names and this process cannot import costs only the entries that name it.
 
     A loop compiled for a plugin's model or method keeps that plugin's type in the index
-    of the loop's file (daebench's): a process where the plugin is not importable would
-    otherwise fail with ModuleNotFoundError on every compiled call of that loop."""
+    of the loop's file (daebench's). numba would fail on every compiled call of that loop
+    in a process without the plugin; treating the whole index as unreadable instead made
+    every such process recompile and then save an index of its own entry only, so the
+    cache of the built-ins was thrown away each time a process with the plugin had run."""
     try:
-        return _load_index(self)
-    except Exception:  # noqa: BLE001 - any unreadable index is stale for this process
+        with open(self._index_path, "rb") as f:
+            version = pickle.load(f)
+            data = f.read()
+    except FileNotFoundError:
         return {}
+    if version != self._version:
+        return {}
+    try:
+        stamp, overloads = _IndexUnpickler(io.BytesIO(data)).load()
+    except Exception:  # noqa: BLE001 - an index this process cannot read at all is a miss
+        return {}
+    return overloads if stamp == self._source_stamp else {}
 
 
 def install() -> None:

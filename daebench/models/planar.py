@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from types import ModuleType
 from typing import Callable
 
 import numpy as np
@@ -178,12 +179,12 @@ class PlanarBodies(KernelSystem):
         self.coordinate_names = tuple(f"{c}{i}" for i in range(N) for c in "xy")
 
     # -- what integrators may ask ---------------------------------------------------------
-    @property
-    def local_statics_module(self):  # noqa: ANN201  (a module)
+    def local_statics_module(self) -> ModuleType:
         """The local statics module of the interactive-mode method (``imm``): the contact
         region's FE statics around each contact, written on this model's kernels."""
         return _planar_imm
 
+    @property
     def lumped_mass(self) -> np.ndarray:
         """The constant diagonal of M; the mass_force kernel accepts an M with no rows
         (force only) — what :mod:`daebench.integrators.central` relies on."""
