@@ -45,6 +45,9 @@ def outcome_row(spec: Any, scene: Scene, status: str, message: str) -> dict[str,
             "verdict_reason": message}
 
 
+_WARMED: set[tuple] = set()   # (integrator, model, code-selecting settings) warmed in this process
+
+
 def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int = timing.REPEATS,
             warmup: bool = True, time_cap: float = timing.TIME_CAP_S, history_dir: str | Path | None = None,
             run_cap: float | None = None) -> dict[str, Any]:
@@ -52,8 +55,9 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
     an 'error' row, a run over ``run_cap`` seconds a 'timeout' row.
 
     Timing follows :data:`daebench.timing.REPEATS`' rule (a warm-up stopped after
-    WARMUP_CAP_S, then up to ``repeats`` timed runs while a run is shorter than
-    SHORT_RUN_S; ``warmup=False, repeats=1`` times one cold run).
+    WARMUP_CAP_S — once per integrator, model and process —, then up to ``repeats`` timed
+    runs while a run is shorter than SHORT_RUN_S; ``warmup=False, repeats=1`` times one
+    cold run).
     ``reference_mode``: 'auto' (score if a valid cached reference exists), 'require' or
     'compute' (the caller made sure it exists: :func:`prepare_references`), 'none'. With
     ``history_dir`` the history is kept as ``<history_dir>/<run>-<integrator>.parquet``
@@ -77,7 +81,14 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
             except RunTimeout:
                 pass
 
-        tm = timing.time_call(one_run, repeats=repeats, warmup=warmup, time_cap=time_cap, warmup_fn=warm_up)
+        # one warm-up per code path and process: what it loads stays loaded for the next run of
+        # the same integrator on the same model (bool/str settings can select other code)
+        path = (spec.integrator, sc.model, tuple(sorted((k, v) for k, v in spec.options.items()
+                                                         if isinstance(v, (bool, str)))))
+        warm = warmup and path not in _WARMED
+        tm = timing.time_call(one_run, repeats=repeats, warmup=warm, time_cap=time_cap, warmup_fn=warm_up)
+        if warmup:
+            _WARMED.add(path)
         rec, res = tm.result
         row.update(status=res.status, message=res.message, wall_s=tm.wall_s, cpu_s=tm.cpu_s,
                    repeats=tm.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
