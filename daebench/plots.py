@@ -97,20 +97,28 @@ def tidy_log_ticks(ax: Any) -> None:
             axis.set_minor_formatter(ticker.FuncFormatter(minor))
 
 
+def _log_panels(df: pd.DataFrame, x: str, y: str | Sequence[str], group: str, width: float, height: float
+                ) -> tuple[Any, Any, list[str], np.ndarray, pd.Series]:
+    """The shared start of the log–log sweep figures: the y columns (checked), one panel
+    each, x as numbers and the group key of every row."""
+    ys_cols = [y] if isinstance(y, str) else list(y)
+    for c in (x, *ys_cols):
+        if c not in df.columns:
+            raise KeyError(f"column '{c}' is not in the table; columns: {', '.join(map(str, df.columns))}")
+    fig, axes = plt.subplots(1, len(ys_cols), figsize=(width, height), squeeze=False)
+    xs = pd.to_numeric(df[x], errors="coerce").to_numpy(float)
+    keys = df[group].astype(str) if group in df.columns else df["integrator"].astype(str)
+    return fig, axes, ys_cols, xs, keys
+
+
 def convergence(df: pd.DataFrame, x: str = "h", y: str | Sequence[str] = "err_pre_theta_max", group: str = "label",
                 stem: str | Path | None = None, prov: dict[str, Any] | None = None,
                 title: str = "") -> tuple[Any, list[Path]]:
     """Error against step size (or tolerance), log–log, one panel per ``y`` column, one
     line per ``group`` with its measured order (least-squares slope of log e over log x)
     in the legend, and a slope-2 guide."""
-    ys_cols = [y] if isinstance(y, str) else list(y)
-    for c in (x, *ys_cols):
-        if c not in df.columns:
-            raise KeyError(f"column '{c}' is not in the table; columns: {', '.join(map(str, df.columns))}")
-    n = len(ys_cols)
-    fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 4.3), squeeze=False)
-    xs = pd.to_numeric(df[x], errors="coerce").to_numpy(float)
-    keys = df[group].astype(str) if group in df.columns else df["integrator"].astype(str)
+    n = 1 if isinstance(y, str) else len(y)
+    fig, axes, ys_cols, xs, keys = _log_panels(df, x, y, group, 4.6 * n, 4.3)
     for j, (ax, yc) in enumerate(zip(axes[0], ys_cols)):
         ys = pd.to_numeric(df[yc], errors="coerce").to_numpy(float)
         for i, k in enumerate(dict.fromkeys(keys)):
@@ -140,14 +148,8 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
     marked. Several ``y`` columns give one panel each, side by side, with one legend.
     Runs without a finite positive x and y (failed, diverged) are listed in the legend
     as not shown."""
-    ys_cols = [y] if isinstance(y, str) else list(y)
-    for c in (x, *ys_cols):
-        if c not in df.columns:
-            raise KeyError(f"column '{c}' is not in the table; columns: {', '.join(map(str, df.columns))}")
-    n = len(ys_cols)
-    fig, axes = plt.subplots(1, n, figsize=(7.0 if n == 1 else 4.6 * n, 5.0), squeeze=False)
-    xs = pd.to_numeric(df[x], errors="coerce").to_numpy(float)
-    keys = df[group].astype(str) if group in df.columns else df["integrator"].astype(str)
+    n = 1 if isinstance(y, str) else len(y)
+    fig, axes, ys_cols, xs, keys = _log_panels(df, x, y, group, 7.0 if n == 1 else 4.6 * n, 5.0)
     for j, (ax, yc) in enumerate(zip(axes[0], ys_cols)):
         ys = pd.to_numeric(df[yc], errors="coerce").to_numpy(float)
         for i, k in enumerate(dict.fromkeys(keys)):
