@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from daebench.studies import paper
@@ -65,3 +66,17 @@ def test_verdict_wording_cannot_contradict_itself():
     mixed = _verdict([("ratio 2", True), ("one N only", None)])
     assert mixed.endswith("→ supported by the 1 testable part(s); 1 part(s) not testable here")
     assert _num(float("nan"), ".3g", " mm") == "n/a" and _num(1.5, ".3g", " mm") == "1.5 mm"
+
+
+@pytest.mark.slow
+def test_calibrated_variant_judges_all_seven_claims(tmp_path, monkeypatch):
+    """On beam-impact-hub at h = 2.5e-5 s every claim gets a verdict with numbers (issue 16):
+    Baumgarte completes N = 3, 5, 7 and diverges at N = 9, as published."""
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    res = paper.run_paper(jobs=2, out=tmp_path / "cal", progress=False, variant="calibrated")
+    assert len(res.verdicts) == 7
+    for v in res.verdicts:
+        assert "not testable" not in v and "n/a" not in v.split("→")[1], v
+    t = res.table.set_index(["N", "setting"])["status"]
+    assert all(t[(N, "Baumgarte (0,0)")] == "completed" for N in (3, 5, 7))
+    assert t[(9, "Baumgarte (0,0)")] == "diverged" and t[(9, "HHT α=-0.15")] == "completed"
