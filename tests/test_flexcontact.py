@@ -52,13 +52,16 @@ def test_acm_contact_time_bounds(N, bound):
 @pytest.mark.slow
 def test_pfm_converges_to_acm_as_the_penalty_grows():
     """PFM (explicit central differences) on 50 elements: the contact time approaches the
-    ACM value as ε_N grows by decades."""
+    ACM value as ε_N grows by decades (measured |T/T_ex − T_ACM/T_ex| = 0.847, 0.0773,
+    0.00525). The run lasts 1 ms: at ε_N = 1e7 the soft contact releases only at 0.72 ms,
+    after the scene's 0.5 ms."""
     _, acm, *_, sc = fc.run("rod-wall", "ACM", {"rod.elements": 50, "output.dt": 5e-7}, h=1e-6, h_contact=1e-7,
                             alpha=0.0)
     T_acm = fc.rod_wall_scores(acm, sc)["T_ratio"]
     errs = []
     for eps in (1e7, 1e8, 1e9):
-        _, res, *_, sc = fc.run("rod-wall", "PFM", {"rod.elements": 50, "contact.penalty_stiffness": eps}, h=1e-7)
+        _, res, *_, sc = fc.run("rod-wall", "PFM", {"rod.elements": 50, "contact.penalty_stiffness": eps,
+                                                    "t_end": 1e-3}, h=1e-7)
         errs.append(abs(fc.rod_wall_scores(res, sc)["T_ratio"] - T_acm))
     assert errs[0] > errs[1] > errs[2]
 
