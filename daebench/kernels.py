@@ -18,7 +18,8 @@ The interface (all arrays float64; outputs are overwritten, never allocated):
 ``force_jacobian(md, t, q, v, Kq, Kv)``         optional
     ∂Q/∂q and ∂Q/∂v. Default: central differences of ``mass_force``'s Q.
 ``mass_jacobian_product(md, q, a, K)``          optional
-    ∂(M(q) a)/∂q at fixed a. Default: central differences.
+    ∂(M(q) a)/∂q at fixed a. Default: central differences; :func:`constant_mass` for a
+    mass matrix that does not depend on q.
 ``constraints(md, t, q, v, C, Cq, Ct, gam)``    required when the model has bilateral constraints
     Rows 0 … n_bilateral − 1: C(t, q), C_q, C_t = ∂C/∂t and γ with C_q q̈ = γ (i.e.
     γ = −(C_q q̇)_q q̇ − 2 C_qt q̇ − C_tt). Default: no rows.
@@ -163,6 +164,16 @@ def _fd_mass_jacobian_product(md, q, a, K):
             for k in range(n):
                 s += (Mp[i, k] - Mm[i, k]) * a[k]
             K[i, j] = s / (2.0 * dx)
+
+
+@njit(cache=True)
+def constant_mass(md, q, a, K):
+    """``mass_jacobian_product`` of a model whose mass matrix does not depend on q
+    (lumped or Cartesian masses): ∂(M a)/∂q = 0. Register it instead of writing a zero
+    kernel: ``kernels.register(Data, ..., mass_jacobian_product=kernels.constant_mass)``."""
+    for i in range(K.shape[0]):
+        for j in range(K.shape[1]):
+            K[i, j] = 0.0
 
 
 @njit(cache=True)

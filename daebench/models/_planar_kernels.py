@@ -190,12 +190,6 @@ def _force_jacobian(md, t, q, v, Kq, Kv):
                     Kq[j, r] = Kq[r, j]
 
 
-@njit(cache=True)
-def _mass_jacobian_product(md, q, a, K):
-    for i in range(K.shape[0]):
-        for j in range(K.shape[1]):
-            K[i, j] = 0.0
-
 
 # -- node-to-segment contact -----------------------------------------------------------------
 @njit(cache=True, inline="always")
@@ -296,4 +290,4 @@ def _gap(md, i, q, v, gq):
 
 
 kernels.register(PlanarData, mass_force=_mass_force, force_jacobian=_force_jacobian,
-                 mass_jacobian_product=_mass_jacobian_product, gap=_gap)
+                 mass_jacobian_product=kernels.constant_mass, gap=_gap)

@@ -77,10 +77,6 @@ def _force_jacobian(md, t, q, v, Kq, Kv):
     Kv[0, 0] = 0.0
 
 
-@njit(cache=True)
-def _mass_jacobian_product(md, q, a, K):
-    K[0, 0] = 0.0
-
 
 @njit(cache=True)
 def _gap(md, i, q, v, gq):
@@ -89,7 +85,7 @@ def _gap(md, i, q, v, gq):
 
 
 kernels.register(BallData, mass_force=_mass_force, force_jacobian=_force_jacobian,
-                 mass_jacobian_product=_mass_jacobian_product, gap=_gap)
+                 mass_jacobian_product=kernels.constant_mass, gap=_gap)
 
 
 class Ball(KernelSystem):

@@ -124,10 +124,6 @@ def _force_jacobian(md, t, q, v, Kq, Kv):
     Kv[:, :] = 0.0
 
 
-@njit(cache=True)
-def _zero_mass_jacobian(md, q, a, K):
-    K[:, :] = 0.0
-
 
 @njit(cache=True)
 def _constraints(md, t, q, v, C, Cq, Ct, gam):
@@ -151,7 +147,7 @@ def _constraints(md, t, q, v, C, Cq, Ct, gam):
 
 
 kernels.register(CarAxisData, mass_force=_mass_force, force_jacobian=_force_jacobian,
-                 mass_jacobian_product=_zero_mass_jacobian, constraints=_constraints)
+                 mass_jacobian_product=kernels.constant_mass, constraints=_constraints)
 
 
 class CarAxis(KernelSystem):

@@ -211,10 +211,6 @@ def _force_jacobian(md, t, q, v, Kq, Kv):
                     Kv[ka, kb] -= Cf[a, b]
 
 
-@njit(cache=True)
-def _mass_jacobian_product(md, q, a, K):
-    K[:, :] = 0.0  # constant (lumped) mass
-
 
 @njit(cache=True)
 def _gap(md, i, q, v, gq):
@@ -226,7 +222,7 @@ def _gap(md, i, q, v, gq):
 
 
 kernels.register(FrameData, mass_force=_mass_force, force_jacobian=_force_jacobian,
-                 mass_jacobian_product=_mass_jacobian_product, gap=_gap)
+                 mass_jacobian_product=kernels.constant_mass, gap=_gap)
 
 
 @njit(cache=True)

@@ -69,10 +69,6 @@ def _zero_jacobians(md, t, q, v, Kq, Kv):
     Kv[:, :] = 0.0
 
 
-@njit(cache=True)
-def _zero_mass_jacobian(md, q, a, K):
-    K[:, :] = 0.0
-
 
 @njit(cache=True)
 def _constraints(md, t, q, v, C, Cq, Ct, gam):
@@ -85,7 +81,7 @@ def _constraints(md, t, q, v, C, Cq, Ct, gam):
 
 
 kernels.register(PendulumData, mass_force=_mass_force, force_jacobian=_zero_jacobians,
-                 mass_jacobian_product=_zero_mass_jacobian, constraints=_constraints)
+                 mass_jacobian_product=kernels.constant_mass, constraints=_constraints)
 
 
 class Pendulum(KernelSystem):
