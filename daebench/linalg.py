@@ -61,3 +61,16 @@ def lu_solve(A, piv, b):
         for j in range(i + 1, n):
             s -= A[i, j] * b[j]
         b[i] = s / A[i, i]
+
+
+@njit(cache=True)
+def factor_flagged(A, piv, st, h):
+    """LU-factor ``A`` in place and keep its state in ``st``: st[0] = 1 and st[1] = h (the
+    step the factor belongs to) when it worked, st[0] = 0 when ``A`` is singular. Returns
+    :func:`lu_factor`'s status. For steppers that reuse a factor across steps."""
+    if lu_factor(A, piv) != 0:
+        st[0] = 0.0
+        return 1
+    st[0] = 1.0
+    st[1] = h
+    return 0

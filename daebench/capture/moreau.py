@@ -44,7 +44,7 @@ from numba import njit
 from daebench import kernels, phase
 from daebench.capture import episodes as _ep
 from daebench.capture.lcp import LcpWork, lcp_work, solve_lcp
-from daebench.linalg import lu_factor, lu_solve
+from daebench.linalg import factor_flagged, lu_factor, lu_solve
 from daebench.stepping import methods
 from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES
 
@@ -59,7 +59,7 @@ FAIL_MESSAGES = {
     ST_LCP: "contact LCP unsolvable (dependent contact Jacobians?)",
     ST_PROJECTION: "position projection onto g ≥ 0 did not converge",
 }
-W_LU, W_LUH, W_A0, W_G0 = range(4)  # ws.st: S factorized, its h; a = M⁻¹Q and gaps at the step start known
+W_LU, W_LUH, W_A0, W_G0 = range(4)  # ws.st (W_LU, W_LUH first: linalg.factor_flagged): S factorized, its h; a = M⁻¹Q and gaps at the step start known
 
 
 class MoreauMethod(NamedTuple):
@@ -166,12 +166,7 @@ def _factor(meth, ws, ph, n, t1, h, q1, v1, cnt):
         for j in range(n):
             ws.LU[i, j] = ws.M[i, j] - h * th * ws.Kv[i, j] - (h * th) ** 2 * ws.Kq[i, j]
     cnt[C_LU] += 1
-    if lu_factor(ws.LU, ws.piv) != 0:
-        ws.st[W_LU] = 0.0
-        return ST_SINGULAR
-    ws.st[W_LU] = 1.0
-    ws.st[W_LUH] = h
-    return 0
+    return ST_SINGULAR if factor_flagged(ws.LU, ws.piv, ws.st, h) != 0 else 0   # st[W_LU], st[W_LUH]
 
 
 @njit(cache=True)

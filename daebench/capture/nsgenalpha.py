@@ -57,7 +57,7 @@ from numba import njit
 
 from daebench import kernels, phase
 from daebench.capture import episodes as _ep
-from daebench.linalg import lu_factor, lu_solve
+from daebench.linalg import factor_flagged, lu_solve
 from daebench.stepping import methods
 from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES
 
@@ -69,7 +69,7 @@ FAIL_MESSAGES = {
     ST_NEWTON: "semismooth Newton did not converge in {newton_maxiter} iterations",
     ST_SINGULAR: "singular Jacobian of the nonsmooth generalized-α step",
 }
-W_LU, W_LUH, W_G0, W_PREV, W_HPREV = range(5)  # ws.st: LU, its h; start gaps known; last step known, its h
+W_LU, W_LUH, W_G0, W_PREV, W_HPREV = range(5)  # ws.st (W_LU, W_LUH first: linalg.factor_flagged): LU, its h; start gaps known; last step known, its h
 
 
 class NsgaMethod(NamedTuple):
@@ -201,12 +201,7 @@ def _jacobian(meth, ws, ph, n, nc, t1, h, cnt):
                 ws.st[W_LU] = 0.0
                 return ST_NOT_FINITE
     cnt[C_LU] += 1
-    if lu_factor(J, ws.piv) != 0:
-        ws.st[W_LU] = 0.0
-        return ST_SINGULAR
-    ws.st[W_LU] = 1.0
-    ws.st[W_LUH] = h
-    return 0
+    return ST_SINGULAR if factor_flagged(J, ws.piv, ws.st, h) != 0 else 0   # st[W_LU], st[W_LUH]
 
 
 @njit(cache=True)

@@ -150,10 +150,8 @@ def _mass_force(md, t, q, v, M, Q):
 @njit(cache=True)
 def _force_jacobian(md, t, q, v, Kq, Kv):
     n = q.shape[0]
-    for i in range(n):
-        for j in range(n):
-            Kq[i, j] = 0.0
-            Kv[i, j] = 0.0
+    Kq[:, :] = 0.0
+    Kv[:, :] = 0.0
     for b in range(md.frame.shape[0]):
         _, co, si, _, _ = frame_angle(md, b, q)
         for i in range(2 * md.body_nodes[b], 2 * md.body_nodes[b + 1]):

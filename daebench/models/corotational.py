@@ -187,11 +187,8 @@ def _mass_force(md, t, q, v, M, Q):
 
 @njit(cache=True)
 def _force_jacobian(md, t, q, v, Kq, Kv):
-    n = q.shape[0]
-    for i in range(n):
-        for j in range(n):
-            Kq[i, j] = 0.0
-            Kv[i, j] = 0.0
+    Kq[:, :] = 0.0
+    Kv[:, :] = 0.0
     pe = np.empty(6)
     ve = np.empty(6)
     fg = np.empty(6)
