@@ -9,8 +9,8 @@
 >>> df = daebench.bench("pendulum", ["hht", "newmark"], steps=[1e-2, 5e-3])   # doctest: +SKIP
 
 Every function validates its arguments as the command line does and raises
-:class:`daebench.params.ParamError` (or a subclass) with a message that says what to
-change. The command line (:mod:`daebench.cli`) is a thin layer over these functions.
+:class:`daebench.core.params.ParamError` (or a subclass) with a message that says what to
+change. The command line (:mod:`daebench.cli.app`) is a thin layer over these functions.
 """
 
 from __future__ import annotations
@@ -22,19 +22,19 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 import pandas as pd
 
-from daebench import metrics
+from daebench.harness import metrics
 from daebench.integrators.base import Capabilities
 from daebench.models import build_system
-from daebench.params import Param
-from daebench.scene import Scene
-from daebench.scene import load_scene as _load_scene
+from daebench.core.params import Param
+from daebench.core.scene import Scene
+from daebench.models.scenes import load_scene as _load_scene
 
 SceneLike = str | Path | Scene
 
 
 def load_scene(scene: SceneLike, overrides: Iterable[str] | dict[str, Any] | None = None) -> Scene:
     """A validated scene: a case name (``"beam-impact"``), a path to a TOML file, or a
-    :class:`~daebench.scene.Scene`, with ``overrides`` ({key: value} or ["key=value"])."""
+    :class:`~daebench.core.scene.Scene`, with ``overrides`` ({key: value} or ["key=value"])."""
     if isinstance(scene, Scene):
         return scene.with_overrides(overrides) if overrides else scene
     return _load_scene(scene, overrides or ())
@@ -58,7 +58,7 @@ class IntegratorInfo:
                               "meaning": p.doc} for p in self.settings])
 
 
-def integrators() -> dict[str, IntegratorInfo]:
+def integrator_infos() -> dict[str, IntegratorInfo]:
     """Every registered integrator (built-in and plugins), by name."""
     from daebench.integrators import base
 
@@ -73,14 +73,14 @@ def integrators() -> dict[str, IntegratorInfo]:
 
 def integrator_info(name: str) -> IntegratorInfo:
     """One integrator's declaration; ``name`` is case-insensitive (did-you-mean on a typo)."""
-    from daebench import guards
+    from daebench.harness import guards
 
-    return integrators()[guards.resolve_integrator(name)]
+    return integrator_infos()[guards.resolve_integrator(name)]
 
 
 def cases() -> pd.DataFrame:
     """The named scenes (``cases/``): name, model and description."""
-    from daebench.scene import list_scenes
+    from daebench.core.scene import list_scenes
 
     rows = []
     for name, desc in list_scenes():
@@ -155,7 +155,7 @@ def exact_or_reference_error(scene: Scene, system: Any, hist: pd.DataFrame) -> d
             return {"against": "exact solution", **out}
         except ValueError:  # outside the exact solution's range (e.g. a revolving pendulum)
             out = {}
-    from daebench.references import ReferenceDamaged, ReferenceMissing, load_reference
+    from daebench.harness.references import ReferenceDamaged, ReferenceMissing, load_reference
 
     try:
         ref = load_reference(scene, mode="require")
@@ -180,7 +180,7 @@ def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] |
     overrides : scene keys, ``{"t_end": 0.5}`` or ``["t_end=0.5"]``
     settings, **setting_kw : integrator settings, e.g. ``h=1e-3, alpha=-0.1``
     write, out_dir : also write the history file (default folder results/runs)
-    run_cap : wall-time cap [s]; :class:`daebench.guards.RunTimeout` beyond it
+    run_cap : wall-time cap [s]; :class:`daebench.harness.guards.RunTimeout` beyond it
     force : run even beyond the step-count and history-size limits
     progress : True for a progress bar on stderr, or a callable ``progress(t)``
 
@@ -188,8 +188,8 @@ def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] |
     -------
     RunOutput
     """
-    from daebench.progress import RunProgress
-    from daebench.runner import make_integrator, run_scene
+    from daebench.harness.progress import RunProgress
+    from daebench.harness.runner import make_integrator, run_scene
 
     sc = load_scene(scene, overrides)
     integ = make_integrator(integrator, {**(settings or {}), **setting_kw})
@@ -216,9 +216,9 @@ def reference(scene: SceneLike, *, overrides: Iterable[str] | dict[str, Any] | N
               progress: bool = False) -> Any:
     """The cached reference of a scene (history, impact times, sidecar), computed when
     missing, damaged or ``force`` (IDA at rtol 1e-11 by default, checked against a 10×
-    looser run). Returns a :class:`daebench.references.Reference`."""
-    from daebench import references
-    from daebench.progress import run_progress_factory
+    looser run). Returns a :class:`daebench.harness.references.Reference`."""
+    from daebench.harness import references
+    from daebench.harness.progress import run_progress_factory
 
     sc = load_scene(scene, overrides)
     for name, x in (("rtol", rtol), ("atol", atol)):
@@ -252,7 +252,7 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str, *, steps: Sequence
         by default; rows stored as they finish; ``resume`` completes an interrupted sweep)
     run_cap : wall-time cap of one run [s]; a run over it is a 'timeout' row
     repeats : timed runs (minimum taken) after a warm-up run, made while a run takes
-        under a second (:data:`daebench.timing.REPEATS`); 1: one cold run, no warm-up
+        under a second (:data:`daebench.harness.timing.REPEATS`); 1: one cold run, no warm-up
     scheduler : Dask scheduler address, 'local', or a Client
     executor : 'process' (default), 'inline' (this process, no isolation) or 'dask'
 
@@ -262,7 +262,7 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str, *, steps: Sequence
         One row per run: label, settings, status, verdict, wall_s, counters, errors
         (``err_<observable>_{final,max,l2}``), energy and constraint residuals.
     """
-    from daebench import bench as B
+    from daebench.harness import bench as B
 
     sc = load_scene(scene, overrides)
     names = [x.strip() for x in integrators.split(",")] if isinstance(integrators, str) else list(integrators)
@@ -290,6 +290,6 @@ def _numbers(values: Sequence[Any] | None, what: str) -> list[float] | None:
 
 
 def _sweep_error(msg: str) -> Exception:
-    from daebench.bench import SweepError
+    from daebench.harness.bench import SweepError
 
     return SweepError(msg)

@@ -16,9 +16,9 @@ from scipy.integrate import solve_ivp
 from daebench.integrators.ida import IDA
 from daebench.models import andrews
 from daebench.models.andrews import NAMES, Andrews
-from daebench.scene import load_scene
-from daebench.problem import Problem
-from daebench.system import MechanicalSystem, State, central_difference
+from daebench.models.scenes import load_scene
+from daebench.core.problem import Problem
+from daebench.core.system import MechanicalSystem, State, central_difference
 
 T_END = 0.03
 # andrews.f, andsoln: y(1..7) angles, y(8..14) angular velocities at t = 0.03

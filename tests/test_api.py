@@ -57,7 +57,7 @@ def test_bench_returns_one_scored_row_per_run(tmp_path, monkeypatch):
 
 
 def test_catalogues_and_scene_loading():
-    infos = daebench.integrators()
+    infos = daebench.integrator_infos()
     assert {"hht", "ida", "newmark", "baumgarte", "lcp"} <= set(infos)
     hht = daebench.integrator_info("HHT")
     assert hht.name == "hht" and hht.capabilities.adaptive and "alpha" in set(hht.settings_table()["setting"])
@@ -66,12 +66,12 @@ def test_catalogues_and_scene_loading():
     sc = daebench.load_scene("beam-impact", {"discretization.n": 3})
     assert sc["discretization.n"] == 3
     assert {"run", "bench", "reference", "load_scene", "cases", "integrators"} <= set(dir(daebench))
-    from daebench import bench  # the module stays importable beside daebench.bench(...)
+    from daebench.harness import bench  # the module stays importable beside daebench.bench(...)
     assert callable(bench) and hasattr(bench, "run_sweep")
 
 
 def test_api_errors_are_param_errors():
-    from daebench.params import ParamError
+    from daebench.core.params import ParamError
 
     with pytest.raises(ParamError, match="did you mean 'hht'"):
         daebench.run("pendulum", integrator="hhtt")

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench import bench
+from daebench.harness import bench
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
 
@@ -63,7 +63,7 @@ def registry(monkeypatch, tmp_path):
 
 @pytest.fixture()
 def pendulum():
-    from daebench.scene import load_scene
+    from daebench.models.scenes import load_scene
 
     return load_scene("pendulum", ["t_end=0.2", "output.dt=1e-2"])
 
@@ -154,7 +154,7 @@ def test_hanging_run_is_a_failed_row(registry, pendulum, monkeypatch):
 def test_cli_bench_reference_plot_and_clear_errors(registry, tmp_path):
     from typer.testing import CliRunner
 
-    from daebench.cli import app
+    from daebench.cli.app import app
 
     run = CliRunner().invoke
     r = run(app, ["bench", "pendulum", "-i", "hht,bogus", "--steps", "1e-2"])
@@ -204,7 +204,7 @@ def test_observable_of_a_switched_off_effect_is_reported_not_scored(registry):
     """beam-impact lists 'gap'; with effects.contact=false the model does not compute it: the
     run is scored on the rest and the row says which observable was left out (a typo is
     refused instead: tests/test_hostile_inputs.py)."""
-    from daebench.scene import load_scene
+    from daebench.models.scenes import load_scene
 
     sc = load_scene("beam-impact", ["effects.contact=false", "discretization.n=3", "t_end=0.05"])
     df = bench.run_sweep(sc, ["hht"], steps=[1e-4], reference_mode="compute", progress=False, write=False)

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from daebench.capture.lcp import lcp_work, solve_lcp
+from daebench.core.lcp import lcp_work, solve_lcp
 from daebench.integrators.base import get_integrator
 from daebench.models import build_system
 from daebench.models.ball import ball_impacts, exact_motion
-from daebench.scene import load_scene
-from daebench.simulate import simulate
+from daebench.models.scenes import load_scene
+from daebench.driver.simulate import simulate
 
 STEPS = (1e-3, 5e-4, 2.5e-4, 1.25e-4)
 SWEEP = tuple(2e-3 * 1.5 ** -np.arange(8))   # 2e-3 … 1.2e-4: ratios that sample the impact phase
@@ -192,7 +192,7 @@ def test_capture_cli_registers_its_commands():
     import typer
     from typer.testing import CliRunner
 
-    from daebench.cli_eventcapture import register
+    from daebench.cli.capture import register
 
     app = typer.Typer()
 

@@ -10,8 +10,8 @@ import pytest
 
 from daebench.integrators.base import get_integrator
 from daebench.models import build_system
-from daebench.scene import load_scene
-from daebench.simulate import simulate
+from daebench.models.scenes import load_scene
+from daebench.driver.simulate import simulate
 
 pytestmark = pytest.mark.slow
 

@@ -21,11 +21,12 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from daebench.integrators.base import IntegratorError
 from daebench.integrators.lcp import ComplementarityLCP, solve_lcp
 from daebench.models.chain import Chain, effective_restitution, energetic_restitution
-from daebench.runner import run_scene
-from daebench.scene import SceneError, load_scene
-from daebench.simulate import simulate
-from daebench.problem import Problem
-from daebench.system import State
+from daebench.harness.runner import run_scene
+from daebench.core.scene import SceneError
+from daebench.models.scenes import load_scene
+from daebench.driver.simulate import simulate
+from daebench.core.problem import Problem
+from daebench.core.system import State
 
 IDA_TIGHT = {"rtol": 1e-10, "atol": 1e-12}
 # two free masses (no springs): m3 starts 1 mm left of m4 at 1 m/s

@@ -14,8 +14,8 @@ from typing import ClassVar
 import pytest
 from typer.testing import CliRunner
 
-from daebench import progress
-from daebench.cli import app
+from daebench.harness import progress
+from daebench.cli.app import app
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
 
@@ -72,7 +72,7 @@ def test_run_progress_reports_simulated_time():
 
 def _cli(*args: str, columns: int = 80) -> subprocess.CompletedProcess:
     env = dict(os.environ, COLUMNS=str(columns))
-    return subprocess.run([sys.executable, "-m", "daebench.cli", *args], capture_output=True, text=True, env=env)
+    return subprocess.run([sys.executable, "-m", "daebench.cli.app", *args], capture_output=True, text=True, env=env)
 
 
 def test_piped_80_columns_never_breaks_a_number(tmp_path):
@@ -131,7 +131,7 @@ def test_help_points_nowhere_missing(cmd):
 def test_history_legend_names_integrator_and_settings(tmp_path):
     """`plot history` labels each line by integrator and its non-default settings (read from
     the sidecar `run` writes), not by the file's hash."""
-    from daebench import plots
+    from daebench.harness import plots
 
     r = runner.invoke(app, ["run", "pendulum", "-i", "hht", "--opt", "h=1e-2", "--opt", "alpha=-0.3",
                             "--set", "t_end=0.1", "--out", str(tmp_path)])

@@ -3,7 +3,7 @@
 Independent truth:
 * rigid-body motion (any rotation, also beyond ±π, any translation and rigid velocity)
   strains nothing: zero force, zero strain energy, zero damping power;
-* the analytic tangent equals central differences of the force (daebench.kernels);
+* the analytic tangent equals central differences of the force (daebench.core.kernels);
 * linear Euler–Bernoulli cantilever: tip deflection P L³/(3EI) (the cubic element is
   nodally exact), uniform load q L⁴/(8EI) and the clamped–free frequencies
   (β_i L)² √(EI/(ρA L⁴)), β₁L = 1.875104, β₂L = 4.694091, β₃L = 7.854757 — with the
@@ -19,7 +19,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from daebench import kernels
+from daebench.core import kernels
 from daebench.models.corotational import Frame
 
 L, EI, EA, RHOA, RHOI = 1.0, 1.0, 1e8, 1.0, 1e-8

@@ -18,7 +18,8 @@ import pytest
 import daebench
 from daebench.models import build_system
 from daebench.models.doublependulum import contact_outcome
-from daebench.scene import SceneError, load_scene
+from daebench.core.scene import SceneError
+from daebench.models.scenes import load_scene
 
 SMALL = {"links.elements": 4}
 

@@ -8,11 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from daebench.problem import Problem
+from daebench.core.problem import Problem
 
 from daebench.models import build_system
 from daebench.models.hubbeam import HubBeam, hertz_default_stiffness
-from daebench.scene import SceneError, load_scene
+from daebench.core.scene import SceneError
+from daebench.models.scenes import load_scene
 from _fd import fd  # tests/_fd.py
 
 RNG = np.random.default_rng(20240607)
@@ -267,10 +268,10 @@ def test_fem_allows_many_elements():
 
 def test_kernels_callable_from_compiled_code():
     """The contract for compiled integrator loops: the generic kernels of
-    daebench.kernels called from @njit code on the model's data."""
+    daebench.core.kernels called from @njit code on the model's data."""
     from numba import njit
 
-    from daebench import kernels
+    from daebench.core import kernels
 
     @njit
     def call(md, t, q, v, M, Q):

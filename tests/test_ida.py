@@ -1,7 +1,7 @@
 """The `ida` integrator against problems with known solutions.
 
 Problems are defined here (not imported from daebench.models) so these tests
-depend only on the protocol in daebench.system:
+depend only on the protocol in daebench.core.system:
 
 * a harmonic oscillator (m = 0), exact solution q = q0 cos ωt;
 * a Cartesian pendulum (index 3), truth = the angle ODE by DOP853 at rtol 1e-13;
@@ -19,8 +19,8 @@ from scipy.integrate import solve_ivp
 
 from daebench.integrators.base import IntegratorError, StepFailure
 from daebench.integrators.ida import IDA
-from daebench.problem import Problem
-from daebench.system import MechanicalSystem, State
+from daebench.core.problem import Problem
+from daebench.core.system import MechanicalSystem, State
 
 G = 9.81
 TH0 = np.pi / 3  # pendulum release angle from the downward vertical
@@ -333,7 +333,7 @@ def test_residual_vanishes_on_a_consistent_state(case, active):
     rows at y = (q, v, λ, 0), ẏ = (v, q̈, …) with (q̈, λ) the consistent acceleration, and
     its constraint rows are C(q) and C_q v — free and with a closed contact."""
     from daebench.models import build_system
-    from daebench.scene import load_scene
+    from daebench.models.scenes import load_scene
 
     system = build_system(load_scene(case))
     problem = Problem(system, active)
@@ -364,8 +364,8 @@ def test_batch_advance_equals_stepping_through_the_driver(monkeypatch):
     """IDA.advance (many steps per driver call, compiled quiet-step checks) takes the same
     steps as the driver's one-step loop: identical histories, impacts, counters and
     constraint maxima, through impacts, a closed phase and its release."""
-    from daebench.runner import run_scene
-    from daebench.scene import load_scene
+    from daebench.harness.runner import run_scene
+    from daebench.models.scenes import load_scene
 
     scene = load_scene("beam-impact", ["t_end=0.3815", "discretization.n=3"])
     calls, real_advance = [], IDA.advance
@@ -377,7 +377,7 @@ def test_batch_advance_equals_stepping_through_the_driver(monkeypatch):
     monkeypatch.setattr(IDA, "advance", spy)
     fast_rec, fast = run_scene(scene, "ida", {}, write=False)
     assert sum(calls) > 0 and fast_rec.counters["steps"] > 10 * len(calls)  # many steps per call
-    from daebench.simulate import Driver
+    from daebench.driver.simulate import Driver
 
     monkeypatch.setattr(Driver, "_batch_ok", lambda self, problem: False)
     slow_rec, slow = run_scene(scene, "ida", {}, write=False)

@@ -1,9 +1,9 @@
-"""Error measures that survive impacts (daebench.impact_metrics).
+"""Error measures that survive impacts (daebench.harness.impact_metrics).
 
 Independent truths: closed-form histories (a cubic that Hermite interpolation must
 reproduce exactly; sinusoids whose shifted copies must score zero after
 re-synchronisation), the kinetic-energy loss of a Newton impact computed by the KKT solve
-of daebench.contact.impact_map, and — on beam-impact — the order 2 of HHT-α and the
+of daebench.core.contact.impact_map, and — on beam-impact — the order 2 of HHT-α and the
 trapezoidal Newmark rule measured from a step-halving sweep against an IDA reference.
 """
 
@@ -15,9 +15,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench import impact_metrics as IM
-from daebench import metrics
-from daebench.contact import impact_map
+from daebench.harness import impact_metrics as IM
+from daebench.harness import metrics
+from daebench.core.contact import impact_map
 
 
 def _hist(t, theta_rad, omega=None, **cols):
@@ -133,8 +133,8 @@ ORDER_STEPS = (1e-4, 5e-5, 2.5e-5, 1.25e-5)
 def order_sweep(tmp_path_factory):
     import os
 
-    from daebench import bench
-    from daebench.scene import load_scene
+    from daebench.harness import bench
+    from daebench.models.scenes import load_scene
 
     old = os.environ.get("DAEBENCH_RESULTS")
     os.environ["DAEBENCH_RESULTS"] = str(tmp_path_factory.mktemp("results"))

@@ -13,8 +13,8 @@ from daebench.integrators.baumgarte import BaumgarteABM4
 from daebench.integrators.hht import HHT
 from daebench.integrators.newmark import Newmark
 from daebench.models.pendulum import Pendulum, exact_theta
-from daebench.problem import Problem
-from daebench.system import MechanicalSystem, State
+from daebench.core.problem import Problem
+from daebench.core.system import MechanicalSystem, State
 
 G = 9.81
 T_ORDER = 1.5  # mid-swing: at a turning point (t ≈ 1.02) phase errors barely show in x, y

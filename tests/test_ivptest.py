@@ -18,10 +18,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from daebench.models import build_system
-from daebench.problem import Problem
-from daebench.scene import load_scene
+from daebench.core.problem import Problem
+from daebench.models.scenes import load_scene
 from daebench.studies.ivptest import REFERENCES, mescd, reference_components, scd, score
-from daebench.system import MechanicalSystem, central_difference
+from daebench.core.system import MechanicalSystem, central_difference
 
 CASES = ("crank", "caraxis")
 

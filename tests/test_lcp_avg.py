@@ -20,9 +20,9 @@ import daebench
 from daebench.integrators.base import IntegratorError
 from daebench.integrators.lcp_avg import LcpAvg, contact_forces
 from daebench.models.corotational import Frame
-from daebench.problem import Problem
-from daebench.simulate import simulate
-from daebench.system import State
+from daebench.core.problem import Problem
+from daebench.driver.simulate import simulate
+from daebench.core.system import State
 
 V0 = 1.0
 

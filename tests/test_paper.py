@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from daebench.studies import paper
-from daebench.cli import app
+from daebench.cli.app import app
 
 
 def test_published_table_is_the_papers():

@@ -6,9 +6,10 @@ from scipy.integrate import solve_ivp
 
 from daebench.models import build_system
 from daebench.models.pendulum import Pendulum, exact_theta
-from daebench.scene import SceneError, load_scene
-from daebench.problem import Problem
-from daebench.system import central_difference
+from daebench.core.scene import SceneError
+from daebench.models.scenes import load_scene
+from daebench.core.problem import Problem
+from daebench.core.system import central_difference
 
 G, L = 9.81, 1.0
 

@@ -5,7 +5,7 @@ import json
 
 from typer.testing import CliRunner
 
-from daebench.cli import app
+from daebench.cli.app import app
 
 
 def test_perf_quick_writes_the_figures(tmp_path, monkeypatch):

@@ -10,8 +10,8 @@ import pytest
 
 from daebench.models import build_system
 from daebench.models._planar_mesh import assemble, rounded_bar
-from daebench.scene import load_scene
-from daebench.system import central_difference
+from daebench.models.scenes import load_scene
+from daebench.core.system import central_difference
 
 
 @pytest.fixture(scope="module")

@@ -26,7 +26,7 @@ def plugin_site(tmp_path_factory):
 
 def daebench(site, *args):
     env = dict(os.environ, COLUMNS="250", PYTHONPATH=os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]))
-    return subprocess.run([sys.executable, "-m", "daebench.cli", *args], capture_output=True, text=True, env=env)
+    return subprocess.run([sys.executable, "-m", "daebench.cli.app", *args], capture_output=True, text=True, env=env)
 
 
 def test_plugin_listed_with_its_distribution(plugin_site):
@@ -53,7 +53,7 @@ def test_plugin_runs_and_is_second_order(plugin_site, tmp_path):
 
 def exact_theta_end():
     from daebench.models import build_system
-    from daebench.scene import load_scene
+    from daebench.models.scenes import load_scene
 
     sc = load_scene("pendulum")
     return float(np.squeeze(build_system(sc).exact_theta(sc.t_end)))
@@ -110,7 +110,7 @@ def test_daebench_still_runs_where_the_plugin_is_not_installed(plugin_site, tmp_
     assert out.returncode == 0, out.stderr
     env = dict(os.environ, COLUMNS="250")
     env.pop("PYTHONPATH", None)
-    p = subprocess.run([sys.executable, "-m", "daebench.cli", "run", "pendulum", "--integrator", "hht",
+    p = subprocess.run([sys.executable, "-m", "daebench.cli.app", "run", "pendulum", "--integrator", "hht",
                         "--opt", "h=1e-3", "--out", str(tmp_path), "--json"], capture_output=True, text=True, env=env)
     assert p.returncode == 0, p.stderr[-2000:]
     assert json.loads(p.stdout)["status"] == "completed"

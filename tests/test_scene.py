@@ -5,8 +5,9 @@ import json
 import pytest
 from typer.testing import CliRunner
 
-from daebench.cli import app
-from daebench.scene import SceneError, list_scenes, load_scene, scene_from_dict
+from daebench.cli.app import app
+from daebench.core.scene import SceneError, list_scenes
+from daebench.models.scenes import load_scene, scene_from_dict
 
 runner = CliRunner()
 

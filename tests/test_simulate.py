@@ -11,10 +11,10 @@ import math
 import numpy as np
 import pytest
 
-from daebench.contact import ConstraintLaw, HertzLaw, impact_map
+from daebench.core.contact import ConstraintLaw, HertzLaw, impact_map
 from daebench.integrators.base import Capabilities, Integrator, IntegratorError, STEP_SETTINGS
-from daebench.simulate import simulate
-from daebench.system import MechanicalSystem, State
+from daebench.driver.simulate import simulate
+from daebench.core.system import MechanicalSystem, State
 
 G = 9.81
 
@@ -184,8 +184,8 @@ def test_ode_only_integrator_refused_on_constraint_contact():
 def test_contacts_left_to_the_integrator_need_one_that_resolves_them():
     """A complementarity scene refuses an integrator that would let bodies pass through
     each other, and the complementarity integrator refuses a scene without such contacts."""
-    from daebench.runner import run_scene
-    from daebench.scene import load_scene
+    from daebench.harness.runner import run_scene
+    from daebench.models.scenes import load_scene
 
     chain = load_scene("chain-impact", ["contact.law=complementarity", "t_end=1e-3"])
     with pytest.raises(IntegratorError, match="does not resolve contacts"):
@@ -222,7 +222,7 @@ def test_declared_power_free_matches_the_model_power(case, sets):
     """Compiled phase runners skip the work bookkeeping when a model declares itself free
     of non-conservative power; the declaration must agree with power() at random states."""
     from daebench.models import build_system
-    from daebench.scene import load_scene
+    from daebench.models.scenes import load_scene
 
     system = build_system(load_scene(case, sets))
     rng = np.random.default_rng(1)

@@ -19,14 +19,14 @@ import pytest
 from daebench.integrators.base import StepFailure
 from daebench.integrators.baumgarte import BaumgarteABM4
 from daebench.integrators.hht import HHT
-from daebench.linalg import lu_factor, lu_solve
+from daebench.core.linalg import lu_factor, lu_solve
 from daebench.models import build_system
-from daebench.problem import Problem
-from daebench.runner import run_scene
-from daebench.scene import load_scene
-from daebench.simulate import Driver
+from daebench.core.problem import Problem
+from daebench.harness.runner import run_scene
+from daebench.models.scenes import load_scene
+from daebench.driver.simulate import Driver
 from daebench.stepping import watch as W
-from daebench.system import State
+from daebench.core.system import State
 
 
 def test_lu_matches_numpy():
@@ -140,8 +140,8 @@ def test_interpreted_path_equals_compiled():
     read at import)."""
     code = textwrap.dedent("""
         import json, numba
-        from daebench.runner import run_scene
-        from daebench.scene import load_scene
+        from daebench.harness.runner import run_scene
+        from daebench.models.scenes import load_scene
         sc = load_scene("pendulum", ["t_end=0.2", "output.dt=0.05"])
         out = {}
         for name, opts in (("hht", {"adaptive": True, "rtol": 1e-6}), ("baumgarte", {"h": 2e-3})):

@@ -19,10 +19,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench import bench, references
+from daebench.harness import bench, references
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
-from daebench.scene import load_scene
+from daebench.models.scenes import load_scene
 
 pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
 
@@ -99,7 +99,7 @@ def test_crashing_plugins_cost_only_their_own_rows(plugins, pendulum, jobs):
         return
     from typer.testing import CliRunner
 
-    from daebench.cli import app
+    from daebench.cli.app import app
 
     r = CliRunner().invoke(app, ["bench", "pendulum", "-i", "segv,hht", "--steps", "1e-2", "--set", "t_end=0.2",
                                  "--reference", "none", "-j", "2"])
@@ -110,7 +110,7 @@ def test_run_cap_under_dask_leaves_a_timeout_row_and_the_sweep_goes_on(plugins, 
     pytest.importorskip("dask.distributed")
     from dask.distributed import Client, LocalCluster
 
-    from daebench.runner import run_scene
+    from daebench.harness.runner import run_scene
 
     run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded: the cap measures the run alone
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster, \
@@ -166,7 +166,7 @@ SLOW_SWEEP = ["bench", "pendulum", "-i", "hht", "--steps", "1e-5", "--grid", "al
 
 def daebench(*args: str, results: Path) -> subprocess.Popen:
     env = dict(os.environ, DAEBENCH_RESULTS=str(results), COLUMNS="100")
-    return subprocess.Popen([sys.executable, "-m", "daebench.cli", *args], env=env, stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-m", "daebench.cli.app", *args], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
 
@@ -249,7 +249,7 @@ def test_wall_time_cap_waits_for_numba_compilation():
 
     import numba
 
-    from daebench.guards import COMPILE_DEPTH, RunTimeout, deadline
+    from daebench.harness.guards import COMPILE_DEPTH, RunTimeout, deadline
 
     @numba.njit
     def fresh(x):                       # a new dispatcher: its first call compiles (≫ 10 ms)

@@ -1,0 +1,9 @@
+"""The integrators: one file per method, each a class with its name, settings,
+declared capabilities (order, fixed/adaptive, constraints, contact laws it resolves
+itself) and the compiled stepper it uses. :mod:`.base` holds the contract and the
+registry (entry-point group ``daebench.integrators``), :mod:`.compiled` the adapter for
+compiled steppers, :mod:`.family` the public Newmark family.
+
+May import: :mod:`daebench.core` and :mod:`daebench.stepping`; never a model — a
+model's own stepper part reaches an integrator through the system it is handed.
+"""

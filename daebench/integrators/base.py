@@ -7,7 +7,7 @@ Implementer's contract (rule by rule, in the spirit of ``scipy.integrate.OdeSolv
    and ``settings_spec`` (a tuple of :class:`Setting`). Settings are validated by
    the base class and stored in ``self.settings`` (a dict).
 2. Implement ``_start(self)``: called by :meth:`Integrator.start` after
-   ``self.problem``, ``self.state`` (a consistent :class:`~daebench.system.State`)
+   ``self.problem``, ``self.state`` (a consistent :class:`~daebench.core.system.State`)
    and ``self.h`` (the step size of this phase) are set. Reset any history here:
    the driver restarts the integrator after every event.
 3. Implement ``_step_impl(self, t_stop) -> State``: advance one *accepted* step,
@@ -30,7 +30,7 @@ Implementer's contract (rule by rule, in the spirit of ``scipy.integrate.OdeSolv
 
 The driver talks to an integrator through :meth:`start`, :meth:`advance` (which returns
 an :class:`Advance` value) and :meth:`dense`; it reads no other attribute. An integrator
-reads the phase from its :class:`~daebench.problem.Problem` and nothing else.
+reads the phase from its :class:`~daebench.core.problem.Problem` and nothing else.
 
 For speed, subclass :class:`daebench.integrators.compiled.CompiledIntegrator` instead:
 write the step as a compiled stepper (:mod:`daebench.stepping.methods`) and the base
@@ -49,12 +49,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from daebench.contact import Impact
-from daebench.params import Param, ParamError, did_you_mean
-from daebench.problem import Problem
+from daebench.core.contact import Impact
+from daebench.core.params import Param, ParamError, did_you_mean
+from daebench.core.problem import Problem
 from daebench.stepping import control
 from daebench.stepping.watch import Watch
-from daebench.system import State
+from daebench.core.system import State
 
 ENTRY_POINT_GROUP = "daebench.integrators"
 

@@ -9,7 +9,7 @@ impact map. :class:`CapturingIntegrator` adds to
 * the restitution e of the scene's ``constraint`` law (no law — ``complementarity`` —
   is e = 0, a plastic contact);
 * after every compiled call, the episode log of the stepper
-  (:mod:`daebench.capture.episodes`) becomes :class:`daebench.contact.Impact` records,
+  (:mod:`daebench.stepping.episodes`) becomes :class:`daebench.core.contact.Impact` records,
   reported with :meth:`~daebench.integrators.base.Integrator.report_contact`, one per
   episode (consecutive steps with a positive impulse), in the driver's columns:
   ``t`` the start of the first step with a positive impulse, ``vn_minus`` ġ there,
@@ -37,11 +37,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from daebench.capture import episodes as _ep
-from daebench.contact import Impact
+from daebench.stepping import episodes as _ep
+from daebench.core.contact import Impact
 from daebench.integrators.base import STEP_SETTINGS, Advance, IntegratorError, Setting
 from daebench.integrators.compiled import CompiledIntegrator
-from daebench.system import State
+from daebench.core.system import State
 
 STEPS_PER_CALL = 500   # a compiled call's step limit (bounds the episode log)
 

@@ -25,7 +25,7 @@ from daebench.integrators.base import Advance, Integrator, StepFailure
 from daebench.stepping import methods, runner, watch as _watch
 from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES, StateArrays
 from daebench.stepping.runner import C_REJECTED, UNDERFLOW_ERROR, UNDERFLOW_FAIL
-from daebench.system import State
+from daebench.core.system import State
 
 MAX_STEPS_PER_CALL = 2000  # keeps a caller (progress, wall-time caps) responsive
 

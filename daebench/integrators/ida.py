@@ -57,7 +57,7 @@ either way; 5.8e3 residual calls and 1.23 s assembled, 12.5e3 and 1.43 s FD.
 Compiled residual
 -----------------
 The residual is one numba call (:func:`ggl_residual`) on the phase
-(:mod:`daebench.phase`), for every model. The Jacobian is assembled in Python from the
+(:mod:`daebench.core.phase`), for every model. The Jacobian is assembled in Python from the
 problem's compiled pieces (one per ~40 steps). :meth:`IDA.advance` lets the driver hand
 over many steps per call, with each quiet step checked by one compiled call
 (:func:`daebench.stepping.watch.quiet`). Measured on beam-impact (t_end 0.5 s, default
@@ -105,7 +105,7 @@ import numpy as np
 from numba import njit
 from sksundae.ida import IDA as _SundaeIDA
 
-from daebench import phase
+from daebench.core import phase
 from daebench.integrators.base import (
     STEP_SETTINGS,
     Advance,
@@ -118,7 +118,7 @@ from daebench.integrators.base import (
 )
 from daebench.stepping import watch as _watch
 from daebench.stepping.methods import StateArrays
-from daebench.system import State
+from daebench.core.system import State
 
 MAX_NUM_STEPS = 500  # IDA's limit per call; one call = one internal step here
 ALG_ATOL_DEFAULT = 1e10  # absolute tolerance of λ, μ: takes them out of the error test

@@ -63,7 +63,7 @@ import math
 from typing import Any, ClassVar
 
 
-from daebench.contact import Impact
+from daebench.core.contact import Impact
 from daebench.integrators.base import Capabilities, IntegratorError, Setting
 from daebench.integrators.central import method_for, workspace as central_workspace
 from daebench.integrators.compiled import CompiledIntegrator

@@ -80,10 +80,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from daebench.contact import Impact
+from daebench.core.contact import Impact
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, IntegratorError, Setting, \
     StepFailure
-from daebench.system import State
+from daebench.core.system import State
 
 LCP_MAX_PIVOTS = 1000      # Murty's method: pivots before giving up (finite for P-matrices)
 LCP_TOL = 1e-14            # relative tolerance of the complementarity check

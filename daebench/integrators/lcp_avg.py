@@ -25,7 +25,7 @@ not the Runge–Kutta step.
 
 LCP solver. The source solves the LCP "through its equivalent nonlinear equations" and
 names no NCP function. Here it is solved exactly by Murty's least-index principal
-pivoting (:func:`daebench.capture.lcp.solve_lcp`, shared with the event-capturing
+pivoting (:func:`daebench.core.lcp.solve_lcp`, shared with the event-capturing
 steppers; one contact in closed form, f = max(0, −b/A)): A is
 symmetric positive definite for independent contact Jacobians, so the solution is unique
 and any exact method — a semismooth Newton on min(ḡ, f) = 0 or on Fischer–Burmeister
@@ -84,10 +84,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from daebench.contact import Impact
+from daebench.core.contact import Impact
 from daebench.integrators.base import Advance, Capabilities, IntegratorError, Setting, STEP_SETTINGS
 from daebench.integrators.compiled import MAX_STEPS_PER_CALL, CompiledIntegrator
-from daebench.problem import Problem
+from daebench.core.problem import Problem
 from daebench.stepping import control, lcpavg as _lcpavg
 from daebench.stepping.methods import N_COUNTERS
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from daebench.capture import moreau as _mj
+from daebench.stepping import moreau as _mj
 from daebench.integrators.base import Capabilities, Setting
 from daebench.integrators.capturing import CAPTURE_STEP_SETTINGS, CapturingIntegrator
 
@@ -14,7 +14,7 @@ class MoreauJean(CapturingIntegrator):
     level with Newton's impact law, unilateral constraint activated by the gap predicted
     over the step (event-capturing; the driver locates no impact).
 
-    One step (formulation and solver: :mod:`daebench.capture.moreau`)::
+    One step (formulation and solver: :mod:`daebench.stepping.moreau`)::
 
         v_{k+1} − v_k = h [(1−θ) a_k + θ a_{k+1}] + M⁻¹ g_qᵀ P,   a = M(q)⁻¹ Q(t, q, v)
         q_{k+1} = q_k + h [(1−θ) v_k + θ v_{k+1}]

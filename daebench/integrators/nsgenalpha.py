@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from daebench.capture import nsgenalpha as _ns
+from daebench.stepping import nsgenalpha as _ns
 from daebench.integrators.base import Capabilities, Setting
 from daebench.integrators.capturing import CAPTURE_STEP_SETTINGS, CapturingIntegrator
 from daebench.integrators.family import chung_hulbert
@@ -15,7 +15,7 @@ class NonsmoothGeneralizedAlpha(CapturingIntegrator):
     impacts and a position correction for the gaps, with contact unknowns at three levels
     (position-level percussion κ, impulse Λ, force λ) — event-capturing, no penetration.
 
-    Formulation, solver and the paper's equation numbers: :mod:`daebench.capture.nsgenalpha`.
+    Formulation, solver and the paper's equation numbers: :mod:`daebench.stepping.nsgenalpha`.
     Coefficients: the Newmark family's Chung–Hulbert set for ρ∞
     (:func:`daebench.integrators.family.chung_hulbert`), in the acceleration-averaging
     convention of Arnold & Brüls (2007) that the paper uses: the equations of motion hold at

@@ -7,8 +7,11 @@ register in its pyproject.toml, a plugin package in its own. Each model module d
 * ``build(scene) -> MechanicalSystem`` — assemble only the effects the scene turns on;
 * optionally ``check_scene(scene)`` — cross-key validation raising ``SceneError``.
 
-Its system gives its physics as compiled kernels (:mod:`daebench.kernels`, subclass
-:class:`daebench.system.KernelSystem`) or as plain Python methods.
+Its system gives its physics as compiled kernels (:mod:`daebench.core.kernels`, subclass
+:class:`daebench.core.system.KernelSystem`) or as plain Python methods.
+
+May import: :mod:`daebench.core` and :mod:`daebench.stepping` (a model may own a
+model-specific stepper part, as the planar bodies' interactive-mode statics).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import importlib
 from importlib.metadata import entry_points
 from types import ModuleType
 
-from daebench.params import did_you_mean
+from daebench.core.params import did_you_mean
 
 ENTRY_POINT_GROUP = "daebench.models"
 

@@ -32,9 +32,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench.dispatch import generic
-from daebench.integrators.central import CentralMethod
-from daebench.linalg import lu_factor, lu_solve
+from daebench.core.dispatch import generic
+from daebench.stepping.central import CentralMethod
+from daebench.core.linalg import lu_factor, lu_solve
 from daebench.models import _planar_kernels as pk
 from daebench.models._planar_mesh import smallest_element  # noqa: F401  (part of this module's interface, for imm)
 from daebench.stepping import methods

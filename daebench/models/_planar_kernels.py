@@ -1,5 +1,5 @@
 """Compiled kernels of planar elastic bodies on floating frames with node-to-segment
-contact (:mod:`daebench.kernels` interface; the model is :mod:`daebench.models.planar`).
+contact (:mod:`daebench.core.kernels` interface; the model is :mod:`daebench.models.planar`).
 
 Coordinates: q = absolute positions (x, y) of every node of every flexible body,
 node i ↔ q[2i], q[2i + 1]. Each body b carries a floating frame with fixed-node
@@ -46,8 +46,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import kernels
-from daebench.kernels import fd_step
+from daebench.core import kernels
+from daebench.core.kernels import fd_step
 
 
 class PlanarData(NamedTuple):

@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from daebench.params import Param
-from daebench.system import MechanicalSystem
+from daebench.core.params import Param
+from daebench.core.system import MechanicalSystem
 
 DESCRIPTION = "Andrews' squeezing mechanism (IVP test set): 7 bodies, 6 constraints, index 3, t in [0, 0.03]"
 

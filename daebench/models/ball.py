@@ -27,11 +27,11 @@ from typing import Callable, NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import kernels
-from daebench.contact import make_contact_law
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
-from daebench.system import KernelSystem
+from daebench.core import kernels
+from daebench.core.contact import make_contact_law
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
+from daebench.core.system import KernelSystem
 
 DESCRIPTION = "point mass striking a wall: bouncing ball (restitution e) or spring–wall oscillator; exact solutions"
 
@@ -56,7 +56,7 @@ SCHEMA: dict[str, Param] = {
 
 
 class BallData(NamedTuple):
-    """Kernel data (:mod:`daebench.kernels`)."""
+    """Kernel data (:mod:`daebench.core.kernels`)."""
 
     m: float
     g: float

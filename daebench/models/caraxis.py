@@ -35,11 +35,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import kernels
+from daebench.core import kernels
 from daebench.models._ivpset import constraint_power, consistent_multipliers
-from daebench.params import Param
-from daebench.scene import Scene
-from daebench.system import KernelSystem
+from daebench.core.params import Param
+from daebench.core.scene import Scene
+from daebench.core.system import KernelSystem
 
 DESCRIPTION = "car axis on a bumpy road (IVP test set): 4 coordinates, 2 constraints (one moving), index 3"
 
@@ -61,7 +61,7 @@ NAMES = ("xl", "yl", "xr", "yr")
 
 
 class CarAxisData(NamedTuple):
-    """Kernel data of the car axis (:mod:`daebench.kernels`)."""
+    """Kernel data of the car axis (:mod:`daebench.core.kernels`)."""
 
     k: float      # body mass M ε²/2
     L: float
@@ -200,7 +200,7 @@ def build(scene: Scene) -> CarAxis:
 
 def check_scene(scene: Scene) -> None:
     """The road point must stay on the axis circle: r < L."""
-    from daebench.scene import SceneError
+    from daebench.core.scene import SceneError
 
     if scene["caraxis.bump_height"] >= scene["caraxis.length"]:
         raise SceneError("scene key 'caraxis.bump_height' must be smaller than 'caraxis.length' "

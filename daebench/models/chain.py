@@ -41,10 +41,10 @@ from typing import Iterable
 
 import numpy as np
 
-from daebench.contact import DAMPING_LAWS, HertzLaw, make_contact_law
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
-from daebench.system import MechanicalSystem
+from daebench.core.contact import DAMPING_LAWS, HertzLaw, make_contact_law
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
+from daebench.core.system import MechanicalSystem
 
 DESCRIPTION = "two spring-mass chains (3 + 3 masses) striking each other: Hertz/penalty/constraint/LCP contact"
 
@@ -202,7 +202,7 @@ def effective_restitution(impacts: Iterable, episode: int = 0) -> float:
 
     Parameters
     ----------
-    impacts : iterable of :class:`daebench.simulate.Impact`
+    impacts : iterable of :class:`daebench.driver.simulate.Impact`
         ``RunResult.impacts`` (continuous laws: ġ⁻ at first touch, ġ⁺ at separation;
         constraint law: before/after the impact map) or the ``impacts`` list of the
         ``lcp`` integrator (ġ at the start of the first and the end of the last step

@@ -64,8 +64,8 @@ from typing import NamedTuple, Sequence
 import numpy as np
 from numba import njit
 
-from daebench import kernels
-from daebench.system import KernelSystem
+from daebench.core import kernels
+from daebench.core.system import KernelSystem
 
 
 class FrameData(NamedTuple):

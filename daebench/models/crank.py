@@ -42,11 +42,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import kernels
+from daebench.core import kernels
 from daebench.models._ivpset import constraint_power
-from daebench.params import Param
-from daebench.scene import Scene
-from daebench.system import KernelSystem
+from daebench.core.params import Param
+from daebench.core.scene import Scene
+from daebench.core.system import KernelSystem
 
 DESCRIPTION = "Simeon's slider crank with an elastic rod (IVP test set): 7 coordinates, 3 constraints, driven"
 

@@ -36,10 +36,10 @@ from typing import Iterable
 import numpy as np
 import pandas as pd
 
-from daebench.contact import DAMPING_LAWS, make_contact_law
+from daebench.core.contact import DAMPING_LAWS, make_contact_law
 from daebench.models.corotational import Frame
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
 
 DESCRIPTION = "flexible double pendulum (co-rotational beams) falling onto a smooth rigid foundation"
 

@@ -60,17 +60,17 @@ from typing import NamedTuple
 
 from numba import njit
 
-from daebench import kernels
-from daebench.contact import DAMPING_LAWS, make_contact_law
+from daebench.core import kernels
+from daebench.core.contact import DAMPING_LAWS, make_contact_law
 from daebench.models import _hubbeam_jacobians as hj
 from daebench.models import _hubbeam_kernels as kern
 from daebench.models.meshfree import (MAX_INFLUENCE, MAX_NODES, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE,
                                        MIN_INFLUENCE, meshfree_basis)
 from daebench.models.shapes import (FEM_POINTS_PER_ELEMENT, MAX_ELEMENTS, MAX_MODES, MODE_PANELS,
                                      MODE_POINTS_PER_PANEL, ShapeTables, fem_basis, modal_basis, tabulate)
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
-from daebench.system import KernelSystem
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
+from daebench.core.system import KernelSystem
 
 #: discretization.kind → shape builder (length, n, axial, **options) -> ShapeBasis
 BUILDERS = {"modes": modal_basis, "fem": fem_basis, "meshfree": meshfree_basis}
@@ -135,7 +135,7 @@ SCHEMA: dict[str, Param] = {
 }
 
 
-# -- kernel data and its registration (daebench.kernels) ---------------------------------------
+# -- kernel data and its registration (daebench.core.kernels) ---------------------------------------
 class HubBeamData(NamedTuple):
     """Tables and parameters of one hub–beam scene (point-contiguous, see the module
     docstring); ``work`` and ``G1`` are scratch."""
@@ -229,7 +229,7 @@ def build(scene: Scene) -> "HubBeam":
 
 
 class HubBeam(KernelSystem):
-    """Hub–beam :class:`~daebench.system.KernelSystem`; see the module docstring. Its
+    """Hub–beam :class:`~daebench.core.system.KernelSystem`; see the module docstring. Its
     physics is the kernels of :class:`HubBeamData`; the protocol methods derive from them."""
 
     def __init__(self, scene: Scene):

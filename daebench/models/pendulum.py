@@ -25,10 +25,10 @@ from typing import NamedTuple
 
 from numba import njit
 
-from daebench import kernels
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
-from daebench.system import KernelSystem
+from daebench.core import kernels
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
+from daebench.core.system import KernelSystem
 
 DESCRIPTION = "rigid pendulum in Cartesian coordinates (index-3 DAE, exact energy conservation)"
 
@@ -46,7 +46,7 @@ SCHEMA: dict[str, Param] = {
 
 
 class PendulumData(NamedTuple):
-    """Kernel data of the pendulum (:mod:`daebench.kernels`)."""
+    """Kernel data of the pendulum (:mod:`daebench.core.kernels`)."""
 
     m: float
     l: float

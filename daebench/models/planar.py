@@ -31,12 +31,12 @@ from typing import Callable
 
 import numpy as np
 
-from daebench.contact import make_contact_law
+from daebench.core.contact import make_contact_law
 from daebench.models import _planar_imm, _planar_kernels as pk
 from daebench.models._planar_mesh import Mesh2D, assemble
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
-from daebench.system import KernelSystem
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
+from daebench.core.system import KernelSystem
 
 CONTACT_LAWS = ("constraint", "penalty", "complementarity")
 

@@ -33,8 +33,8 @@ import numpy as np
 from daebench.models._planar_mesh import graded, rectangle, rounded_bar
 from daebench.models.planar import (CONTACT_SCHEMA, Body, Layout, PlanarBodies, Surface, check_contact,
                                     hertz_line_halfwidth)
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
 
 DESCRIPTION = "steel rod with a round tip strikes a free aluminium plate strip (planar FE analog of seed 001's test)"
 

@@ -22,8 +22,8 @@ import numpy as np
 
 from daebench.models._planar_mesh import graded, rectangle
 from daebench.models.planar import CONTACT_SCHEMA, Body, Layout, PlanarBodies, Surface, check_contact
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
 
 DESCRIPTION = "elastic rod (planar FE, lumped mass) striking a rigid wall end-on: exact 2L/c, Z·v0"
 

@@ -31,8 +31,8 @@ import numpy as np
 from daebench.models._planar_mesh import rounded_bar
 from daebench.models.planar import (CONTACT_SCHEMA, Body, Layout, PlanarBodies, Surface, check_contact,
                                     hertz_line_halfwidth)
-from daebench.params import Param
-from daebench.scene import Scene, SceneError
+from daebench.core.params import Param
+from daebench.core.scene import Scene, SceneError
 
 DESCRIPTION = "round-headed PVC slider launched at 20 m/s, 10 deg into a smooth slot (planar FE): multi-point impacts"
 

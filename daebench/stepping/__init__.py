@@ -8,4 +8,7 @@
 * :mod:`.runner` — one loop for every stepper: many steps per call, fixed or adaptive;
 * :mod:`.newmark` and :mod:`.abm` — the built-in steppers (Newmark family: Newmark,
   HHT-α, generalized-α; Adams–Bashforth–Moulton 4 with Baumgarte stabilization).
+
+May import: :mod:`daebench.core` only — steppers know the kernel interface, never a
+model or an integrator class.
 """

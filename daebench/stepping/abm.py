@@ -2,7 +2,7 @@
 compiled stepper (:mod:`daebench.stepping.methods`).
 
 Each right-hand side solves [[M, C_qᵀ], [C_q, 0]] [q̈; λ] = [Q; γ − 2δ(C_q v + C_t) − ε²C]
-(:func:`daebench.phase.solve_augmented`) and y = (q, v) advances with ẏ = (v, q̈): AB4
+(:func:`daebench.core.phase.solve_augmented`) and y = (q, v) advances with ẏ = (v, q̈): AB4
 predictor, evaluate, AM4 corrector, evaluate — two right-hand sides per step. After a
 (re)start the history f_{n−3..n} is built by ``N_START`` classical RK4 steps; a step
 shorter than the method's h (landing on t_stop) is an RK4 step of that size, after which
@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import phase
+from daebench.core import phase
 from daebench.stepping import control, methods
 from daebench.stepping.methods import C_LU, C_RES
 

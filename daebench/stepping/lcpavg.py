@@ -8,7 +8,7 @@ M(q) a_free = Q(t, q, v); per contact i: g_i, row G_i = ∂g_i/∂q, γ_i (g̈ =
     b_i = g_i + (h/2) G_i v + (h²/6)(G_i a_free − γ_i),   A = (h²/6) G M⁻¹ Gᵀ,
     0 ≤ f ⟂ A f + b ≥ 0,   q̈ = a_free + M⁻¹ Gᵀ f,
 
-solved by Murty's principal pivoting (:func:`daebench.capture.lcp.solve_lcp`); when every
+solved by Murty's principal pivoting (:func:`daebench.core.lcp.solve_lcp`); when every
 b_i ≥ 0 the answer f = 0 is immediate (no M⁻¹Gᵀ needed).
 
 Bookkeeping (in ``accept``, on the accepted step's stage samples, in time order — the
@@ -29,9 +29,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import kernels, phase
-from daebench.capture.lcp import LCP_MAX_PIVOTS, LcpWork, lcp_work, solve_lcp
-from daebench.linalg import lu_factor, lu_solve
+from daebench.core import kernels, phase
+from daebench.core.lcp import LCP_MAX_PIVOTS, LcpWork, lcp_work, solve_lcp
+from daebench.core.linalg import lu_factor, lu_solve
 from daebench.stepping import control, methods
 from daebench.stepping.methods import C_LU, C_RES
 

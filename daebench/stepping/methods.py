@@ -1,6 +1,6 @@
 """The stepper interface: what a method's data class implements to run in
 :func:`daebench.stepping.runner.run_phase` (and so under the event-driven driver, fixed
-or adaptive, compiled) — the counterpart for methods of :mod:`daebench.kernels`.
+or adaptive, compiled) — the counterpart for methods of :mod:`daebench.core.kernels`.
 
 A method is two NamedTuples of its own: its *data* (coefficients, settings: fixed for
 a run) and its *workspace* (history and scratch arrays: changed in place). It
@@ -17,7 +17,7 @@ registers three functions for its data class::
         The step from ``prev`` to ``cur`` of size h was accepted: update the history.
 
 ``cur``, ``new`` and ``prev`` are :class:`StateArrays`; ``ph`` is the phase
-(:class:`daebench.phase.PhaseData`) through which the model is evaluated; ``cnt`` is
+(:class:`daebench.core.phase.PhaseData`) through which the model is evaluated; ``cnt`` is
 an int64 array of work counters (:data:`C_NEWTON`, …) the method adds to.
 """
 
@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from daebench.dispatch import generic
+from daebench.core.dispatch import generic
 
 C_NEWTON, C_LU, C_RES, C_JAC = range(4)
 N_COUNTERS = 4

@@ -77,8 +77,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import phase
-from daebench.linalg import lu_solve
+from daebench.core import phase
+from daebench.core.linalg import lu_solve
 from daebench.stepping import control, methods
 from daebench.stepping.methods import C_NEWTON, C_RES
 from daebench.stepping.newmark_matrix import ST_HOLD, ST_LU, ST_LUH, ST_PREV, factor, uses_hM, weights

@@ -7,8 +7,8 @@ import math
 
 from numba import njit
 
-from daebench import phase
-from daebench.linalg import lu_factor
+from daebench.core import phase
+from daebench.core.linalg import lu_factor
 from daebench.stepping.methods import C_JAC, C_LU
 
 ST_LU, ST_LUH, ST_PREV, ST_HOLD = range(4)  # ws.st: LU valid, h of the LU, previous step known, its h

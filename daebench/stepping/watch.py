@@ -1,6 +1,6 @@
 """Which step the event-driven driver must see — the one rule, for every integrator.
 
-The driver (:mod:`daebench.simulate`) watches, after every accepted step, for a contact
+The driver (:mod:`daebench.driver.simulate`) watches, after every accepted step, for a contact
 closing, a closed contact turning tensile, an output time, the end time and a
 non-finite state. A compiled runner that takes many steps per call stops after the
 first step with any of these and hands it back; for every earlier ("quiet") step it
@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import kernels, phase
+from daebench.core import kernels, phase
 
 GAP_BAND = 1e-9  # m
 

@@ -47,7 +47,7 @@ def _timed_run(args: Sequence[str], env: dict[str, str], timeout: float) -> tupl
     """Wall time, time stamps of every output line, return code."""
     stamps: list[float] = []
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "daebench.cli", *args], env=env, stdout=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, "-m", "daebench.cli.app", *args], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
     def follow(stream) -> None:

@@ -2,7 +2,7 @@
 + impact map, driver), PFM (penalty) and IMM (interactive mode) — on the planar FE cases
 ``rod-wall``, ``slider-slot`` and ``rod-plate``, scored from ordinary run records.
 
-Every run goes through :func:`daebench.runner.run_scene` (the harness's path: history,
+Every run goes through :func:`daebench.harness.runner.run_scene` (the harness's path: history,
 impacts, energy residual, constraint residuals); this module only reads the records:
 
 * :func:`contact_window` — first touch to last release, from the run's contact
@@ -32,10 +32,11 @@ import numpy as np
 import pandas as pd
 
 from daebench.integrators.base import Integrator
-from daebench.runner import make_integrator, run_scene
-from daebench.scene import Scene, load_scene
+from daebench.harness.runner import make_integrator, run_scene
+from daebench.core.scene import Scene
 
 #: the treatments: (contact.law, default integrator)
+from daebench.models.scenes import load_scene
 TREATMENTS = {"ACM": ("constraint", "hht"), "PFM": ("penalty", "central"), "IMM": ("complementarity", "imm")}
 
 

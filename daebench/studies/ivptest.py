@@ -24,8 +24,9 @@ from typing import Any
 import numpy as np
 
 from daebench.models import build_system
-from daebench.runner import make_integrator, run_scene
-from daebench.scene import Scene, load_scene
+from daebench.harness.runner import make_integrator, run_scene
+from daebench.core.scene import Scene
+from daebench.models.scenes import load_scene
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 Physica Sinica 2017): Table 1 beside the published seconds,
 and one figure plus one computed verdict per claim 1–7.
 
-The runs are ordinary sweep rows (:func:`daebench.bench.execute`), so they are scored
+The runs are ordinary sweep rows (:func:`daebench.harness.bench.execute`), so they are scored
 and never lost; their histories are kept under ``<out>/runs/`` for the figures. Each
 verdict is a sentence with the number it rests on, computed from this run's data —
 "supported", "not supported" or "not testable here" (e.g. N = 9 is not in --quick), or
@@ -20,9 +20,10 @@ from typing import Any
 
 import pandas as pd
 
-from daebench import bench, provenance
-from daebench.runner import results_dir
-from daebench.scene import Scene, load_scene
+from daebench.harness import bench, provenance
+from daebench.harness.runner import results_dir
+from daebench.core.scene import Scene
+from daebench.models.scenes import load_scene
 
 SCENE = "beam-impact"
 BASE_OBSERVABLES = ["theta_deg", "omega", "tip_x", "tip_y", "tip_w2", "gap"]
@@ -146,7 +147,7 @@ def run_paper(quick: bool = False, jobs: int = 1, out: str | Path | None = None,
     if run_cap is None and quick:
         run_cap = QUICK_RUN_CAP
     if not quick and variant not in VARIANTS:
-        from daebench.params import ParamError
+        from daebench.core.params import ParamError
         raise ParamError(f"unknown paper variant '{variant}'; choose one of {', '.join(VARIANTS)}")
     p = Protocol.quick() if quick else VARIANTS[variant]()
     folder = Path(out) if out is not None else results_dir() / "paper" / p.name

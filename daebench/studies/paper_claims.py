@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from daebench import metrics, plots
+from daebench.harness import metrics, plots
 from daebench.studies.paper import BAUMGARTE, HHT_ALPHAS, PUBLISHED_TABLE1, table1
 from daebench.studies.paper_figures import _fig_cost, _fig_difference, _fig_series
 

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from daebench import metrics, plots
+from daebench.harness import metrics, plots
 
 
 def _fig_series(hm, col, stem, prov, title, logy=False, ylabel=None) -> list[Path]:

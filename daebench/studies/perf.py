@@ -44,9 +44,9 @@ from typing import Any
 
 import numpy as np
 
-from daebench import provenance
-from daebench.runner import results_dir, run_scene
-from daebench.scene import load_scene
+from daebench.harness import provenance
+from daebench.harness.runner import results_dir, run_scene
+from daebench.models.scenes import load_scene
 from daebench.studies import coldstart, eventcapture
 from daebench.studies.perf_bounds import adaptive, resolution_bound
 from daebench.studies.perf_common import PUBLISHED_TABLE1_TOTAL_S, PerfSettings, _timed
@@ -68,7 +68,7 @@ def compile_time() -> dict[str, float]:
 
 
 def table1(s: PerfSettings) -> dict[str, Any]:
-    from daebench import bench
+    from daebench.harness import bench
     from daebench.studies import paper
 
     p = paper.Protocol(t_end=s.table_t_end)

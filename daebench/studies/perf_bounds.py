@@ -8,11 +8,11 @@ from typing import Any
 
 import numpy as np
 
-from daebench import metrics
-from daebench.guards import RunTimeout, deadline
-from daebench.references import load_reference
-from daebench.runner import run_scene
-from daebench.scene import load_scene
+from daebench.harness import metrics
+from daebench.harness.guards import RunTimeout, deadline
+from daebench.harness.references import load_reference
+from daebench.harness.runner import run_scene
+from daebench.models.scenes import load_scene
 from daebench.studies.perf_common import THETA_TARGET_RAD, PerfSettings, _timed
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from daebench import provenance
+from daebench.harness import provenance
 
 
 def _f(x, fmt=".3g"):

@@ -5,7 +5,7 @@ continuous contact laws and the event-driven driver.
   windows h of the order of the ≈ 1.5 ms Hertz contact, and Hertz with Flores (and
   Lankarani–Nikravesh) damping over the restitutions, run by IDA. Per run: first contact,
   duration, approach speed, computed restitution, energy lost, peak force, the *unclipped*
-  Flores force (the law clips at 0 — :func:`daebench.phase.law_force` — so the recorded
+  Flores force (the law clips at 0 — :func:`daebench.core.phase.law_force` — so the recorded
   ``contact_force_0`` can never show the negative force the source reports), m3's largest
   distance from the LCP run at h = 1 ms, and the energy balance.
 * :func:`pendulum_table` — Example 2 (``double-pendulum``): event-driven IDA (constraint
@@ -26,7 +26,7 @@ import daebench
 from daebench.integrators.lcp_avg import contact_forces
 from daebench.models import build_system
 from daebench.models.doublependulum import contact_outcome
-from daebench.problem import Problem
+from daebench.core.problem import Problem
 
 CHAIN_WINDOWS = (1e-4, 5e-4, 1e-3, 2e-3)
 CHAIN_RESTITUTIONS = (0.1, 0.2, 0.3, 0.5, 0.8, 1.0)

@@ -4,7 +4,7 @@ Measured
 --------
 For one integrator setting and one scene, the largest step h for which a whole trial run
 *completes* — reaches its end with its energy balance within the driver's divergence
-threshold (:data:`daebench.simulate.DIVERGENCE_ENERGY` × the energy scale; the run's
+threshold (:data:`daebench.driver.simulate.DIVERGENCE_ENERGY` × the energy scale; the run's
 status) — found by bisection in log h between ``h_min`` and ``h_max`` until the bracket
 [h_stable, h_unstable] is narrower than a factor 1 + ``tol``. Bisection assumes one
 boundary (stable below, unstable above); the trial length (:func:`trial_length`, 80
@@ -52,8 +52,8 @@ import pandas as pd
 import scipy.linalg as sl
 
 from daebench.models import build_system
-from daebench.scene import Scene
-from daebench.simulate import DIVERGENCE_ENERGY
+from daebench.core.scene import Scene
+from daebench.driver.simulate import DIVERGENCE_ENERGY
 
 MIN_STEPS = 100         # the largest step tried gives a trial this many steps (hω_max ≤ 5 at 80 periods)
 OMEGA_GRID = np.concatenate([np.linspace(1e-3, 4.0, 4000), np.geomspace(4.0, 1e7, 600)[1:]])
@@ -214,7 +214,7 @@ def linearize(scene: Scene) -> Linearization:
     stiffness of M(q) q̈ − Q + C_qᵀλ at the start's consistent (q̈0, λ0):
     K = ∂(M q̈0)/∂q − ∂Q/∂q + ∂(C_qᵀλ0)/∂q (symmetric part), restricted to the null space of C_q
     (a pendulum's stiffness is all in the last term)."""
-    from daebench.problem import Problem
+    from daebench.core.problem import Problem
 
     sysm = build_system(scene)
     q0, v0 = sysm.initial_state()
@@ -290,8 +290,8 @@ def run_is_stable(scene: Scene, integrator: str, settings: dict[str, Any], h: fl
                   run_cap: float | None = None) -> tuple[bool, str]:
     """(completed?, status) of one fixed-step run at h (h_contact = h) to ``t_trial`` (the
     scene's t_end when None)."""
-    from daebench.guards import RunTimeout
-    from daebench.runner import make_integrator, run_scene
+    from daebench.harness.guards import RunTimeout
+    from daebench.harness.runner import make_integrator, run_scene
 
     integ = make_integrator(integrator, {**settings, "h": h, "h_contact": h})
     if t_trial is not None:
@@ -374,7 +374,7 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
     interval_strict, interval [hω], h_pred, h_stable, h_unstable [s], unstable_status,
     runs, t_trial [s], agrees (h_pred within one bisection step of the measured bracket).
     """
-    from daebench.runner import make_integrator
+    from daebench.harness.runner import make_integrator
 
     scenes = []
     for n in (list(n_values) if n_values else [None]):

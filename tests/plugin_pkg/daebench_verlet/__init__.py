@@ -6,7 +6,7 @@ so position and velocity drift (no stabilization). For testing the plugin path.
 """
 
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator
-from daebench.system import State
+from daebench.core.system import State
 
 
 class Verlet(Integrator):

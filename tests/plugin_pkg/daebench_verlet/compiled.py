@@ -8,7 +8,7 @@ The step (index-1 form, as :class:`daebench_verlet.Verlet`)::
 
 is a compiled stepper (``daebench.stepping.methods``: a data and a workspace NamedTuple and
 three registered functions); the model is reached only through the phase
-(``daebench.phase.solve_augmented`` calls the model's kernels), so the plugin imports no
+(``daebench.core.phase.solve_augmented`` calls the model's kernels), so the plugin imports no
 model and runs compiled on hub–beam, pendulum, Andrews or any kernel model. Order 2,
 explicit, fixed step.
 """
@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from daebench import phase
+from daebench.core import phase
 from daebench.integrators.base import STEP_SETTINGS, Capabilities
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.stepping import methods

@@ -1,0 +1,53 @@
+"""`daebench compare CASE`: every applicable integrator at the case's protocol, scored
+against the reference, one table and the work-precision figure (:mod:`daebench.harness.compare`)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Optional
+
+import typer
+
+from daebench.core.params import ParamError
+
+
+def register(app: typer.Typer) -> None:
+    """Add `daebench compare` to ``app``."""
+
+    @app.command("compare")
+    def compare(case: str = typer.Argument(..., help="scene name or path to a .toml file"),
+                set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
+                jobs: int = typer.Option(2, "--jobs", "-j", help="worker processes"),
+                reference: str = typer.Option("compute", "--reference",
+                                              help="compute (when missing, with a progress bar) | require | auto"),
+                run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
+                out: Optional[str] = typer.Option(None, "--out",
+                                                  help="output folder (default results/compare/<case>-<hash>)"),
+                json_out: bool = typer.Option(False, "--json", help="print the table as JSON records only")) -> None:
+        """Run every applicable integrator at the case's protocol (daebench/harness/compare.py: PROTOCOLS),
+        score each run against the reference, print one table and write the work-precision figure."""
+        from daebench.harness import compare as C
+        from daebench.cli import textout
+        from daebench.cli.common import load_scene_or_exit, fail, out as say
+
+        sc = load_scene_or_exit(case, set_)
+        t0 = time.perf_counter()
+        try:
+            res = C.run_compare(sc, jobs=jobs, out=out, reference=reference, run_cap=run_cap, progress=True)
+        except ParamError as exc:
+            fail(str(exc))
+        if json_out:
+            sys.stdout.write(C.as_json(res) + "\n")
+        else:
+            cols, rows = C.table_rows(res.table)
+            for line in textout.table_lines(cols, rows, title=f"{sc.name}: {res.protocol.why}"):
+                say(line)
+            for line in C.summary_lines(res):
+                say(line)
+            say(f"written: {', '.join(str(p) for p in res.files if p.suffix in ('.png', '.csv'))}")
+            say(f"wall time of the comparison: {time.perf_counter() - t0:.1f} s")
+        bad = res.table[res.table["status"].isin(("error", "timeout", "crashed"))]
+        if len(bad):
+            sys.stderr.write(f"{len(bad)} run(s) gave no verdict; see the 'message' column\n")
+            raise typer.Exit(1)

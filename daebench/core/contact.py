@@ -1,0 +1,206 @@
+"""Contact laws and the impact map.
+
+Sign conventions: a contact point has gap g ≥ 0 (open), penetration δ = −g > 0
+(continuous laws only), δ̇ = −ġ. A continuous law returns the normal force F ≥ 0,
+which acts on the system as ``g_qᵀ F`` (it pushes the gap open).
+
+Laws
+----
+``constraint``  unilateral constraint (index-3 DAE while closed) + Newton impact law
+                M(v⁺ − v⁻) = g_qᵀ Λ,  g_q v⁺ = −e g_q v⁻.
+``hertz``       F = K δ^{3/2} (1 + χ δ̇), χ from the damping law and the approach
+                speed v₀ recorded when the gap closed (Lankarani & Nikravesh 1990;
+                Hunt & Crossley 1975; Flores et al. 2011). F is clipped at 0 (no
+                adhesion) and the clipped work is booked as dissipation.
+``penalty``     F = k δ + c δ̇ (clipped at 0).
+
+The force formulas exist once, compiled, in :mod:`daebench.core.phase` (``law_force``);
+the Python methods here evaluate them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from daebench.core.phase import LAW_HERTZ, LAW_PENALTY, law_elastic, law_force, law_potential
+
+DAMPING_LAWS = ("lankarani-nikravesh", "hunt-crossley", "flores", "none")
+APPROACH_SPEED_MIN = 1e-3  # m/s: the hysteresis factors scale as 1/v0; a grazing or resting
+                           # contact (v0 → 0) gets the damping of a 1 mm/s impact instead of ∞
+
+
+def hysteresis_factor(law: str, e: float, v0: float) -> float:
+    """χ in F = K δⁿ (1 + χ δ̇) for an approach speed v0 > 0 and restitution e."""
+    if law == "none" or e >= 1.0:
+        return 0.0
+    if law == "lankarani-nikravesh":
+        return 3.0 * (1.0 - e * e) / (4.0 * v0)
+    if law == "hunt-crossley":
+        return 3.0 * (1.0 - e) / (2.0 * v0)
+    if law == "flores":
+        if e <= 0.0:
+            raise ValueError("the Flores damping law needs restitution e > 0")
+        return 8.0 * (1.0 - e) / (5.0 * e * v0)
+    raise ValueError(f"unknown damping law '{law}'; choose one of {', '.join(DAMPING_LAWS)}")
+
+
+class ContactLaw:
+    """Base: a law applied at each of a system's contact points. Immutable parameters;
+    what changes within a run (which contacts are engaged, the approach speed of the
+    current episode) is phase data (:class:`daebench.core.problem.Problem`)."""
+
+    name = ""
+    continuous = False
+
+    def __init__(self, restitution: float, n_contacts: int = 1):
+        self.restitution = float(restitution)
+        self.n_contacts = int(n_contacts)
+
+    def chi(self, approach_speed: np.ndarray) -> np.ndarray:
+        """Hysteresis factor per contact for the episodes' approach speeds (0 where none)."""
+        return np.zeros(self.n_contacts)
+
+    def parameters(self) -> np.ndarray:
+        """[kind, K, exponent, c] as the compiled phase reads them (kind 0: no force)."""
+        return np.zeros(4)
+
+    def force(self, g: np.ndarray, gdot: np.ndarray, engaged: np.ndarray | None = None,
+              chi: np.ndarray | None = None) -> np.ndarray:
+        """Normal force per contact (engaged: all by default; χ: 0 by default)."""
+        engaged = np.ones(g.size, bool) if engaged is None else np.asarray(engaged, bool)
+        chi = np.zeros(g.size) if chi is None else np.asarray(chi, float)
+        law = self.parameters()
+        return np.array([law_force(law, bool(engaged[i]), float(chi[i]), float(g[i]), float(gdot[i]))
+                         for i in range(g.size)])
+
+    def potential(self, g: np.ndarray) -> float:
+        law = self.parameters()
+        return float(sum(law_potential(law, float(x)) for x in np.ravel(g)))
+
+    def dissipation_power(self, g: np.ndarray, gdot: np.ndarray, engaged: np.ndarray | None = None,
+                          chi: np.ndarray | None = None) -> float:
+        """Power into the system of the non-conservative part of the force (≤ 0)."""
+        engaged = np.ones(g.size, bool) if engaged is None else np.asarray(engaged, bool)
+        law = self.parameters()
+        F = self.force(g, gdot, engaged, chi)
+        elastic = np.array([law_elastic(law, bool(engaged[i]), float(g[i])) for i in range(g.size)])
+        return float(np.sum((F - elastic) * gdot))
+
+
+class ConstraintLaw(ContactLaw):
+    name = "constraint"
+    continuous = False
+
+
+class HertzLaw(ContactLaw):
+    name = "hertz"
+    continuous = True
+
+    def __init__(self, restitution: float, stiffness: float, damping: str = "lankarani-nikravesh",
+                 exponent: float = 1.5, n_contacts: int = 1):
+        super().__init__(restitution, n_contacts)
+        self.stiffness = float(stiffness)
+        self.damping = damping
+        self.exponent = float(exponent)
+        hysteresis_factor(damping, restitution, 1.0)  # validate early
+
+    def parameters(self) -> np.ndarray:
+        return np.array([LAW_HERTZ, self.stiffness, self.exponent, 0.0])
+
+    def chi(self, approach_speed: np.ndarray) -> np.ndarray:
+        v0 = np.asarray(approach_speed, float)
+        out = np.zeros(v0.size)
+        for i in np.flatnonzero(np.isfinite(v0) & (v0 > 0.0)):
+            out[i] = hysteresis_factor(self.damping, self.restitution, max(float(v0[i]), APPROACH_SPEED_MIN))
+        return out
+
+
+class PenaltyLaw(ContactLaw):
+    name = "penalty"
+    continuous = True
+
+    def __init__(self, restitution: float, stiffness: float, damping_coefficient: float, n_contacts: int = 1):
+        super().__init__(restitution, n_contacts)
+        self.stiffness = float(stiffness)
+        self.damping_coefficient = float(damping_coefficient)
+
+    def parameters(self) -> np.ndarray:
+        return np.array([LAW_PENALTY, self.stiffness, 1.0, self.damping_coefficient])
+
+
+def make_contact_law(law: str, restitution: float, n_contacts: int = 1, *, hertz_stiffness: float = 0.0,
+                     hertz_damping: str = "lankarani-nikravesh", penalty_stiffness: float = 0.0,
+                     penalty_damping: float = 0.0) -> ContactLaw:
+    if law == "constraint":
+        return ConstraintLaw(restitution, n_contacts)
+    if law == "hertz":
+        return HertzLaw(restitution, hertz_stiffness, hertz_damping, n_contacts=n_contacts)
+    if law == "penalty":
+        return PenaltyLaw(restitution, penalty_stiffness, penalty_damping, n_contacts)
+    raise ValueError(f"unknown contact law '{law}' (constraint | hertz | penalty)")
+
+
+@dataclass
+class Impact:
+    """One contact episode: an impact (constraint law), a penetration episode
+    (continuous laws), or an episode an integrator resolved itself."""
+
+    t: float
+    contact: int
+    vn_minus: float          # normal velocity ġ before (negative: approaching)
+    vn_plus: float           # after the impact (constraint law) or at separation (continuous laws)
+    energy_loss: float       # kinetic energy lost (constraint law) or dissipated in the episode
+    closed: bool = False     # the contact stayed closed after the impact
+    impulse: float = math.nan      # normal impulse of the impact or of the whole episode [N s]
+    t_end: float = math.nan        # end of the episode (separation), when known
+    min_gap: float = math.nan      # smallest gap during the episode (penetration < 0)
+    q: np.ndarray | None = field(default=None, repr=False)        # configuration at the impact
+    v_minus: np.ndarray | None = field(default=None, repr=False)  # velocities before / after
+    v_plus: np.ndarray | None = field(default=None, repr=False)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: v for k, v in asdict(self).items() if k not in ("q", "v_minus", "v_plus")}
+
+
+@dataclass
+class ImpactResult:
+    v_plus: np.ndarray
+    impulse: np.ndarray          # Λ for each impacting contact
+    vn_minus: np.ndarray         # g_q v⁻ per impacting contact (< 0: approaching)
+    vn_plus: np.ndarray
+    energy_loss: float           # T⁻ − T⁺ ≥ 0
+
+
+def impact_map(M: np.ndarray, Gq: np.ndarray, v_minus: np.ndarray, e: float,
+               Cb: np.ndarray | None = None) -> ImpactResult:
+    """Newton impact law for the contacts whose gap Jacobians are the rows of ``Gq``,
+    respecting bilateral velocity constraints ``Cb v = 0`` if given:
+
+        [M   Cbᵀ  −Gqᵀ] [v⁺]   [M v⁻     ]
+        [Cb   0    0  ] [μ ] = [0        ]
+        [Gq   0    0  ] [Λ ]   [−e Gq v⁻ ]
+
+    For one contact and no bilateral constraints the kinetic-energy loss is
+    ½ (1 − e²) (g_q v⁻)² / (g_q M⁻¹ g_qᵀ).
+    """
+    n = M.shape[0]
+    Gq = np.atleast_2d(Gq)
+    k = Gq.shape[0]
+    Cb = np.zeros((0, n)) if Cb is None else np.atleast_2d(Cb)
+    mb = Cb.shape[0]
+    A = np.zeros((n + mb + k, n + mb + k))
+    A[:n, :n] = M
+    A[:n, n:n + mb] = Cb.T
+    A[:n, n + mb:] = -Gq.T
+    A[n:n + mb, :n] = Cb
+    A[n + mb:, :n] = Gq
+    vn_minus = Gq @ v_minus
+    rhs = np.concatenate([M @ v_minus, np.zeros(mb), -e * vn_minus])
+    sol = np.linalg.solve(A, rhs)
+    v_plus = sol[:n]
+    loss = 0.5 * float(v_minus @ M @ v_minus - v_plus @ M @ v_plus)
+    return ImpactResult(v_plus, sol[n + mb:], vn_minus, Gq @ v_plus, loss)

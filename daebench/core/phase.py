@@ -1,0 +1,317 @@
+"""One smooth phase, compiled: the model's kernels plus the phase's active contact
+constraints and continuous contact forces (numba).
+
+Integrators see a *phase*: the model with a fixed set of closed contacts (constraint
+law) and a fixed set of engaged contacts (continuous laws), never a switch. Its data,
+:class:`PhaseData`, is built by :class:`daebench.core.problem.Problem` and fixed for the
+phase; the functions here are the only place where the phase is assembled from the
+model's kernels (:mod:`daebench.core.kernels`), for every integrator and for the Python
+protocol alike:
+
+* forces: Q = Q_model + Σ g_iᵀ F_i over engaged, penetrating contacts, F_i from the
+  contact law (:func:`law_force` — the one implementation of the laws' formulas);
+* constraints: the model's bilateral rows, then C = −g_i of each closed contact i, so
+  that with M q̈ + C_qᵀ λ = Q the multiplier λ_i ≥ 0 is the compressive contact force;
+* their Jacobians (contact force and ∂(C_qᵀλ)/∂q, ∂(C_q v)/∂q by central differences
+  with the one step rule :func:`daebench.core.kernels.fd_step`).
+
+Contact-law parameters ``law`` = [kind, K, exponent, c]: Hertz F = K δⁿ (1 + χ δ̇),
+penalty F = K δ + c δ̇, both clipped at 0 (no adhesion); δ = −g, χ per contact from the
+approach speed of the episode (:func:`daebench.core.contact.hysteresis_factor`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from daebench.core import kernels
+from daebench.core.kernels import fd_step
+from daebench.core.linalg import lu_factor, lu_solve
+
+LAW_NONE, LAW_HERTZ, LAW_PENALTY = 0, 1, 2
+
+
+class PhaseData(NamedTuple):
+    model: tuple            # the model's kernel data (a registered NamedTuple)
+    nb: int                 # bilateral constraints (rows 0 … nb − 1)
+    active: np.ndarray      # int64: closed contacts, constraint rows nb, nb + 1, …
+    law: np.ndarray         # float64[4]: kind, K, exponent, c
+    engaged: np.ndarray     # float64 per contact: 1 = its continuous force acts in this phase
+    chi: np.ndarray         # float64 per contact: hysteresis factor of the current episode
+    gq: np.ndarray          # float64[n] scratch: one gap-Jacobian row
+    work: np.ndarray        # float64[3n] scratch: contact-force differences
+
+
+# -- contact laws ------------------------------------------------------------------------
+@njit(cache=True)
+def law_force(law, engaged, chi, g, gdot):
+    """Normal force F ≥ 0 of a continuous law at gap g and gap rate ġ."""
+    kind = law[0]
+    delta = max(-g, 0.0)
+    if kind == LAW_HERTZ:
+        elastic = law[1] * delta ** law[2] if engaged else 0.0
+        return max(elastic * (1.0 + chi * (-gdot)), 0.0)
+    if kind == LAW_PENALTY:
+        F = law[1] * delta + law[3] * (-gdot)
+        return max(F, 0.0) if (engaged and delta > 0.0) else 0.0
+    return 0.0
+
+
+@njit(cache=True)
+def law_elastic(law, engaged, g):
+    """The conservative part of the force (its potential is :func:`law_potential`)."""
+    if not engaged:
+        return 0.0
+    delta = max(-g, 0.0)
+    if law[0] == LAW_HERTZ:
+        return law[1] * delta ** law[2]
+    if law[0] == LAW_PENALTY:
+        return law[1] * delta
+    return 0.0
+
+
+@njit(cache=True)
+def law_potential(law, g):
+    """Energy stored in the contact spring at gap g."""
+    delta = max(-g, 0.0)
+    if law[0] == LAW_HERTZ:
+        return law[1] * delta ** (law[2] + 1.0) / (law[2] + 1.0)
+    if law[0] == LAW_PENALTY:
+        return 0.5 * law[1] * delta * delta
+    return 0.0
+
+
+# -- forces ---------------------------------------------------------------------------------
+@njit(cache=True)
+def _contact_force(ph, i, q, v, gq):
+    """(g_i, F_i) at (q, v), g_q,i left in gq."""
+    g, _ = kernels.gap(ph.model, i, q, v, gq)
+    gdot = 0.0
+    for j in range(q.shape[0]):
+        gdot += gq[j] * v[j]
+    return g, law_force(ph.law, ph.engaged[i] != 0.0, ph.chi[i], g, gdot)
+
+
+@njit(cache=True)
+def mass_force(ph, t, q, v, M, Q):
+    """M(q) and the phase's force Q (model force + engaged contact forces)."""
+    kernels.mass_force(ph.model, t, q, v, M, Q)
+    if ph.law[0] != LAW_NONE:
+        gq = ph.gq
+        for i in range(ph.engaged.shape[0]):
+            if ph.engaged[i] != 0.0:
+                g, F = _contact_force(ph, i, q, v, gq)
+                if g < 0.0:
+                    for j in range(q.shape[0]):
+                        Q[j] += gq[j] * F
+
+
+@njit(cache=True)
+def force_jacobian(ph, t, q, v, Kq, Kv):
+    """∂Q/∂q, ∂Q/∂v of the phase's force: the model's kernel plus central differences of
+    each engaged, penetrating contact force g_iᵀF_i."""
+    kernels.force_jacobian(ph.model, t, q, v, Kq, Kv)
+    if ph.law[0] == LAW_NONE:
+        return
+    n = q.shape[0]
+    xp, gp, gm = ph.work[:n], ph.work[n:2 * n], ph.work[2 * n:3 * n]
+    for i in range(ph.engaged.shape[0]):
+        if ph.engaged[i] == 0.0:
+            continue
+        g0, _ = _contact_force(ph, i, q, v, gp)
+        if not g0 < 0.0:
+            continue
+        for wrt_v in (False, True):
+            x = v if wrt_v else q
+            K = Kv if wrt_v else Kq
+            for j in range(n):
+                dx = fd_step(x[j])
+                xp[:] = x
+                xp[j] = x[j] + dx
+                g1, F1 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gp)
+                xp[j] = x[j] - dx
+                g2, F2 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gm)
+                for r in range(n):
+                    fp = gp[r] * F1 if g1 < 0.0 else 0.0
+                    fm = gm[r] * F2 if g2 < 0.0 else 0.0
+                    K[r, j] = K[r, j] + (fp - fm) / (2.0 * dx)
+
+
+@njit(cache=True)
+def mass_jacobian_product(ph, q, a, K):
+    kernels.mass_jacobian_product(ph.model, q, a, K)
+
+
+# -- constraints ----------------------------------------------------------------------------
+@njit(cache=True)
+def constraints(ph, t, q, v, C, Cq, Ct, gam):
+    """Rows of the active constraints: bilateral, then C = −g of each closed contact."""
+    kernels.constraints(ph.model, t, q, v, C, Cq, Ct, gam)
+    r = ph.nb
+    gq = ph.gq
+    for c in ph.active:
+        g, gamma = kernels.gap(ph.model, c, q, v, gq)
+        C[r] = -g
+        for j in range(q.shape[0]):
+            Cq[r, j] = -gq[j]
+        Ct[r] = 0.0
+        gam[r] = -gamma
+        r += 1
+
+
+@njit(cache=True)
+def constraint_jacobian(ph, t, q, Cq, scratch_m, zeros_n):
+    """C_q only (``scratch_m``: length ≥ m, ``zeros_n``: a zero velocity)."""
+    constraints(ph, t, q, zeros_n, scratch_m, Cq, scratch_m, scratch_m)
+
+
+@njit(cache=True)
+def constraint_force_jacobian(ph, t, q, lam, K):
+    """∂(C_qᵀλ)/∂q at fixed λ, by central differences (n × n)."""
+    n = q.shape[0]
+    m = lam.shape[0]
+    Cq = np.empty((max(m, 1), n))
+    s = np.empty(max(m, 1))
+    zeros = np.zeros(n)
+    x = q.copy()
+    for j in range(n):
+        dx = fd_step(q[j])
+        x[j] = q[j] + dx
+        constraint_jacobian(ph, t, x, Cq, s, zeros)
+        for i in range(n):
+            acc = 0.0
+            for k in range(m):
+                acc += Cq[k, i] * lam[k]
+            K[i, j] = acc
+        x[j] = q[j] - dx
+        constraint_jacobian(ph, t, x, Cq, s, zeros)
+        for i in range(n):
+            acc = 0.0
+            for k in range(m):
+                acc += Cq[k, i] * lam[k]
+            K[i, j] = (K[i, j] - acc) / (2.0 * dx)
+        x[j] = q[j]
+
+
+@njit(cache=True)
+def velocity_constraint_jacobian(ph, t, q, v, K):
+    """∂(C_q v + C_t)/∂q at fixed v, by central differences (m × n)."""
+    n = q.shape[0]
+    m = K.shape[0]
+    C, Ct, gam = np.empty(max(m, 1)), np.empty(max(m, 1)), np.empty(max(m, 1))
+    Cq = np.empty((max(m, 1), n))
+    fp = np.empty(max(m, 1))
+    x = q.copy()
+    for j in range(n):
+        dx = fd_step(q[j])
+        for side in (1.0, -1.0):
+            x[j] = q[j] + side * dx
+            constraints(ph, t, x, v, C, Cq, Ct, gam)
+            for k in range(m):
+                acc = Ct[k]
+                for i in range(n):
+                    acc += Cq[k, i] * v[i]
+                if side > 0.0:
+                    fp[k] = acc
+                else:
+                    K[k, j] = (fp[k] - acc) / (2.0 * dx)
+        x[j] = q[j]
+
+
+@njit(cache=True)
+def constraint_residuals(ph, t, q, v, a, C, Cq, Ct, gam):
+    """(max|C|, max|C_q v + C_t|, max|C_q a − γ|) of the active constraints (NaN for the
+    last when ``a`` is empty)."""
+    n = q.shape[0]
+    m = C.shape[0]
+    constraints(ph, t, q, v, C, Cq, Ct, gam)
+    c0 = c1 = c2 = 0.0
+    for k in range(m):
+        cv = Ct[k]
+        ca = -gam[k]
+        for j in range(n):
+            cv += Cq[k, j] * v[j]
+            if a.shape[0] == n:
+                ca += Cq[k, j] * a[j]
+        c0 = max(c0, abs(C[k]))
+        c1 = max(c1, abs(cv))
+        c2 = max(c2, abs(ca))
+    if a.shape[0] != n:
+        c2 = math.nan
+    return c0, c1, c2
+
+
+# -- the augmented system [[M, C_qᵀ], [C_q, 0]] -----------------------------------------------
+class AugmentedWork(NamedTuple):
+    M: np.ndarray
+    Q: np.ndarray
+    A: np.ndarray
+    piv: np.ndarray
+    b: np.ndarray
+    C: np.ndarray
+    Cq: np.ndarray
+    Ct: np.ndarray
+    gam: np.ndarray
+
+
+@njit(cache=True)
+def augmented_work(n, m):
+    mm = max(m, 1)
+    return AugmentedWork(np.empty((n, n)), np.empty(n), np.empty((n + m, n + m)), np.zeros(n + m, np.int64),
+                         np.empty(n + m), np.empty(mm), np.empty((mm, n)), np.empty(mm), np.empty(mm))
+
+
+@njit(cache=True)
+def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
+    """q̈ and λ from [[M, C_qᵀ], [C_q, 0]] [q̈; λ] = [Q; γ − 2δ(C_q v + C_t) − ε²C];
+    δ = ε = 0 gives the consistent acceleration of the phase. Returns the LU info
+    (0 = solved)."""
+    n = q.shape[0]
+    m = lam.shape[0]
+    mass_force(ph, t, q, v, w.M, w.Q)
+    A, b = w.A, w.b
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = w.M[i, j]
+        b[i] = w.Q[i]
+    if m:
+        C, Cq, Ct, gam = w.C, w.Cq, w.Ct, w.gam
+        constraints(ph, t, q, v, C, Cq, Ct, gam)
+        d2 = 2.0 * delta
+        e2 = eps ** 2
+        for k in range(m):
+            rc = gam[k]
+            if delta:
+                cv = 0.0
+                for j in range(n):
+                    cv += Cq[k, j] * v[j]
+                rc = rc - d2 * (cv + Ct[k])
+            if eps:
+                rc = rc - e2 * C[k]
+            b[n + k] = rc
+            for j in range(n):
+                A[j, n + k] = Cq[k, j]
+                A[n + k, j] = Cq[k, j]
+            for l in range(m):
+                A[n + k, n + l] = 0.0
+    info = lu_factor(A, w.piv)
+    if info != 0:
+        return info
+    lu_solve(A, w.piv, b)
+    for i in range(n):
+        acc[i] = b[i]
+    for k in range(m):
+        lam[k] = b[n + k]
+    return 0
+
+
+# -- gaps --------------------------------------------------------------------------------------
+@njit(cache=True)
+def gaps(ph, q, v, g, G, gam):
+    """Every contact's gap, Jacobian row and γ_g (for the Python protocol)."""
+    for i in range(g.shape[0]):
+        g[i], gam[i] = kernels.gap(ph.model, i, q, v, G[i])

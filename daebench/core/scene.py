@@ -1,0 +1,185 @@
+"""Scene files (TOML) → a validated :class:`Scene`.
+
+A scene names a model, its discretization, which physical effects are on, their
+parameters, the start state, end time, output times and observables. Every key is
+declared (:class:`~daebench.core.params.Param`) by the common schema below or by the
+model's ``SCHEMA``; an unknown key is an error that names the closest valid key, a
+bad value names the allowed type or range. Command-line overrides
+(``--set dotted.key=value``) go through the same validation.
+
+Keys are flat dotted names (``contact.law``); TOML tables are flattened to them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+from daebench.core.params import Param, ParamError, did_you_mean, parse_pairs
+
+
+class SceneError(ParamError):
+    """A scene file or override that cannot be used; the message says how to fix it."""
+
+
+COMMON_SCHEMA: dict[str, Param] = {
+    p.name: p
+    for p in (
+        Param("name", str, "", "scene name"),
+        Param("description", str, "", "one-line description"),
+        Param("model", str, "", "model the scene runs"),
+        Param("t_end", float, 1.0, "end time", low=1e-9, high=1e5, unit="s"),
+        Param("output.dt", float, 1e-3, "spacing of the output times", low=1e-9, high=1e5, unit="s"),
+        Param("output.observables", list, [], "observables scored against the reference (empty: all); "
+              "the history records every observable"),
+        Param("output.format", str, "csv", "history file format", choices=("csv", "parquet")),
+    )
+}
+
+
+def cases_dir() -> Path:
+    """Where named scenes live: $DAEBENCH_CASES, the installed copy, or the repo's cases/."""
+    env = os.environ.get("DAEBENCH_CASES")
+    if env:
+        return Path(env)
+    here = Path(__file__).resolve().parents[1]  # the daebench package
+    for cand in (here / "_cases", here.parent / "cases"):
+        if cand.is_dir():
+            return cand
+    raise SceneError("cannot find the cases/ folder; set DAEBENCH_CASES to it")
+
+
+def list_scenes() -> list[tuple[str, str]]:
+    """(name, description) of every scene file in :func:`cases_dir`."""
+    out = []
+    for p in sorted(cases_dir().glob("*.toml")):
+        with open(p, "rb") as fh:
+            raw = tomllib.load(fh)
+        out.append((p.stem, str(raw.get("description", ""))))
+    return out
+
+
+def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+@dataclass
+class Scene:
+    """A validated scene: every declared key with its value (defaults filled in)."""
+
+    name: str
+    model: str
+    values: dict[str, Any]
+    schema: dict[str, Param] = field(repr=False)
+    source: str = ""
+    #: the model's cross-key check (``check_scene``), run on every copy with overrides
+    check: Callable[["Scene"], None] | None = field(default=None, repr=False, compare=False)
+    #: the values as the scene file gave them (before overrides); None when not read from a file
+    base: dict[str, Any] | None = field(default=None, repr=False, compare=False)
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self.values:
+            raise SceneError(f"scene '{self.name}' has no key '{key}'{did_you_mean(key, self.values)}")
+        return self.values[key]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self.values.get(key, default)
+
+    @property
+    def t_end(self) -> float:
+        return float(self.values["t_end"])
+
+    @property
+    def description(self) -> str:
+        return str(self.values.get("description", ""))
+
+    @property
+    def hash(self) -> str:
+        """Content hash of the resolved physics (name and description excluded)."""
+        body = {k: v for k, v in sorted(self.values.items()) if k not in ("name", "description")}
+        return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+    def with_overrides(self, overrides: Iterable[str] | dict[str, Any]) -> "Scene":
+        """A copy with ``key=value`` overrides applied and validated.
+
+        Strings are parsed as command-line text; other values (from Python) must have
+        the key's type. ``model`` cannot be overridden: a scene's keys belong to its model.
+        """
+        pairs = parse_overrides(overrides) if not isinstance(overrides, dict) else dict(overrides)
+        values = dict(self.values)
+        for key, raw in pairs.items():
+            if key == "model" and raw != self.model:
+                raise SceneError(
+                    f"scene key 'model' cannot be overridden (scene '{self.name}' is a '{self.model}' scene and "
+                    f"its keys belong to that model); pick a scene of the other model instead "
+                    f"(`daebench list` shows the cases)")
+            values[key] = validate_key(key, raw, self.schema, "--set")
+        return Scene(self.name, self.model, values, self.schema, self.source, self.check, self.base).checked()
+
+    def checked(self) -> "Scene":
+        """Run the model's cross-key checks (e.g. a contact law needs effects.contact)."""
+        if self.check is not None:
+            self.check(self)
+        return self
+
+    def changes(self) -> dict[str, Any]:
+        """The values that differ from the scene file's (the ``--set`` overrides in effect;
+        empty for a scene not read from a file)."""
+        if self.base is None:
+            return {}
+        return {k: v for k, v in self.values.items() if self.base.get(k) != v}
+
+    def effects(self) -> dict[str, bool]:
+        return {k.split(".", 1)[1]: bool(v) for k, v in self.values.items() if k.startswith("effects.")}
+
+
+def parse_overrides(items: Iterable[str]) -> dict[str, str]:
+    try:
+        return parse_pairs(items, "--set", "contact.restitution=0.3")
+    except ParamError as exc:
+        raise SceneError(str(exc)) from None
+
+
+def validate_key(key: str, raw: Any, schema: dict[str, Param], where: str, strict: bool = False) -> Any:
+    """One key's value, validated by its declared :class:`Param` (``strict``: typed source)."""
+    if not isinstance(key, str) or key not in schema:
+        raise SceneError(
+            f"unknown scene key '{key}' ({where}){did_you_mean(key, schema)} "
+            f"Valid keys are listed by `daebench show SCENE --keys`."
+        )
+    try:
+        return schema[key].validate(raw, "scene key", strict=strict)
+    except ParamError as exc:
+        raise SceneError(str(exc)) from None
+
+
+def resolve_path(name_or_path: str | os.PathLike) -> Path:
+    """The scene file of a case name (case-insensitive) or a path to a .toml file."""
+    p = Path(name_or_path)
+    if p.is_dir():
+        raise SceneError(f"'{p}' is a folder, not a scene file; give a case name (`daebench list`) "
+                         f"or a path to a .toml file")
+    if p.suffix == ".toml" or p.exists():
+        if not p.exists():
+            raise SceneError(f"scene file '{p}' does not exist")
+        return p
+    names = [n for n, _ in list_scenes()]
+    match = [n for n in names if n.lower() == p.name.lower()]
+    if match:
+        return cases_dir() / f"{match[0]}.toml"
+    raise SceneError(
+        f"unknown scene '{name_or_path}'{did_you_mean(str(name_or_path).lower(), names)} "
+        f"Known scenes: {', '.join(names)} (see `daebench list`)."
+    )

@@ -1,0 +1,407 @@
+"""The event-driven driver every integrator shares.
+
+A run is a sequence of smooth phases with a fixed active set. Within a phase the
+integrator steps freely; after each accepted step the driver looks for events in the
+step just taken, on the integrator's dense output:
+
+* a contact gap closing (g: + → −; after a release or rebound, once the gap has left a
+  ``GAP_BAND`` zero band) — with the ``constraint`` law an *impact*: the
+  Newton impact map with restitution e is applied, and the contact is closed
+  (e = 0, or a rebound too slow to resolve) or left open with ġ⁺ = −e ġ⁻;
+  with a continuous law (Hertz, penalty) the approach speed v₀ is recorded and the
+  step size switches to ``h_contact``;
+* a closed contact's force λ turning tensile (λ: + → −): the contact opens;
+* a penetrating contact separating (continuous laws: g: − → +).
+
+The earliest event is located to ``EVENT_TOL`` seconds by Brent's method on the dense
+output; the run is cut there, the event applied, and the integrator restarted on the
+new phase (multistep methods rebuild their history).
+
+Bookkeeping for honest metrics, on every step: the work of non-conservative effects
+(trapezoidal rule over the integrator's own steps), the energy lost at impacts
+(exact), and while contacts are closed the constraint residuals C, Ċ, C̈.
+The energy-balance residual is  E(t) − E(0) − W_nc(t) + D_impacts(t).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from daebench.core.contact import Impact
+from daebench.driver.events import EventLogic, project  # noqa: F401  (project: part of the driver's API)
+from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
+from daebench.core.problem import Problem
+from daebench.stepping.watch import GAP_BAND, Watch
+from daebench.core.system import MechanicalSystem, State
+
+DIVERGENCE_ENERGY = 10.0 # energy residual beyond this × energy scale means the run diverged (energy from nowhere)
+MAX_STALLED_PHASES = 100 # consecutive phases that do not advance time: the event logic is stuck
+PROGRESS_EVERY = 0.25    # s of wall time between two progress reports
+
+
+@dataclass
+class RunResult:
+    """Everything one run produced."""
+
+    status: str                       # completed | diverged | failed
+    message: str
+    t_final: float
+    wall_s: float
+    counters: dict[str, int]
+    history: pd.DataFrame
+    impacts: list[Impact] = field(default_factory=list)
+    constraint_max: dict[str, float] = field(default_factory=lambda: {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0})
+    energy_residual: float = math.nan
+    final: State | None = None
+    phases: int = 0
+    states: dict[str, np.ndarray] | None = None  # with record_states: t, q, v, a, lam at the output times
+
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "completed"
+
+
+class _Diverged(Exception):
+    pass
+
+
+class Driver(EventLogic):
+    """Runs one integrator on one system from t = 0 to ``t_end`` (event location and the
+    impact map: :class:`daebench.driver.events.EventLogic`)."""
+
+    def __init__(self, system: MechanicalSystem, integrator: Integrator, t_end: float,
+                 output_dt: float, observables: list[str] | None = None,
+                 progress: Callable[[float], None] | None = None, record_states: bool = False):
+        if t_end <= 0:
+            raise ValueError(f"t_end must be positive, got {t_end}")
+        if output_dt <= 0:
+            raise ValueError(f"output dt must be positive, got {output_dt}")
+        self.system = system
+        self.integ = integrator
+        self.t_end = float(t_end)
+        n_out = int(round(t_end / output_dt))
+        self.t_out = np.linspace(0.0, t_end, n_out + 1) if abs(n_out * output_dt - t_end) < 1e-9 * t_end \
+            else np.append(np.arange(0.0, t_end, output_dt), t_end)
+        self.observables = observables
+        self.progress = progress
+        self.record_states = record_states
+        self._progress_wall = 0.0
+        law = system.contact_law
+        check_capabilities(type(integrator), system.n_bilateral > 0 or (law is not None and not law.continuous
+                                                                       and system.n_contacts > 0
+                                                                       and not integrator.capabilities.contacts),
+                           integrator.adaptive, contacts_by_integrator=system.contacts_by_integrator,
+                           contact_law=None if law is None else law.name, n_contacts=system.n_contacts)
+        # contacts the driver treats (none when the integrator resolves them itself)
+        mine = law is not None and system.n_contacts > 0 and not integrator.capabilities.contacts
+        self.constraint_contacts = mine and not law.continuous
+        self.continuous_contacts = mine and law.continuous
+
+    # -- public -----------------------------------------------------------------
+    def run(self) -> RunResult:
+        wall0 = time.perf_counter()
+        sys_ = self.system
+        q, v = sys_.initial_state()
+        q = np.asarray(q, float)
+        v = np.asarray(v, float)
+        self.active: list[int] = []
+        self.penetrating: set[int] = set()
+        if self.continuous_contacts:
+            self.penetrating = {int(i) for i in np.flatnonzero(sys_.gap(q) < 0.0)}
+        self.impacts: list[Impact] = []
+        self.rows: list[dict[str, float]] = []
+        self._states: list[tuple] = []
+        self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
+        self.approach_speed = np.full(sys_.n_contacts, np.nan)  # v₀ of each continuous-law episode
+        self._current = self._problem()
+        self.work: dict[str, float] = {k: 0.0 for k in self._power_terms(0.0, q, v)}  # W(0) = 0, not NaN
+        if self.integ.capabilities.contacts:
+            self.work["contact"] = 0.0  # booked from Advance.contact_work; the t = 0 row too
+        self._contact_work: tuple[float, ...] | None = None
+        self.d_impacts = 0.0
+        terms0 = sys_.energy(q, v)
+        self.E0 = float(sum(terms0.values()))
+        # energy scale of the run: the size of the initial energy terms (a system starting
+        # at E0 = 0 with large opposite terms still has a scale)
+        self.energy_scale = max(sum(abs(x) for x in terms0.values()), 1e-12)
+        self.out_i = 0
+        self._gap_cache: tuple | None = None  # (q, t, gap(q)) of the last step's new state
+        self.last_impact_t = np.full(max(sys_.n_contacts, 1), -np.inf)
+        self.armed = sys_.gap(q) > GAP_BAND if sys_.n_contacts else np.zeros(0, bool)
+        self.last_release_t = np.full(max(sys_.n_contacts, 1), -np.inf)
+        # contacts re-closed within the first step after their release (the free motion went
+        # back into the plane faster than the step resolves — unresolved chatter): they stay
+        # closed for one full step before the sign of λ is read again, so every such cycle
+        # advances time by at least one step (a documented regularization)
+        self.hold: set[int] = set()
+        self.episode_start_W: dict[int, float] = {}  # contact work at first touch
+        status, message = "completed", ""
+        state = State(0.0, q, v)
+        phases = 0
+        try:
+            stalled = 0
+            while state.t < self.t_end - 1e-15 * max(1.0, self.t_end):
+                phases += 1
+                t_before = state.t
+                state = self._phase(state)
+                stalled = stalled + 1 if state.t <= t_before else 0
+                if stalled > MAX_STALLED_PHASES:
+                    raise StepFailure(f"no progress: {stalled} consecutive events at t = {state.t:.12g} s "
+                                      f"(contact set {self.active}); the event logic cannot resolve this state")
+        except _Diverged as exc:
+            status, message = "diverged", str(exc)
+        except StepFailure as exc:
+            msg = str(exc)
+            status = "diverged" if msg.lower().startswith("diverged") else "failed"
+            if exc.t is not None:
+                self._t_last = max(self._t_last, float(exc.t))
+            message = f"t = {self._t_last:.6g} s: {msg}"
+        except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+            status, message = "failed", f"t = {self._t_last:.6g} s: {type(exc).__name__}: {exc}"
+        hist = pd.DataFrame(self.rows)
+        res = float(np.nanmax(np.abs(hist["energy_residual"]))) if len(hist) else math.nan
+        return RunResult(status, message, self._t_last, time.perf_counter() - wall0,
+                         self.integ.counters_snapshot(), hist, self.impacts, dict(self.cmax), res,
+                         self._last_state, phases, self._states_arrays())
+
+    _t_last = 0.0
+    _last_state: State | None = None
+
+    # -- one smooth phase ----------------------------------------------------------
+    def _phase(self, state: State) -> State:
+        sys_ = self.system
+        problem = self._current = self._problem()
+        a, lam = problem.acceleration(state.t, state.q, state.v)
+        state = State(state.t, state.q, state.v, a, lam)
+        if self.constraint_contacts and self.active:
+            # a closed contact that would pull (λ < 0) opens before the phase starts
+            k = sys_.n_bilateral
+            tensile = [c for j, c in enumerate(self.active) if lam[k + j] < 0.0 and c not in self.hold]
+            if tensile:
+                self.active = [c for c in self.active if c not in tensile]
+                self.armed[tensile] = False
+                self.last_release_t[tensile] = state.t  # a release like any other (see hold)
+                return state
+        in_contact = bool(self.active) or bool(self.penetrating)
+        h = self.h = self.integ.step_size(in_contact)
+        self.integ.start(problem, state, h)
+        if self.out_i == 0 and state.t == 0.0:
+            self._record_until(state, state, problem, 0.0)
+        powers0 = self._power(state)
+        batch = self._batch_ok(problem)
+        while True:
+            watch = self._watch(problem) if (batch and not self.hold and not powers0
+                                             and self.out_i < len(self.t_out)) else None
+            adv = self._advance(watch)
+            prev, new = adv.prev, adv.new
+            self._t_last = new.t
+            self._last_state = new
+            self._report_progress(new.t)
+            self._check_finite(new)
+            event = self._find_event(prev, new, problem)
+            end = new if event is None else self.integ.dense(event[0])
+            if event is not None:
+                end = State(event[0], end.q, end.v, end.a, end.lam)
+            powers1 = self._power(end)
+            self._accumulate_work(prev, end, powers0, powers1, problem)
+            self._track_constraints(new, problem)  # at the integrator's own step, not an interpolant
+            powers0 = powers1
+            if event is not None:
+                return self._apply_event(event, end, problem)
+            if new.t >= self.t_end - 1e-15 * max(1.0, self.t_end):
+                return new
+
+    def _report_progress(self, t: float) -> None:
+        """Tell the caller the simulated time, at most every PROGRESS_EVERY seconds of wall time."""
+        if self.progress is None:
+            return
+        now = time.perf_counter()
+        if now - self._progress_wall >= PROGRESS_EVERY:
+            self._progress_wall = now
+            self.progress(t)
+
+    # -- fast path: many quiet steps per call ----------------------------------------------
+    def _batch_ok(self, problem: Problem) -> bool:
+        """Whether this phase may run many steps per call of ``integ.advance``.
+
+        Only when the model declares that it has no non-conservative power outside
+        contact (``system.power_free``) and no continuous contact is penetrating. Within such a phase the per-step driver work on a step
+        without event, output time or sign change is exactly what the runner does itself
+        (re-arming gaps, constraint maxima); the step that needs more is handed back and
+        processed below like any other step, so results do not depend on the path."""
+        return self.system.power_free and not self.penetrating
+
+    def _watch(self, problem: Problem) -> Watch:
+        sys_ = self.system
+        k = sys_.n_bilateral
+        inactive = np.array([i for i in range(sys_.n_contacts) if i not in self.active], dtype=np.int64) \
+            if (self.constraint_contacts or self.continuous_contacts) else np.zeros(0, dtype=np.int64)
+        lam_rows = np.array([k + j for j in range(len(self.active))], dtype=np.int64) \
+            if self.constraint_contacts else np.zeros(0, dtype=np.int64)
+        armed = self.armed if self.armed.size else np.zeros(1, dtype=bool)
+        cmax = np.array([self.cmax["C"], self.cmax["Cdot"], self.cmax["Cddot"]])
+        return Watch(inactive, lam_rows, armed.copy(), problem.m > 0, cmax, float(self.t_out[self.out_i]),
+                     self.t_end)
+
+    def _advance(self, watch: Watch | None) -> Advance:
+        """One call of the integrator; adopt its quiet steps' bookkeeping and the contact
+        episodes it resolved itself."""
+        adv = self.integ.advance(self.t_end, watch)
+        if watch is not None:
+            if self.armed.size:
+                self.armed = np.asarray(adv.armed, dtype=bool)[:self.armed.size].copy()
+            c = adv.cmax
+            self.cmax.update(C=float(c[0]), Cdot=float(c[1]), Cddot=float(c[2]))
+        self.impacts.extend(adv.events)
+        self._contact_work = adv.contact_work
+        return adv
+
+    def _problem(self) -> Problem:
+        """The phase the driver is in: closed contacts, engaged continuous contacts, χ."""
+        sys_ = self.system
+        nc = sys_.n_contacts
+        engaged = np.zeros(nc)
+        chi = np.zeros(nc)
+        if self.continuous_contacts:
+            engaged[list(self.penetrating)] = 1.0
+            chi = sys_.contact_law.chi(self.approach_speed)
+        return Problem(sys_, tuple(self.active), engaged, chi)
+
+    # -- events ------------------------------------------------------------------------
+    # -- bookkeeping -------------------------------------------------------------------
+    def _power(self, s: State) -> dict[str, float]:
+        return self._power_terms(s.t, s.q, s.v)
+
+    def _power_terms(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
+        """The model's own non-conservative powers, and the continuous contact dissipation
+        while a contact penetrates."""
+        out = self.system.power(t, q, v)
+        if self.continuous_contacts and self.penetrating:
+            out = {**out, "contact": self._current.contact_power(q, v)}
+        return out
+
+    def _accumulate_work(self, prev: State, end: State, p0: dict, p1: dict, problem: Problem) -> None:
+        dt = end.t - prev.t
+        base = dict(self.work)
+        cw = self._contact_work
+        if cw is not None and dt > 0.0:
+            # the contact work of an integrator that resolves contacts itself, W(prev.t) and
+            # W(new.t) [, power at prev.t]: as end "powers" whose trapezoid gives W(new.t)
+            # exactly, interpolated at output times as the quadratic through W(prev.t) with
+            # that power (or linearly)
+            base["contact"] = cw[0]
+            mean = (cw[1] - cw[0]) / dt
+            r0 = cw[2] if len(cw) > 2 else mean
+            p0, p1 = {**p0, "contact": r0}, {**p1, "contact": 2.0 * mean - r0}
+        for k in set(p0) | set(p1):
+            self.work[k] = base.get(k, 0.0) + 0.5 * dt * (p0.get(k, 0.0) + p1.get(k, 0.0))
+        self._record_until(prev, end, problem, dt, base, p0, p1)
+
+    def _record_until(self, prev: State, end: State, problem: Problem, dt: float,
+                      base: dict | None = None, p0: dict | None = None, p1: dict | None = None) -> None:
+        """Write history rows for the output times in (prev.t, end.t] (t = 0 included once)."""
+        sys_ = self.system
+        while self.out_i < len(self.t_out) and self.t_out[self.out_i] <= end.t + 1e-12 * max(1.0, self.t_end):
+            to = float(self.t_out[self.out_i])
+            if to >= end.t or dt == 0.0:
+                s = end
+            elif to <= prev.t:
+                s = prev
+            else:
+                s = self.integ.dense(to)
+            if base is None:
+                work = dict(self.work)
+            else:
+                th = 0.0 if dt == 0.0 else (to - prev.t) / dt
+                work = dict(base)
+                for k in set(p0) | set(p1):
+                    pk = p0.get(k, 0.0) + th * (p1.get(k, 0.0) - p0.get(k, 0.0))
+                    work[k] = base.get(k, 0.0) + 0.5 * (to - prev.t) * (p0.get(k, 0.0) + pk)
+            row: dict[str, float] = {"t": to}
+            obs = sys_.observables(to, s.q, s.v)
+            row.update(obs if self.observables is None else {k: obs[k] for k in self.observables if k in obs})
+            terms = sys_.energy(s.q, s.v)
+            E = float(sum(terms.values()))
+            row.update({f"E_{k}": float(x) for k, x in terms.items()})
+            row["E"] = E
+            for k, w in work.items():
+                row[f"W_{k}"] = w
+            row["D_impacts"] = self.d_impacts
+            row["energy_residual"] = E - self.E0 - sum(work.values()) + self.d_impacts
+            self._check_divergence(to, row["energy_residual"], terms, work)
+            if self.constraint_contacts or self.continuous_contacts:
+                row["n_active"] = len(self.active) + len(self.penetrating)
+            if self.continuous_contacts:
+                F = problem.contact_forces(s.q, s.v)
+                for i in range(sys_.n_contacts):
+                    row[f"contact_force_{i}"] = float(F[i])
+            if problem.m and self.active:
+                C, Cd, Cdd = problem.constraint_residuals(s.t, s.q, s.v, s.a)
+                row.update({"C": C, "Cdot": Cd, "Cddot": Cdd})
+                k = sys_.n_bilateral
+                for j, c in enumerate(self.active):
+                    row[f"lambda_{c}"] = float(s.lam[k + j]) if s.lam.size > k + j else math.nan
+            self.rows.append(row)
+            if self.record_states:
+                self._states.append(self._state_row(to, s))
+            self.out_i += 1
+
+    def _state_row(self, t: float, s: State) -> tuple:
+        """(t, q, v, a, λ of the bilateral constraints) of an output state; NaN where the
+        integrator's state does not carry a or λ."""
+        n, nb = self.system.n, self.system.n_bilateral
+        a = s.a if s.a.size == n else np.full(n, np.nan)
+        lam = s.lam[:nb] if s.lam.size >= nb else np.full(nb, np.nan)
+        return t, s.q.copy(), s.v.copy(), np.array(a, float), np.array(lam, float)
+
+    def _states_arrays(self) -> dict[str, np.ndarray] | None:
+        if not self.record_states:
+            return None
+        n, nb = self.system.n, self.system.n_bilateral
+        rows = self._states
+        return {"t": np.array([r[0] for r in rows]),
+                **{k: (np.array([r[j] for r in rows]) if rows else np.zeros((0, size)))
+                   for j, (k, size) in enumerate((("q", n), ("v", n), ("a", n), ("lam", nb)), start=1)}}
+
+    def _track_constraints(self, s: State, problem: Problem) -> None:
+        if problem.m == 0:
+            return
+        C, Cd, Cdd = problem.constraint_residuals(s.t, s.q, s.v, s.a)
+        self.cmax["C"] = max(self.cmax["C"], C)
+        self.cmax["Cdot"] = max(self.cmax["Cdot"], Cd)
+        if np.isfinite(Cdd):
+            self.cmax["Cddot"] = max(self.cmax["Cddot"], Cdd)
+
+    def _check_finite(self, s: State) -> None:
+        # one sum per array: NaN and ±inf propagate (and a sum overflowing 1e308 has diverged
+        # anyway); a quarter of np.all(np.isfinite(...))'s cost, paid on every step
+        if not math.isfinite(float(s.q.sum()) + float(s.v.sum())):
+            raise _Diverged(f"t = {s.t:.6g} s: the state became non-finite")
+
+    def _check_divergence(self, t: float, resid: float, terms: dict, work: dict) -> None:
+        """Called at each output time (where the energy is computed anyway). The scale is
+        fixed by the start and the booked work — never by the current energy, which grows
+        with a blow-up."""
+        scale = self.energy_scale + sum(abs(w) for w in work.values()) + self.d_impacts
+        if not math.isfinite(resid) or abs(resid) > DIVERGENCE_ENERGY * scale:
+            raise _Diverged(f"t = {t:.6g} s: energy residual {resid:.3g} J exceeds "
+                            f"{DIVERGENCE_ENERGY:g} × the energy scale {scale:.3g} J")
+
+
+def simulate(system: MechanicalSystem, integrator: Integrator, t_end: float, output_dt: float,
+             observables: list[str] | None = None,
+             progress: Callable[[float], None] | None = None, record_states: bool = False) -> RunResult:
+    """Run ``integrator`` on ``system`` over [0, t_end] with events; see :class:`Driver`.
+
+    ``progress(t)`` is called with the simulated time reached, at most every
+    ``PROGRESS_EVERY`` seconds of wall time (for progress bars). With ``record_states``
+    the result's ``states`` holds the integrator's own (t, q, v, a, λ_bilateral) at every
+    output time, as arrays."""
+    return Driver(system, integrator, t_end, output_dt, observables, progress, record_states).run()

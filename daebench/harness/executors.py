@@ -1,0 +1,250 @@
+"""Where a sweep's runs execute: this process, worker processes, or a Dask cluster.
+
+Every executor takes the planned runs and a function ``fn(spec) -> row`` that never
+raises for an ordinary failure (:func:`daebench.harness.bench.execute`), and hands each row to
+``on_row`` in the calling process as soon as it exists (the sweep stores it on disk
+there). What a run cannot report itself becomes its row here:
+
+* a worker process that dies (segfault, ``os._exit``, out of memory) → status
+  ``crashed`` with the signal or exit code; a new worker takes the next run, so one
+  crash costs one row (the stdlib ``ProcessPoolExecutor`` marks every pending run of a
+  broken pool failed, hence this small pool);
+* a run that outlives its wall-time cap even though :func:`daebench.harness.guards.deadline`
+  should have stopped it (stuck in C code) → its worker is killed, status ``timeout``;
+* a ``KeyboardInterrupt`` or ``SystemExit`` raised *by the run* in a worker (workers
+  ignore SIGINT: only the sweep's own process reacts to Ctrl-C) → status ``error``.
+
+SIGINT (``KeyboardInterrupt`` in the calling process) kills the workers at once and
+propagates, after every finished row has been handed over.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import signal
+import time
+from collections import deque
+from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
+from typing import Any, Callable, Sequence
+
+from daebench.core.params import ParamError
+
+POLL_S = 0.25               # how often the pool looks at its workers
+BACKSTOP_GRACE_S = 30.0     # a run is killed this long after its cap would have stopped it
+DASK_CONNECT_TIMEOUT = 10.0  # s to reach a Dask scheduler
+
+Row = dict[str, Any]
+
+
+class ExecutorError(ParamError):
+    """An executor that cannot be used (bad job count, unreachable scheduler …)."""
+
+
+def describe_exit(code: int | None) -> str:
+    """'killed by signal SIGSEGV' or 'exited with code 3'."""
+    if code is None:
+        return "worker vanished"
+    if code < 0:
+        try:
+            return f"killed by signal {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exited with code {code}"
+
+
+def run_inline(specs: Sequence[Any], fn: Callable[[Any], Row], on_row: Callable[[Row], None],
+               on_running: Callable[[list[Any]], None] | None = None) -> None:
+    """Each run in this process, one after the other (no crash isolation: for debugging
+    and for callers that registered integrators in this process only)."""
+    for s in specs:
+        if on_running is not None:
+            on_running([s])
+        on_row(fn(s))
+
+
+# ---- worker processes ----------------------------------------------------------------
+def _worker_main(conn: Connection, fn: Callable[[Any], Row]) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's business, not the worker's
+    while True:
+        try:
+            spec = conn.recv()
+        except (EOFError, OSError):
+            return
+        if spec is None:
+            return
+        try:
+            conn.send(("row", fn(spec)))
+        except BaseException as exc:  # KeyboardInterrupt/SystemExit raised by the run itself
+            conn.send(("raised", f"{type(exc).__name__}: {exc}"))
+
+
+@dataclass
+class _Worker:
+    proc: Any
+    conn: Connection
+    spec: Any = None
+    started: float = 0.0
+
+
+def _context() -> Any:
+    # fork: workers inherit the loaded modules and kernels (and integrators registered in
+    # this process); spawn where fork does not exist
+    return mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+
+
+def run_processes(specs: Sequence[Any], fn: Callable[[Any], Row], jobs: int, on_row: Callable[[Row], None],
+                  make_row: Callable[[Any, str, str], Row],
+                  on_running: Callable[[list[Any]], None] | None = None,
+                  backstop_s: float | None = None) -> None:
+    """Runs on ``jobs`` worker processes, one run per worker at a time.
+
+    ``make_row(spec, status, message)`` builds the row of a run that could not report
+    itself; ``backstop_s`` is the wall time after which a run's worker is killed."""
+    ctx = _context()
+
+    def spawn() -> _Worker:
+        parent, child = ctx.Pipe()
+        proc = ctx.Process(target=_worker_main, args=(child, fn), daemon=True)
+        proc.start()
+        child.close()
+        return _Worker(proc, parent)
+
+    pending = deque(specs)
+    workers: list[_Worker] = []
+    try:
+        workers = [spawn() for _ in range(max(1, min(jobs, len(specs))))]
+        while pending or any(w.spec is not None for w in workers):
+            for w in workers:
+                if w.spec is None and pending:
+                    w.spec, w.started = pending.popleft(), time.monotonic()
+                    w.conn.send(w.spec)
+            busy = [w for w in workers if w.spec is not None]
+            if on_running is not None:
+                on_running([w.spec for w in busy])
+            wait([w.conn for w in busy] + [w.proc.sentinel for w in busy], timeout=POLL_S)
+            for i, w in enumerate(workers):
+                if w.spec is None:
+                    continue
+                row = None
+                if w.conn.poll():
+                    try:
+                        kind, payload = w.conn.recv()
+                        row = payload if kind == "row" else make_row(w.spec, "error", f"the run raised {payload}")
+                    except (EOFError, OSError):
+                        pass  # died while sending: handled as a crash below
+                if row is None and not w.proc.is_alive():
+                    w.proc.join()
+                    row = make_row(w.spec, "crashed", f"worker process {describe_exit(w.proc.exitcode)}")
+                    workers[i] = w = _Worker(*_replace(w, spawn))
+                elif row is None and backstop_s is not None and time.monotonic() - w.started > backstop_s:
+                    row = make_row(w.spec, "timeout", f"run still going after {backstop_s:g} s (beyond its "
+                                                      f"wall-time cap); its worker was killed")
+                    workers[i] = w = _Worker(*_replace(w, spawn))
+                if row is not None:
+                    w.spec = None
+                    on_row(row)
+    finally:
+        for w in workers:
+            if w.spec is None and w.proc.is_alive():
+                try:
+                    w.conn.send(None)
+                except OSError:
+                    pass
+        deadline = time.monotonic() + 2.0
+        for w in workers:
+            if w.spec is not None:  # interrupted mid-run: stop it now
+                w.proc.kill()
+            w.proc.join(timeout=max(0.0, deadline - time.monotonic()))
+            if w.proc.is_alive():
+                w.proc.kill()
+                w.proc.join()
+            w.conn.close()
+
+
+def _replace(w: _Worker, spawn: Callable[[], _Worker]) -> tuple:
+    if w.proc.is_alive():
+        w.proc.kill()
+    w.proc.join()
+    w.conn.close()
+    new = spawn()
+    return new.proc, new.conn
+
+
+# ---- Dask -----------------------------------------------------------------------------------
+def connect_dask(scheduler: Any, jobs: int) -> tuple[Any, Callable[[], None]]:
+    """A ``dask.distributed.Client`` for ``scheduler`` ("local": a local cluster of
+    ``jobs`` single-threaded worker processes; an address such as tcp://host:8786; or a
+    Client) and the function that releases what was created here.
+
+    Raises
+    ------
+    ExecutorError
+        Without dask.distributed, for an unknown scheduler form, or an unreachable one.
+    """
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise ExecutorError("the Dask executor needs dask.distributed: pip install 'daebench[dask]' "
+                            "(or pip install \"dask[distributed]\")") from None
+    if isinstance(scheduler, Client):
+        return scheduler, lambda: None
+    if scheduler in (None, "local"):
+        cluster = LocalCluster(n_workers=max(1, int(jobs)), threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+
+        def close() -> None:
+            client.close()
+            cluster.close()
+        return client, close
+    if not isinstance(scheduler, str) or "://" not in scheduler:
+        raise ExecutorError(f"--scheduler must be 'local' or an address such as tcp://host:8786; got {scheduler!r}")
+    try:
+        client = Client(scheduler, timeout=DASK_CONNECT_TIMEOUT)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ExecutorError(f"cannot reach the Dask scheduler at {scheduler} within {DASK_CONNECT_TIMEOUT:g} s "
+                            f"({type(exc).__name__}); is it running? Start one with `dask scheduler`, or use "
+                            f"--scheduler local") from None
+    return client, client.close
+
+
+def run_dask(specs: Sequence[Any], fn: Callable[[Any], Row], client: Any, on_row: Callable[[Row], None],
+             make_row: Callable[[Any, str, str], Row], on_running: Callable[[list[Any]], None] | None = None,
+             backstop_s: float | None = None) -> None:
+    """Runs as Dask futures, no more in flight than the cluster has threads (so that a
+    future's age is its run time, for the backstop). The wall-time cap itself acts inside
+    the worker (:func:`daebench.harness.guards.deadline` works in worker threads); a run that
+    outlives the backstop gets a 'timeout' row and the sweep goes on without it (Dask
+    cannot kill a running thread: it finishes or dies with its worker)."""
+    threads = max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info().get("workers", {}).values()))
+    pending = deque(specs)
+    flying: dict[Any, tuple[Any, float]] = {}
+    try:
+        while pending or flying:
+            while pending and len(flying) < threads:
+                s = pending.popleft()
+                flying[client.submit(fn, s, pure=False)] = (s, time.monotonic())
+            if on_running is not None:
+                on_running([s for s, _ in flying.values()])
+            if not any(f.done() for f in flying):
+                time.sleep(POLL_S)
+            for f in list(flying):
+                spec, started = flying[f]
+                if f.done():
+                    try:
+                        row = f.result()
+                    except BaseException as exc:  # KilledWorker (the worker died), a raised run …
+                        status = "crashed" if type(exc).__name__ == "KilledWorker" else "error"
+                        row = make_row(spec, status, f"{type(exc).__name__}: {exc}")
+                elif backstop_s is not None and time.monotonic() - started > backstop_s:
+                    f.cancel()
+                    row = make_row(spec, "timeout", f"run still going after {backstop_s:g} s (beyond its wall-time "
+                                                    f"cap); abandoned")
+                else:
+                    continue
+                del flying[f]
+                on_row(row)
+    finally:
+        for f in flying:
+            f.cancel()

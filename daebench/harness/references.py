@@ -1,0 +1,232 @@
+"""Reference solutions: IDA far tighter than anything scored, checked against an
+independent looser run, cached by scene hash — and never trusted blindly.
+
+A reference is two files, ``results/references/<scene>-<hash>.parquet`` (the history)
+and ``.json`` (the sidecar: settings, impact times, agreement with the check run,
+provenance, and what makes the pair verifiable: the SHA-256 of the parquet file, its row
+count, columns and time span). Both are written atomically (temporary file, then
+``os.replace``), the parquet first, so a reader sees either the old pair, or a new
+parquet whose checksum does not match the old sidecar — which :func:`load_reference`
+reports as damaged. Every read checks the sidecar, the checksum, the columns, the time
+span against the scene's ``t_end`` and the scene hash; a damaged reference is recomputed
+(``compute`` and ``auto`` modes) or refused with the command that fixes it (``require``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from contextlib import nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import pandas as pd
+
+from daebench.harness import metrics, provenance
+from daebench.core.params import ParamError
+from daebench.harness.runner import make_integrator, results_dir, run_scene
+from daebench.core.scene import Scene
+
+REF_RTOL = 1e-11        # default reference tolerances (IDA)
+REF_ATOL = 1e-13
+REF_MARGIN = 100.0      # the reference is at least this much tighter than any scored rtol
+CHECK_FACTOR = 10.0     # the independent check runs this much looser
+REF_INTEGRATOR = "ida"
+#: a reference stores its history at the scene's output.dt / this: runs are scored at their
+#: own output times against the reference interpolated there (metrics.dense), so its rows
+#: must resolve what the runs' rows alias (beam-impact: an 11 131 rad/s tone, period
+#: 0.56 ms, sampled every 1 ms by a run; at 50 µs the Hermite interpolation of θ with ω
+#: errs by ≈ 3e-4 of the tone's amplitude)
+REF_OVERSAMPLE = 20
+MODES = ("auto", "require", "compute", "none")
+
+
+class ReferenceMissing(ParamError):
+    """No cached reference for a scene; the message says which command makes one."""
+
+
+class ReferenceDamaged(ParamError):
+    """A cached reference that fails its checks; the message says what failed and the fix."""
+
+
+@dataclass
+class Reference:
+    """A reference solution: its history, impact times and the JSON sidecar."""
+
+    history: pd.DataFrame
+    impacts: list[float]
+    meta: dict[str, Any]
+    path: Path
+
+    @property
+    def rtol(self) -> float:
+        return float(self.meta["settings"]["rtol"])
+
+
+def reference_path(scene: Scene) -> Path:
+    """results/references/<scene-name>-<scene.hash>.parquet"""
+    return results_dir() / "references" / f"{scene.name}-{scene.hash}.parquet"
+
+
+def _fix(scene: Scene) -> str:
+    return (f"`daebench reference {scene.name} --force` with the same --set overrides "
+            f"(or --reference compute / auto in `daebench bench`)")
+
+
+def sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def validate(scene: Scene, path: Path) -> Reference:
+    """Read and check a cached reference; :class:`ReferenceDamaged` says what is wrong."""
+    side = path.with_suffix(".json")
+
+    def damaged(why: str) -> ReferenceDamaged:
+        return ReferenceDamaged(f"the cached reference {path} is damaged ({why}); recompute it with {_fix(scene)}")
+
+    try:
+        meta = json.loads(side.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise damaged(f"sidecar unreadable: {type(exc).__name__}") from None
+    if not isinstance(meta, dict):
+        raise damaged("sidecar is not a JSON object")
+    need = ("sha256", "rows", "columns", "t_span", "settings", "scene_hash", "impacts")
+    missing = [k for k in need if k not in meta]
+    if missing:
+        raise damaged(f"sidecar lacks {', '.join(missing)} (written by an older daebench?)")
+    if meta["scene_hash"] != scene.hash:
+        raise damaged(f"sidecar is for scene hash {meta['scene_hash']}, not {scene.hash}")
+    if sha256(path) != meta["sha256"]:
+        raise damaged("checksum mismatch: the parquet file changed after it was written")
+    try:
+        hist = pd.read_parquet(path)
+    except Exception as exc:  # pyarrow raises several types for a corrupt file
+        raise damaged(f"parquet unreadable: {type(exc).__name__}") from None
+    if list(hist.columns) != list(meta["columns"]) or len(hist) != int(meta["rows"]):
+        raise damaged(f"{len(hist)} rows × {len(hist.columns)} columns, the sidecar says "
+                      f"{meta['rows']} × {len(meta['columns'])}")
+    if len(hist) < 2 or "t" not in hist:
+        raise damaged("fewer than two output times")
+    t0, t1 = float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])
+    if abs(t0) > 1e-12 or abs(t1 - scene.t_end) > 1e-9 * max(1.0, scene.t_end):
+        raise damaged(f"time span [{t0:g}, {t1:g}] s does not cover the scene's [0, {scene.t_end:g}] s")
+    try:
+        rtol = float(meta["settings"]["rtol"])
+    except (KeyError, TypeError, ValueError):
+        raise damaged("sidecar settings lack rtol") from None
+    if not rtol > 0:
+        raise damaged(f"rtol {rtol!r} in the sidecar")
+    return Reference(hist, [float(t) for t in meta["impacts"]], meta, path)
+
+
+def load_reference(scene: Scene, compute: bool = False, mode: str | None = None, **kwargs: Any) -> Reference:
+    """The cached reference of ``scene``, checked.
+
+    Parameters
+    ----------
+    scene : the scene (its hash names the file)
+    compute : compute it when missing or damaged (same as ``mode='compute'``)
+    mode : 'require' (missing or damaged: an error with the fix), 'compute' or 'auto'
+        (missing: :class:`ReferenceMissing`; damaged: recomputed). Default: 'compute'
+        if ``compute`` else 'require'.
+    kwargs : go to :func:`compute_reference`
+
+    Raises
+    ------
+    ReferenceMissing, ReferenceDamaged
+    """
+    mode = mode or ("compute" if compute else "require")
+    path = reference_path(scene)
+    if not (path.exists() and path.with_suffix(".json").exists()):
+        if mode == "compute":
+            return compute_reference(scene, **kwargs)
+        raise ReferenceMissing(
+            f"no reference for scene '{scene.name}' (hash {scene.hash}) at {path}. "
+            f"Make it with `daebench reference {scene.name}` plus the same --set overrides "
+            f"(or pass --reference compute / --reference none to `daebench bench`).")
+    try:
+        return validate(scene, path)
+    except ReferenceDamaged:
+        if mode in ("compute", "auto"):
+            return compute_reference(scene, **kwargs)
+        raise
+
+
+def reference_tolerances(tightest_rtol: float | None = None, rtol: float | None = None,
+                         atol: float | None = None) -> tuple[float, float]:
+    """rtol/atol of a reference: the defaults, tightened to REF_MARGIN below the
+    tightest scored rtol, never below IDA's floor of 1e-14."""
+    r = REF_RTOL if rtol is None else float(rtol)
+    if tightest_rtol is not None:
+        r = min(r, float(tightest_rtol) / REF_MARGIN)
+    r = max(r, 1e-14)
+    a = (REF_ATOL * r / REF_RTOL) if atol is None else float(atol)
+    return r, max(a, 1e-16)
+
+
+def _atomic_write_parquet(df: pd.DataFrame, path: Path) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    df.to_parquet(tmp, index=False)
+    os.replace(tmp, path)
+
+
+def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: float | None = None,
+                      atol: float | None = None, check: bool = True,
+                      progress: Callable[[str, float], Any] | None = None) -> Reference:
+    """Compute, check and cache the reference of ``scene``.
+
+    IDA runs at (rtol, atol) (defaults 1e-11 / 1e-13, or REF_MARGIN tighter than
+    ``tightest_rtol``), then again CHECK_FACTOR looser as an independent check, both
+    with output REF_OVERSAMPLE× denser than the scene's. The
+    measured agreement (max error of the check run per observable, impact times) is
+    stored in the JSON sidecar with the settings, the checksum and provenance.
+    ``progress(label, t_end)`` is a context manager factory whose value receives the
+    simulated time of each of the two runs (:class:`daebench.harness.progress.RunProgress`).
+
+    Raises
+    ------
+    RuntimeError
+        If the reference run does not complete.
+    """
+    r, a = reference_tolerances(tightest_rtol, rtol, atol)
+
+    dense_scene = scene.with_overrides({"output.dt": scene["output.dt"] / REF_OVERSAMPLE})
+
+    def ida(rt: float, at: float, label: str) -> tuple[Any, Any]:
+        integ = make_integrator(REF_INTEGRATOR, {"rtol": rt, "atol": at})
+        with progress(label, scene.t_end) if progress is not None else nullcontext() as cb:
+            return integ, run_scene(dense_scene, integ, write=False, force=True, progress=cb)[1]
+
+    integ, res = ida(r, a, f"reference of {scene.name}: IDA rtol {r:g}")
+    if res.status != "completed":
+        raise RuntimeError(f"reference run of '{scene.name}' {res.status}: {res.message}")
+    impacts = [float(i.t) for i in res.impacts]
+    agreement: dict[str, Any] = {}
+    if check:
+        _, chk = ida(r * CHECK_FACTOR, a * CHECK_FACTOR, f"check of the reference: IDA rtol {r * CHECK_FACTOR:g}")
+        agreement = {"check": f"{REF_INTEGRATOR} rtol={r * CHECK_FACTOR:g} atol={a * CHECK_FACTOR:g}",
+                     "status": chk.status}
+        if chk.status == "completed":
+            acc = metrics.accuracy(chk.history, res.history, ref_impacts=impacts)
+            agreement.update({k: v for k, v in acc.items() if k.endswith("_max")})
+            agreement.update(metrics.impact_time_errors([i.t for i in chk.impacts], impacts))
+    path = reference_path(scene)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    hist = res.history
+    _atomic_write_parquet(hist, path)
+    meta = {"scene": scene.name, "scene_hash": scene.hash, "scene_values": scene.values,
+            "integrator": REF_INTEGRATOR, "settings": integ.to_config(), "wall_s": res.wall_s,
+            "counters": res.counters, "impacts": impacts, "output_dt": dense_scene["output.dt"], "agreement": agreement,
+            "energy_residual_max": res.energy_residual, "sha256": sha256(path), "rows": len(hist),
+            "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}
+    side = path.with_suffix(".json")
+    tmp = side.with_name(f".{side.name}.{os.getpid()}.tmp")
+    provenance.write_sidecar(tmp, provenance.collect([scene]), **meta)
+    os.replace(tmp, side)
+    return Reference(hist, impacts, meta, path)

@@ -1,0 +1,138 @@
+"""One run of a sweep → one scored row (:func:`execute`), and the row of a run that could
+not report itself (:func:`outcome_row`). A row never raises out of here: an exception is
+an ``error`` row, a run over its wall-time cap a ``timeout`` row."""
+
+from __future__ import annotations
+
+import json
+import math
+import traceback
+from pathlib import Path
+from typing import Any
+
+from daebench.harness import impact_metrics, metrics, timing
+from daebench.harness.guards import RunTimeout
+from daebench.integrators import base
+from daebench.models import build_system
+from daebench.harness.references import ReferenceMissing, load_reference
+from daebench.harness.runner import run_scene
+from daebench.core.scene import Scene
+
+
+def _nan_errors(row: dict[str, Any]) -> None:
+    for k in list(row):
+        if k.startswith("err_"):
+            row[k] = math.nan
+
+
+def _restitution(scene: Scene) -> float:
+    """The scene's coefficient of restitution (NaN for a scene without one)."""
+    e = scene.get("contact.restitution")
+    return float(e) if isinstance(e, (int, float)) else math.nan
+
+
+def base_row(spec: Any, scene: Scene) -> dict[str, Any]:
+    """The columns every row has, whatever happened to the run."""
+    return {"run": spec.index, "case": scene.name, "integrator": spec.integrator, "label": spec.label,
+            **spec.varied, "settings": json.dumps(spec.options, sort_keys=True, default=str),
+            "overrides": json.dumps(spec.scene_overrides, sort_keys=True, default=str),
+            "scene_set": json.dumps(scene.changes(), sort_keys=True, default=str)}
+
+
+def outcome_row(spec: Any, scene: Scene, status: str, message: str) -> dict[str, Any]:
+    """The row of a run that gave no verdict (error, timeout, crashed, interrupted)."""
+    return {**base_row(spec, scene), "status": status, "message": message, "verdict": status,
+            "verdict_reason": message}
+
+
+_WARMED: set[tuple] = set()   # (integrator, model, code-selecting settings) warmed in this process
+
+
+def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int = timing.REPEATS,
+            warmup: bool = True, time_cap: float = timing.TIME_CAP_S, history_dir: str | Path | None = None,
+            run_cap: float | None = None) -> dict[str, Any]:
+    """Run one spec and score it; never raises for a failure of the run — an exception is
+    an 'error' row, a run over ``run_cap`` seconds a 'timeout' row.
+
+    Timing follows :data:`daebench.harness.timing.REPEATS`' rule (a warm-up stopped after
+    WARMUP_CAP_S — once per integrator, model and process —, then up to ``repeats`` timed
+    runs while a run is shorter than SHORT_RUN_S; ``warmup=False, repeats=1`` times one
+    cold run).
+    ``reference_mode``: 'auto' (score if a valid cached reference exists), 'require' or
+    'compute' (the caller made sure it exists: :func:`prepare_references`), 'none'. With
+    ``history_dir`` the history is kept as ``<history_dir>/<run>-<integrator>.parquet``
+    and its path is the row's ``history``.
+    """
+    row = base_row(spec, scene)
+    try:
+        sc = scene.with_overrides(spec.scene_overrides) if spec.scene_overrides else scene
+        row["scene_hash"] = sc.hash
+        if spec.skip:
+            row.update(status="skipped", message=spec.skip, verdict="skipped", verdict_reason=spec.skip)
+            return row
+        cls = base.get_integrator(spec.integrator)  # entry-point loading stays out of the timing
+
+        def one_run(cap: float | None = run_cap):
+            return run_scene(sc, cls(**spec.options), write=False, force=True, run_cap=cap)
+
+        def warm_up() -> None:  # loads what the run uses; stopped after WARMUP_CAP_S (daebench.harness.timing's rule)
+            try:
+                one_run(min(timing.WARMUP_CAP_S, run_cap or math.inf))
+            except RunTimeout:
+                pass
+
+        # one warm-up per code path and process: what it loads stays loaded for the next run of
+        # the same integrator on the same model (bool/str settings can select other code)
+        path = (spec.integrator, sc.model, tuple(sorted((k, v) for k, v in spec.options.items()
+                                                         if isinstance(v, (bool, str)))))
+        warm = warmup and path not in _WARMED
+        tm = timing.time_call(one_run, repeats=repeats, warmup=warm, time_cap=time_cap, warmup_fn=warm_up)
+        if warmup:
+            _WARMED.add(path)
+        rec, res = tm.result
+        row.update(status=res.status, message=res.message, wall_s=tm.wall_s, cpu_s=tm.cpu_s,
+                   repeats=tm.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
+        row.update(res.counters)
+        row.update(metrics.stability_verdict(res.status, res.message, res.t_final, sc.t_end))
+        hist = res.history
+        impacts = [float(i.t) for i in res.impacts]
+        row["impact_times"] = json.dumps(impacts)
+        if history_dir is not None and len(hist):
+            hp = Path(history_dir) / f"{spec.index:04d}-{spec.integrator}.parquet"
+            hp.parent.mkdir(parents=True, exist_ok=True)
+            hist.to_parquet(hp, index=False)
+            row["history"] = str(hp)
+        if len(hist):
+            row.update(metrics.energy_balance(hist))
+        row.update({f"{k}_max": float(v) for k, v in res.constraint_max.items()})
+        ref = None
+        if reference_mode != "none":
+            try:
+                ref = load_reference(sc, mode="auto" if reference_mode == "auto" else "require")
+            except ReferenceMissing:
+                if reference_mode != "auto":
+                    raise
+        if ref is not None and len(hist):
+            row["ref_rtol"] = ref.rtol
+            wanted = list(sc.get("output.observables") or [])
+            scored = [o for o in wanted if o in hist.columns]  # the others: an effect of this scene is off
+            if len(scored) < len(wanted):
+                row["unscored_observables"] = ",".join(o for o in wanted if o not in scored)
+            row.update(metrics.accuracy(hist, ref.history, scored or None, ref_impacts=ref.impacts))
+            row.update(metrics.event_errors(hist, impacts, ref.history, ref.impacts))
+            row.update(impact_metrics.impact_scores(hist, res.impacts, ref.history, ref.impacts,
+                                                    build_system(sc), _restitution(sc)))
+        else:
+            row.update(metrics.impact_time_errors(impacts, []))
+        if res.status != "completed":
+            _nan_errors(row)
+    except RunTimeout as exc:
+        row.update(outcome_row(spec, scene, "timeout", str(exc) or "run exceeded its wall-time cap"))
+        _nan_errors(row)
+    except Exception as exc:  # never lose a row
+        row.update(outcome_row(spec, scene, "error", f"{type(exc).__name__}: {exc}"))
+        row["traceback"] = traceback.format_exc(limit=4)
+        _nan_errors(row)
+    return row
+
+

@@ -1,0 +1,82 @@
+"""The package reads top-down: a layer imports only layers below it (and itself).
+
+Every ``import``/``from … import`` in every module counts, function-level ones included —
+a deferred import that dodges a cycle is still an arrow back up."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parents[1] / "daebench"
+
+# bottom to top; a module may import its own layer and any layer listed before it
+LAYERS = ["core", "stepping", "models", "integrators", "driver", "harness", "api", "studies", "cli"]
+RANK = {name: i for i, name in enumerate(LAYERS)}
+
+
+def layer_of(module: str) -> str | None:
+    parts = module.split(".")
+    if parts[0] != "daebench" or len(parts) < 2:
+        return None
+    return parts[1] if parts[1] in RANK else None
+
+
+def imports_of(path: Path, root: Path = PKG) -> list[tuple[int, str]]:
+    rel = path.relative_to(root.parent).with_suffix("")
+    here = ".".join(rel.parts)
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:  # relative: resolve against this module's package
+                base = here.split(".")[: -node.level]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            found.append((node.lineno, mod))
+            if mod == "daebench":  # `from daebench import x`: x is a layer or an API name
+                found += [(node.lineno, f"daebench.{a.name}") for a in node.names]
+    return found
+
+
+def upward_imports(root: Path = PKG) -> list[str]:
+    bad = []
+    for path in sorted(root.rglob("*.py")):
+        own = layer_of(".".join(path.relative_to(root.parent).with_suffix("").parts))
+        if own is None:
+            continue
+        for line, mod in imports_of(path, root):
+            target = layer_of(mod)
+            if target is not None and RANK[target] > RANK[own]:
+                bad.append(f"{path.relative_to(root.parent)}:{line} ({own}) imports {mod} ({target})")
+    return bad
+
+
+def test_every_module_belongs_to_a_layer():
+    top = sorted(p.name for p in PKG.iterdir() if p.suffix == ".py" or (p.is_dir() and (p / "__init__.py").exists()))
+    stray = [n for n in top if n.removesuffix(".py") not in RANK and n != "__init__.py"]
+    assert stray == [], f"top-level modules outside the layers: {stray}"
+    assert len([n for n in top if n.endswith(".py")]) <= 10
+
+
+def test_no_import_reaches_up_a_layer():
+    assert upward_imports() == []
+
+
+def test_the_check_catches_an_upward_import(tmp_path):
+    fake = tmp_path / "daebench"
+    (fake / "core").mkdir(parents=True)
+    (fake / "core" / "bad.py").write_text("def f():\n    from daebench.harness import runner\n")
+    (fake / "harness").mkdir()
+    (fake / "harness" / "ok.py").write_text("from daebench.core import bad\n")
+    assert upward_imports(fake) == ["daebench/core/bad.py:2 (core) imports daebench.harness (harness)"]
+
+
+@pytest.mark.parametrize("pkg", [p for p in LAYERS if p != "api"])
+def test_each_layer_says_what_lives_there(pkg):
+    doc = ast.get_docstring(ast.parse((PKG / pkg / "__init__.py").read_text()))
+    assert doc and "import" in doc, f"daebench/{pkg}/__init__.py should say what lives there and what it may import"
