@@ -104,3 +104,29 @@ def test_targets_parsing_and_decades():
     assert costs.decade_targets([10.0 ** -k for k in range(1, 8)]) == [1e-3, 1e-4, 1e-5]
     assert costs.decade_targets([2e-3, 3e-3]) == [pytest.approx(1e-3)]   # no decade inside: the nearest
     assert costs.decade_targets([np.nan]) == []
+
+
+def test_recommendation_names_cheapest_runner_up_and_failures():
+    """Two power laws on one case: 'fast' reaches τ at K_f/h*, 'slow' at twice the cost
+    (K_s = 2 K_f); 'broken' diverges at every step. Known answers: best 'fast', runner-up
+    'slow', ratio 2, and 'broken' listed with its reason."""
+    from daebench.harness import recommend
+
+    rows = []
+    for h in (1e-2, 5e-3, 2.5e-3):
+        for lab, k, st in (("fast", K, "completed"), ("slow", 2 * K, "completed"), ("broken", K, "diverged")):
+            rows.append(dict(case="c", label=lab, integrator=lab, h=h, status=st, wall_s=k / h, steps=1 / h,
+                             err_x_max=C * h ** P if st == "completed" else np.nan,
+                             message="" if st == "completed" else "step size underflow at t = 0.2"))
+    df = pd.DataFrame(rows)
+    tau = 5e-5
+    reach, text = recommend.for_table(df, ["err_x_max"], {"err_x_max": [tau]})
+    rec = recommend.recommendations(reach).iloc[0]
+    h_star = (tau / C) ** 0.5
+    assert rec.best == "fast" and rec.best_cost == pytest.approx(K / h_star, rel=1e-12)
+    assert rec.runner_up == "slow" and rec.ratio == pytest.approx(2.0, rel=1e-12)
+    para = text["c"]
+    assert "take fast (2.45 s, 245 steps)" in para and "runner-up slow at 4.9 s, 2× the cost" in para
+    assert "broken — diverged at h=0.01: step size underflow" in para
+    # default targets: decades inside the pooled errors' quartiles
+    assert recommend.default_targets(df, ["err_x_max"]) == {"err_x_max": [1e-4]}
