@@ -51,8 +51,8 @@ def failures(reach: pd.DataFrame, setting: str = "label") -> dict[str, list[tupl
     out: dict[str, list[tuple[str, str]]] = {}
     seen = reach.drop_duplicates(["case", setting])
     for _, r in seen.iterrows():
-        f = str(r.get("failure", "") or "")
-        if f:
+        f = r.get("failure", "")
+        if isinstance(f, str) and f:
             out.setdefault(str(r["case"]), []).append((str(r[setting]), f))
     return out
 
