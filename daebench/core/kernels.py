@@ -26,6 +26,9 @@ The interface (all arrays float64; outputs are overwritten, never allocated):
 ``gap(md, i, q, v, gq) -> (g, gamma)``          required when the model has contact points
     Normal gap g_i(q) of contact point i (≥ 0 open), its Jacobian into ``gq`` (n) and
     γ_g with g̈ = g_q q̈ − γ_g.
+``tangent(md, i, q, v, tq) -> mu``              optional (planar Coulomb friction)
+    The tangent Jacobian row of contact point i into ``tq`` (its slip velocity is
+    tq · v) and its Coulomb friction coefficient μ_i ≥ 0. Default: μ = 0, no friction.
 
 Register them once, at import of the model module::
 
@@ -73,7 +76,7 @@ from daebench.core.dispatch import generic
 
 FD_REL_STEP = 1e-7  # relative step of every central difference (Python and compiled)
 
-KERNELS = ("mass_force", "force_jacobian", "mass_jacobian_product", "constraints", "gap")
+KERNELS = ("mass_force", "force_jacobian", "mass_jacobian_product", "constraints", "gap", "tangent")
 
 
 class KernelError(TypeError):
@@ -112,8 +115,14 @@ def gap(md, i, q, v, gq):
     """(g_i, γ_g,i) of contact point i; its Jacobian row into gq."""
 
 
+@generic
+def tangent(md, i, q, v, tq):
+    """μ_i of contact point i; its tangent Jacobian row into tq."""
+
+
 _GENERICS = {"mass_force": mass_force, "force_jacobian": force_jacobian,
-             "mass_jacobian_product": mass_jacobian_product, "constraints": constraints, "gap": gap}
+             "mass_jacobian_product": mass_jacobian_product, "constraints": constraints, "gap": gap,
+             "tangent": tangent}
 
 
 # -- defaults ---------------------------------------------------------------------------
@@ -188,8 +197,15 @@ def _no_gap(md, i, q, v, gq):
     return 0.0, 0.0
 
 
+@njit(cache=True)
+def _no_friction(md, i, q, v, tq):
+    for j in range(tq.shape[0]):
+        tq[j] = 0.0
+    return 0.0
+
+
 _DEFAULTS = {"force_jacobian": _fd_force_jacobian, "mass_jacobian_product": _fd_mass_jacobian_product,
-             "constraints": _no_constraints, "gap": _no_gap}
+             "constraints": _no_constraints, "gap": _no_gap, "tangent": _no_friction}
 
 
 # -- registration -------------------------------------------------------------------------
@@ -211,6 +227,13 @@ def register(data_class: type, **kernels: Callable) -> None:
 
 def registered(data_class: type) -> bool:
     return mass_force.registered(data_class)
+
+
+def friction_coefficients(md: Any, n_contacts: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """μ_i of each contact point of the model whose data is ``md`` (the ``tangent``
+    kernel at (q, v)); all zero for a model without friction."""
+    tq = np.zeros(q.shape[0])
+    return np.array([float(tangent(md, i, q, v, tq)) for i in range(int(n_contacts))])
 
 
 # -- Python models behind the same interface ------------------------------------------------

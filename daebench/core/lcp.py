@@ -16,8 +16,23 @@ z = max(0, −b/A) in closed form. Exact up to round-off, unlike projected Gauss
 which converges only linearly and needs a tolerance; the price, a dense solve of the
 basis per pivot, is negligible for the few contacts of daebench's cases.
 
+Frictional contact (:func:`solve_lcp_lemke`): the planar Coulomb cone written as an LCP
+(normal impulse, two tangential ones and the sliding-speed multiplier per contact,
+:mod:`daebench.stepping.friction`) has a matrix that is copositive-plus but not a
+P-matrix — Murty's scheme may meet a singular basis there. Lemke's complementary pivoting
+with the covering vector of ones solves every such LCP that has a solution and ends on a
+secondary ray otherwise (Cottle, Pang & Stone §4.4; Stewart & Trinkle 1996 and Anitescu &
+Potra 1997 show the time-stepping friction LCP always has one). A ray end is returned as
+LCP_RAY: the caller names it (an inconsistent or indeterminate frictional contact,
+Painlevé's paradox), never loops.
+
 References
 ----------
+C. E. Lemke, "Bimatrix equilibrium points and mathematical programming", Management
+Science 11 (1965) 681–689.
+D. E. Stewart, J. C. Trinkle, "An implicit time-stepping scheme for rigid body dynamics
+with inelastic collisions and Coulomb friction", Int. J. Numer. Meth. Eng. 39 (1996)
+2673–2691.
 K. G. Murty, "Note on a Bard-type scheme for solving the complementarity problem",
 Opsearch 11 (1974) 123–130.
 R. W. Cottle, J.-S. Pang, R. E. Stone, The Linear Complementarity Problem (1992), §4.2.
@@ -34,7 +49,8 @@ from daebench.core.linalg import lu_factor, lu_solve
 
 LCP_TOL = 1e-12            # sign tolerance relative to the size of b (w) and of z
 LCP_MAX_PIVOTS = 200       # beyond this the matrix is not a P-matrix (dependent contacts)
-LCP_SINGULAR, LCP_NO_CONVERGENCE = -1, -2
+LCP_SINGULAR, LCP_NO_CONVERGENCE, LCP_RAY = -1, -2, -3
+LEMKE_MAX_PIVOTS = 1000    # per LCP; far above the few tens a contact set of daebench needs
 
 
 class LcpWork(NamedTuple):
@@ -122,4 +138,99 @@ def solve_lcp(A, b, use, z, w, lw):
                     z[i] = 0.0
             return pivots
         basis[bad] = not basis[bad]
+    return LCP_NO_CONVERGENCE
+
+
+class LemkeWork(NamedTuple):
+    """Scratch of :func:`solve_lcp_lemke` for up to k rows."""
+
+    tab: np.ndarray     # float[k, 2k + 2]: [w | z | z0 | rhs] tableau
+    basis: np.ndarray   # int64[k]: the variable basic in each row (w_i = i, z_i = k + i, z0 = 2k)
+
+
+def lemke_work(k: int) -> LemkeWork:
+    kk = max(k, 1)
+    return LemkeWork(np.zeros((kk, 2 * kk + 2)), np.zeros(kk, np.int64))
+
+
+@njit(cache=True)
+def _lemke_pivot(tab, r, c, m):
+    piv = tab[r, c]
+    for j in range(tab.shape[1]):
+        tab[r, j] /= piv
+    for i in range(m):
+        if i != r:
+            f = tab[i, c]
+            if f != 0.0:
+                for j in range(tab.shape[1]):
+                    tab[i, j] -= f * tab[r, j]
+
+
+@njit(cache=True)
+def solve_lcp_lemke(A, b, m, z, w, lw):
+    """Solve LCP(A[:m, :m], b[:m]) by Lemke's method into z[:m] (and w = A z + b);
+    returns the number of pivots (≥ 0), LCP_RAY (a secondary ray: no solution found)
+    or LCP_NO_CONVERGENCE."""
+    for i in range(m):
+        z[i] = 0.0
+        w[i] = b[i]
+    if m == 0:
+        return 0
+    r = 0
+    bscale = 0.0
+    for i in range(m):
+        bscale = max(bscale, abs(b[i]))
+        if b[i] < b[r]:
+            r = i
+    if b[r] >= -LCP_TOL * bscale:
+        return 0
+    tab = lw.tab
+    cz0 = 2 * m
+    crhs = 2 * m + 1
+    for i in range(m):
+        for j in range(2 * m + 2):
+            tab[i, j] = 0.0
+        tab[i, i] = 1.0
+        for j in range(m):
+            tab[i, m + j] = -A[i, j]
+        tab[i, cz0] = -1.0
+        tab[i, crhs] = b[i]
+        lw.basis[i] = i
+    _lemke_pivot(tab, r, cz0, m)
+    leaving = lw.basis[r]
+    lw.basis[r] = cz0
+    for pivots in range(1, LEMKE_MAX_PIVOTS):
+        enter = leaving + m if leaving < m else leaving - m
+        cmax = 0.0
+        for i in range(m):
+            cmax = max(cmax, abs(tab[i, enter]))
+        row = -1
+        best = 0.0
+        for i in range(m):
+            a = tab[i, enter]
+            if a <= 1e-12 * cmax:
+                continue
+            ratio = max(tab[i, crhs], 0.0) / a
+            if row < 0 or ratio < best - 1e-12 * (1.0 + best):
+                row, best = i, ratio
+            elif ratio <= best + 1e-12 * (1.0 + best):
+                # a tie: leave with z0 when it can (the end), else the larger pivot element
+                if lw.basis[i] == cz0 or (lw.basis[row] != cz0 and a > tab[row, enter]):
+                    row, best = i, min(best, ratio)
+        if row < 0:
+            return LCP_RAY
+        leaving = lw.basis[row]
+        _lemke_pivot(tab, row, enter, m)
+        lw.basis[row] = enter
+        if leaving == cz0:
+            for i in range(m):
+                v = lw.basis[i]
+                if m <= v < 2 * m:
+                    z[v - m] = max(tab[i, crhs], 0.0)
+            for i in range(m):
+                s = b[i]
+                for j in range(m):
+                    s += A[i, j] * z[j]
+                w[i] = s
+            return pivots
     return LCP_NO_CONVERGENCE

@@ -233,7 +233,11 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
     """An integrator that resolves contacts itself needs a scene with contacts that are left
     to it ('complementarity') or closed by the ``constraint`` law (whose restitution it
     applies; :func:`daebench.integrators.base.check_capabilities` is the driver's rule);
-    name a scene key value the scene accepts, or the scenes that offer one."""
+    name a scene key value the scene accepts, or the scenes that offer one. A scene with
+    Coulomb friction (``contact.friction`` > 0, contacts on) needs ``capabilities.friction``."""
+    if (scene.get("contact.friction", 0.0) or 0.0) > 0.0 and scene.get("effects.contact", True) \
+            and not cls.capabilities.friction:
+        raise IntegratorError(base.friction_refusal(cls.name, f"scene '{scene.name}'"))
     if not cls.capabilities.contacts:
         return
     law = scene.schema.get("contact.law")

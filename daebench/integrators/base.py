@@ -98,6 +98,10 @@ class Capabilities:
         and contact laws. It takes over contacts with no law ('complementarity') and
         those with the ``constraint`` law, whose restitution it applies; it reports each
         contact episode with :meth:`Integrator.report_contact`.
+    friction : bool
+        Whether it applies Coulomb friction at the contacts it resolves (a model's
+        ``tangent`` kernel with μ > 0, scene key ``contact.friction``). An integrator
+        without it is refused on a case with μ > 0 before the first step.
     """
 
     order: int
@@ -107,6 +111,7 @@ class Capabilities:
     index: int | None = None
     dense_output: bool = False
     contacts: bool = False
+    friction: bool = False
 
 
 # Settings every stepping integrator shares: the paper's protocol and adaptivity.
@@ -382,17 +387,27 @@ def get_integrator(name: str) -> type[Integrator]:
     return reg[name].cls
 
 
+def friction_refusal(name: str, what: str) -> str:
+    """The message refusing integrator ``name`` on a case with friction (names those that can)."""
+    can = [r.name for r in registry().values() if r.cls is not None and r.cls.capabilities.friction]
+    return (f"{what} has Coulomb friction (contact.friction > 0), which integrator '{name}' does not apply; "
+            f"use one that does ({', '.join(can) or 'none is installed'}) or `--set contact.friction=0`.")
+
+
 def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
                        adaptive: bool = False, what: str = "this case",
                        contacts_by_integrator: bool = False, contact_law: str | None = None,
-                       n_contacts: int = 0) -> None:
+                       n_contacts: int = 0, friction: bool = False) -> None:
     """Refuse a mismatch before the first step, with a message that says what to do.
 
     ``contacts_by_integrator``: the system leaves its contacts to the integrator (no
     law); ``contact_law``: the name of its law otherwise. An integrator that resolves
     contacts itself takes over contacts with no law or the ``constraint`` law (whose
-    restitution it applies); a continuous law would count the contact twice."""
+    restitution it applies); a continuous law would count the contact twice.
+    ``friction``: the system's contacts have Coulomb coefficients μ > 0."""
     cap = cls.capabilities
+    if friction and not cap.friction:
+        raise IntegratorError(friction_refusal(cls.name, what))
     if contacts_by_integrator and not cap.contacts:
         raise IntegratorError(
             f"{what} leaves its contacts to the integrator (contact law 'complementarity'), but "

@@ -39,7 +39,8 @@ from typing import Any
 
 from daebench.stepping import episodes as _ep
 from daebench.core.contact import Impact
-from daebench.integrators.base import STEP_SETTINGS, Advance, IntegratorError, Setting
+from daebench.core.kernels import friction_coefficients
+from daebench.integrators.base import STEP_SETTINGS, Advance, IntegratorError, Setting, friction_refusal
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.core.system import State
 
@@ -86,6 +87,9 @@ class CapturingIntegrator(CompiledIntegrator):
         if p.m:
             raise IntegratorError(f"integrator '{self.name}' does not treat bilateral constraints (this system "
                                   f"has {p.m}); use hht, genalpha or ida")
+        if not self.capabilities.friction and (friction_coefficients(p.kernel.model, p.n_contacts, self.state.q,
+                                                                    self.state.v) > 0.0).any():
+            raise IntegratorError(friction_refusal(self.name, "this system"))
         self._episodes = {}
         ws = getattr(self, "_ws", None)
         carried = float(ws.ep.work[1]) if ws is not None else 0.0  # the contact work goes on over restarts

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
+from daebench.core.kernels import friction_coefficients
 from daebench.stepping import moreau as _mj
 from daebench.integrators.base import Capabilities, Setting
 from daebench.integrators.capturing import CAPTURE_STEP_SETTINGS, CapturingIntegrator
@@ -64,6 +65,12 @@ class MoreauJean(CapturingIntegrator):
     the penetration stays (velocity-level constraint: no position feedback). With
     ``projection`` the gap is ≥ −tol·max(1,|q|) after every step.
 
+    Friction: Coulomb's law at each contact with μ > 0 (scene key ``contact.friction``),
+    the planar cone solved exactly with the normal impulses in one LCP per Newton
+    iteration (:mod:`daebench.stepping.friction`): slide, stop and stick are captured
+    inside the steps, first order like the impacts (the stop falls anywhere in a step).
+    A frictional LCP without solution ends the run with a named status, never a loop.
+
     Contact episodes are reported to the run record (impact time = start of the first
     step with a positive impulse): :class:`~daebench.integrators.capturing.CapturingIntegrator`.
 
@@ -86,7 +93,7 @@ class MoreauJean(CapturingIntegrator):
     description: ClassVar[str] = ("Moreau–Jean time stepping (θ-method, Newton impact law, LCP), optional "
                                   "position projection; resolves contacts itself")
     capabilities: ClassVar[Capabilities] = Capabilities(order=1, fixed_step=True, adaptive=False, constraints=False,
-                                                        contacts=True)
+                                                        contacts=True, friction=True)
     settings_spec: ClassVar[tuple[Setting, ...]] = (
         *CAPTURE_STEP_SETTINGS,
         Setting("theta", float, 0.5, "θ of the smooth part (½ trapezoidal, 1 backward Euler)", low=0.5, high=1.0),
@@ -104,8 +111,11 @@ class MoreauJean(CapturingIntegrator):
 
     def method(self) -> _mj.MoreauMethod:
         s = self.settings
+        p, st = self.problem, self.state
+        mu = friction_coefficients(p.kernel.model, p.n_contacts, st.q, st.v)
         return _mj.MoreauMethod(float(s["theta"]), float(s["gamma"]), self.restitution(), bool(s["projection"]),
-                                float(s["newton_tol"]), int(s["newton_maxiter"]), bool(s["reuse_jacobian"]))
+                                float(s["newton_tol"]), int(s["newton_maxiter"]), bool(s["reuse_jacobian"]),
+                                bool((mu > 0.0).any()))
 
     def capture_workspace(self, n: int, m: int, nc: int, steps_per_call: int) -> _mj.MoreauWork:
         return _mj.workspace(n, nc, steps_per_call)

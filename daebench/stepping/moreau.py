@@ -23,6 +23,14 @@ The factorized S is kept across iterations and steps while the contraction is go
 (modified Newton, as :mod:`daebench.stepping.newmark`); at a fixed point the residual and
 the complementarity hold exactly, whatever S. Linear systems converge in one correction.
 
+Friction (``friction``: the model's contacts have Coulomb coefficients μ > 0,
+:func:`daebench.core.kernels.tangent`): each linearization solves one LCP for the normal
+and tangential impulses together — the planar Coulomb cone, exact in 2-D
+(:mod:`daebench.stepping.friction`, Lemke's method); the tangential impulses P_T then act
+through the tangent rows as the normal ones through g_q. The contact work booked adds
+Σ P_T (U_T⁻ + U_T⁺)/2 (friction's dissipation). Without friction the path above is
+unchanged (Murty's solver on the normal impulses only).
+
 Projection (``projection``, Siconos' MoreauJeanCombinedProjectionOSI): after the step,
 positions with a negative gap are projected onto g ≥ 0 along the mass metric,
 q = q̃ + M⁻¹ g_qᵀ μ with 0 ≤ g(q) ⟂ μ ≥ 0 (Newton–LCP, M at q̃), velocities untouched —
@@ -45,18 +53,21 @@ from daebench.core import kernels, phase
 from daebench.stepping import episodes as _ep
 from daebench.core.lcp import LcpWork, lcp_work, solve_lcp
 from daebench.core.linalg import factor_flagged, lu_factor, lu_solve
+from daebench.stepping import friction as _fr
 from daebench.stepping import methods
 from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES
 
 NEWTON_RATE_REFRESH = 0.1   # contraction rate above which a reused S is rebuilt
 PROJECTION_MAXITER = 20     # Newton–LCP iterations of the position projection
 
-ST_NOT_FINITE, ST_NEWTON, ST_SINGULAR, ST_LCP, ST_PROJECTION = 1, 2, 3, 4, 5
+ST_NOT_FINITE, ST_NEWTON, ST_SINGULAR, ST_LCP, ST_PROJECTION, ST_FRICTION_LCP = 1, 2, 3, 4, 5, 6
 FAIL_MESSAGES = {
     ST_NOT_FINITE: "non-finite state in the Moreau–Jean iteration",
     ST_NEWTON: "Newton–LCP did not converge in {newton_maxiter} iterations",
     ST_SINGULAR: "singular iteration matrix M − hθ∂Q/∂v − h²θ²∂Q/∂q",
     ST_LCP: "contact LCP unsolvable (dependent contact Jacobians?)",
+    ST_FRICTION_LCP: "frictional contact LCP without a solution (Lemke's method ended on a ray): an "
+                     "inconsistent or indeterminate frictional contact (Painlevé's paradox)",
     ST_PROJECTION: "position projection onto g ≥ 0 did not converge",
 }
 W_LU, W_LUH, W_A0, W_G0 = range(4)  # ws.st (W_LU, W_LUH first: linalg.factor_flagged): S factorized, its h; a = M⁻¹Q and gaps at the step start known
@@ -70,6 +81,7 @@ class MoreauMethod(NamedTuple):
     tol: float          # Newton tolerance (scaled displacement increment)
     maxiter: int
     reuse: bool         # keep S across iterations and steps
+    friction: bool      # the model's contacts have μ > 0: the frictional LCP (stepping.friction)
 
 
 class MoreauWork(NamedTuple):
@@ -107,6 +119,7 @@ class MoreauWork(NamedTuple):
     qt: np.ndarray
     allc: np.ndarray
     ep: _ep.Episodes
+    fr: _fr.FrictionWork
 
 
 def workspace(n: int, nc: int, steps_per_call: int) -> MoreauWork:
@@ -117,7 +130,7 @@ def workspace(n: int, nc: int, steps_per_call: int) -> MoreauWork:
     return MoreauWork(st=z(4), LU=z((n, n)), piv=z(n, np.int64), M=z((n, n)), Kq=z((n, n)), Kv=z((n, n)),
                       G=z((k, n)), active=z(k, np.bool_), SG=z((n, k)), A=z((k, k)), lcp=lcp_work(k),
                       LUm=z((n, n)), pivm=z(n, np.int64), allc=np.ones(k, np.bool_),
-                      ep=_ep.episodes(n, nc, steps_per_call), **{f: z(n) for f in per_n}, **{f: z(k) for f in per_k})
+                      ep=_ep.episodes(n, nc, steps_per_call), fr=_fr.friction_work(n, nc), **{f: z(n) for f in per_n}, **{f: z(k) for f in per_k})
 
 
 @njit(cache=True)
@@ -288,7 +301,12 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
         for i in range(nc):
             if ws.active[i]:
                 any_active = True
-        if any_active:
+        if any_active and meth.friction:
+            st = _fr.impulses(ph.model, ws.fr, ws.G, ws.active, ws.LU, ws.piv, n, nc, q1, v1, v, vfree,
+                              meth.e, ws.P)
+            if st < 0:
+                return ST_FRICTION_LCP, 0.0
+        elif any_active:
             for i in range(nc):
                 kernels.gap(ph.model, i, q1, v1, ws.G[i])
             _lcp_matrix(ws, nc, n, ws.active)
@@ -347,6 +365,8 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
             for j in range(n):
                 u += ws.G[i, j] * (v[j] + v1[j])
             work += 0.5 * ws.P[i] * u
+    if meth.friction:
+        work += _fr.tangential_work(ws.fr, ws.active, nc, n, v, v1)
     _ep.propose_work(ws.ep, work)
     for i in range(nc):
         ws.g1[i], _ = kernels.gap(ph.model, i, new.q, new.v, ws.gq)
