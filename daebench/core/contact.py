@@ -158,6 +158,8 @@ class Impact:
     impulse: float = math.nan      # normal impulse of the impact or of the whole episode [N s]
     t_end: float = math.nan        # end of the episode (separation), when known
     min_gap: float = math.nan      # smallest gap during the episode (penetration < 0)
+    impact_impulse: float = math.nan  # impulse of the impact itself: the map's Λ (driver), the first
+                                      # step's of an episode (event-capturing; ``impulse`` is the episode's)
     q: np.ndarray | None = field(default=None, repr=False)        # configuration at the impact
     v_minus: np.ndarray | None = field(default=None, repr=False)  # velocities before / after
     v_plus: np.ndarray | None = field(default=None, repr=False)

@@ -16,7 +16,8 @@ impact map. :class:`CapturingIntegrator` adds to
   ``energy_loss`` the energy lost over that step (the impact step: the counterpart of
   the impact map's kinetic-energy loss; later steps of a persistent contact exchange no
   energy with an ideal constraint), ``v_minus``/``v_plus`` the velocities before and
-  after it; completed when the episode ends with ``vn_plus`` (ġ after its last step),
+  after it, ``impact_impulse`` the impulse of that step; completed when the episode
+  ends with ``vn_plus`` (ġ after its last step),
   ``t_end``, ``impulse`` (the sum over its steps), ``min_gap`` (smallest gap at its step
   boundaries, < 0: penetration) and ``closed`` (it lasted more than one step). An
   episode still open at the end of the run keeps NaN in ``vn_plus`` and ``t_end``;
@@ -115,7 +116,8 @@ class CapturingIntegrator(CompiledIntegrator):
                 q1, v1 = x[2 * n:3 * n].copy(), x[3 * n:].copy()
                 imp = Impact(float(row[_ep.L_T]), i, float(row[_ep.L_GDOT]), math.nan,
                              energy(q0, v0) - energy(q1, v1), impulse=float(row[_ep.L_IMPULSE]),
-                             min_gap=float(row[_ep.L_GMIN]), q=q0, v_minus=v0, v_plus=v1)
+                             min_gap=float(row[_ep.L_GMIN]), impact_impulse=float(row[_ep.L_IMPULSE]),
+                             q=q0, v_minus=v0, v_plus=v1)
                 self._episodes[i] = imp
                 self.report_contact(imp)
             elif i in self._episodes:
