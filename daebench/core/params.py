@@ -17,7 +17,7 @@ class ParamError(ValueError):
 
 
 def did_you_mean(key: str, valid: Iterable[str]) -> str:
-    close = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.5)
+    close = difflib.get_close_matches(str(key), [str(v) for v in valid], n=1, cutoff=0.5)
     return f"; did you mean '{close[0]}'?" if close else ""
 
 
@@ -41,6 +41,8 @@ def coerce(value: Any, typ: type, what: str, strict: bool = False, finite: bool 
         if isinstance(value, bool) or (isinstance(value, str) and not text):
             raise ParamError(f"{what} must be a number, got {value!r}"
                              + (" (a quoted string: write the number without quotes)" if isinstance(value, str) else ""))
+        if text and "_" in value:  # Python's float() reads "1_0e-3" as 0.01: a typo, not a number
+            raise ParamError(f"{what} must be a number, got {value!r} (no '_' in numbers: write e.g. 1e-3)")
         try:
             f = float(value)
         except (TypeError, ValueError, OverflowError):
@@ -113,7 +115,11 @@ class Param:
 def parse_pairs(items: Iterable[str], flag: str, example: str) -> dict[str, str]:
     """``["k=v", ...]`` → ``{k: v}``; a malformed item names the flag and an example."""
     out: dict[str, str] = {}
+    if isinstance(items, (str, bytes)) or not isinstance(items, Iterable):
+        raise ParamError(f"{flag} values must be a list of \"key=value\" strings, e.g. [\"{example}\"]; got {items!r}")
     for item in items:
+        if not isinstance(item, str):
+            raise ParamError(f"{flag} '{item!r}' must be a \"key=value\" string, e.g. {flag} {example}")
         if "=" not in item:
             raise ParamError(f"{flag} '{item}' must look like key=value, e.g. {flag} {example}")
         k, v = item.split("=", 1)

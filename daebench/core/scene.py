@@ -15,6 +15,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
+import stat
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,10 +44,82 @@ COMMON_SCHEMA: dict[str, Param] = {
 }
 
 
+#: a scene name is a file-name stem (histories are <name>-<integrator>-<id>.csv): no path
+#: separator, no leading '.' or '-', at most NAME_MAX characters (the file system takes
+#: 255 bytes per name; the rest is the integrator, the run id and the suffix)
+NAME_MAX = 100
+NAME_RE = re.compile(rf"[A-Za-z0-9][A-Za-z0-9._-]{{0,{NAME_MAX - 1}}}")
+#: the largest scene file read (a scene is a few kB; /dev/zero or a wrong file is refused)
+MAX_SCENE_BYTES = 1 << 20
+
+
+class UnknownScene(SceneError):
+    """A case name that is not in cases/ (nor a file)."""
+
+
+def check_name(name: Any, where: str = "scene key 'name'") -> str:
+    """A scene name, refused unless it is a plain file-name stem (see :data:`NAME_RE`).
+
+    Raises
+    ------
+    SceneError
+        For a path separator, '..', an absolute path, a leading '.' or '-', a character
+        other than letters, digits, '.', '_' and '-', or more than NAME_MAX characters.
+    """
+    if not isinstance(name, str):
+        raise SceneError(f"{where} must be a string, got {name!r}")
+    if NAME_RE.fullmatch(name):
+        return name
+    if len(name) > NAME_MAX:
+        why = f"is {len(name)} characters long, more than {NAME_MAX}"
+    elif "/" in name or "\\" in name or name.startswith(".."):
+        why = "contains a path ('/', '\\' or '..'): results are written under the output folder only"
+    else:
+        why = "has a character other than letters, digits, '.', '_' and '-' (or starts with '.' or '-')"
+    raise SceneError(f"{where} {name[:60]!r}{'…' if len(name) > 60 else ''} {why}; a scene name is a plain "
+                     f"file-name stem, e.g. name = \"my-pendulum\" (it names the history files)")
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """A scene file's TOML (a UTF-8 byte-order mark is allowed), refused when it is not a
+    regular file or larger than MAX_SCENE_BYTES.
+
+    Raises
+    ------
+    SceneError
+    """
+    try:
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise SceneError(f"{path}: not a regular file (a device, pipe or socket); give a .toml scene file")
+        if st.st_size > MAX_SCENE_BYTES:
+            raise SceneError(f"{path}: {st.st_size} bytes, larger than a scene file can be "
+                             f"({MAX_SCENE_BYTES} bytes); give a .toml scene file")
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_SCENE_BYTES + 1)
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot be read: {exc.strerror or exc}") from None
+    try:
+        return tomllib.loads(data.decode("utf-8").removeprefix("\ufeff"))
+    except UnicodeDecodeError:
+        raise SceneError(f"{path}: not a text file (a scene is a UTF-8 TOML file)") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: not valid TOML: {exc}") from None
+
+
 def cases_dir() -> Path:
-    """Where named scenes live: $DAEBENCH_CASES, the installed copy, or the repo's cases/."""
+    """Where named scenes live: $DAEBENCH_CASES, the installed copy, or the repo's cases/.
+
+    Raises
+    ------
+    SceneError
+        When $DAEBENCH_CASES is set to something that is not a folder.
+    """
     env = os.environ.get("DAEBENCH_CASES")
     if env:
+        if not Path(env).is_dir():
+            raise SceneError(f"DAEBENCH_CASES={env} is not a folder; point it at a folder of scene .toml files "
+                             f"(or unset it to use the installed cases)")
         return Path(env)
     here = Path(__file__).resolve().parents[1]  # the daebench package
     for cand in (here / "_cases", here.parent / "cases"):
@@ -58,8 +132,7 @@ def list_scenes() -> list[tuple[str, str]]:
     """(name, description) of every scene file in :func:`cases_dir`."""
     out = []
     for p in sorted(cases_dir().glob("*.toml")):
-        with open(p, "rb") as fh:
-            raw = tomllib.load(fh)
+        raw = read_toml(p)
         out.append((p.stem, str(raw.get("description", ""))))
     return out
 
@@ -89,6 +162,9 @@ class Scene:
     #: the values as the scene file gave them (before overrides); None when not read from a file
     base: dict[str, Any] | None = field(default=None, repr=False, compare=False)
 
+    def __post_init__(self) -> None:
+        check_name(self.name)
+
     def __getitem__(self, key: str) -> Any:
         if key not in self.values:
             raise SceneError(f"scene '{self.name}' has no key '{key}'{did_you_mean(key, self.values)}")
@@ -117,6 +193,9 @@ class Scene:
         Strings are parsed as command-line text; other values (from Python) must have
         the key's type. ``model`` cannot be overridden: a scene's keys belong to its model.
         """
+        if isinstance(overrides, (str, bytes)) or not isinstance(overrides, (dict, Iterable)):
+            raise SceneError(f"scene overrides must be {{key: value}} or a list of \"key=value\" strings, "
+                             f"e.g. {{\"t_end\": 0.5}}; got {overrides!r}")
         pairs = parse_overrides(overrides) if not isinstance(overrides, dict) else dict(overrides)
         values = dict(self.values)
         for key, raw in pairs.items():
@@ -126,7 +205,9 @@ class Scene:
                     f"its keys belong to that model); pick a scene of the other model instead "
                     f"(`daebench list` shows the cases)")
             values[key] = validate_key(key, raw, self.schema, "--set")
-        return Scene(self.name, self.model, values, self.schema, self.source, self.check, self.base).checked()
+        if "name" in pairs:
+            check_name(values["name"], "--set name")
+        return Scene(values.get("name") or self.name, self.model, values, self.schema, self.source, self.check, self.base).checked()
 
     def checked(self) -> "Scene":
         """Run the model's cross-key checks (e.g. a contact law needs effects.contact)."""
@@ -146,6 +227,9 @@ class Scene:
 
 
 def parse_overrides(items: Iterable[str]) -> dict[str, str]:
+    items = list(items)
+    if not all(isinstance(i, str) for i in items):
+        raise SceneError(f"scene overrides must be \"key=value\" strings, e.g. [\"t_end=0.5\"]; got {items!r}")
     try:
         return parse_pairs(items, "--set", "contact.restitution=0.3")
     except ParamError as exc:
@@ -167,6 +251,9 @@ def validate_key(key: str, raw: Any, schema: dict[str, Param], where: str, stric
 
 def resolve_path(name_or_path: str | os.PathLike) -> Path:
     """The scene file of a case name (case-insensitive) or a path to a .toml file."""
+    if not isinstance(name_or_path, (str, os.PathLike)) or not str(name_or_path).strip():
+        raise SceneError(f"a scene is a case name (e.g. \"pendulum\", see `daebench list`), a path to a .toml "
+                         f"file or a Scene; got {name_or_path!r}")
     p = Path(name_or_path)
     if p.is_dir():
         raise SceneError(f"'{p}' is a folder, not a scene file; give a case name (`daebench list`) "
@@ -179,7 +266,7 @@ def resolve_path(name_or_path: str | os.PathLike) -> Path:
     match = [n for n in names if n.lower() == p.name.lower()]
     if match:
         return cases_dir() / f"{match[0]}.toml"
-    raise SceneError(
+    raise UnknownScene(
         f"unknown scene '{name_or_path}'{did_you_mean(str(name_or_path).lower(), names)} "
         f"Known scenes: {', '.join(names)} (see `daebench list`)."
     )

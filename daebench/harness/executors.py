@@ -15,24 +15,36 @@ there). What a run cannot report itself becomes its row here:
   ignore SIGINT: only the sweep's own process reacts to Ctrl-C) → status ``error``.
 
 SIGINT (``KeyboardInterrupt`` in the calling process) kills the workers at once and
-propagates, after every finished row has been handed over.
+propagates, after every finished row has been handed over; SIGTERM does the same while
+runs execute (:func:`sigterm_as_interrupt`: ``kill PID`` keeps the rows and the table like
+Ctrl-C). A worker never outlives its sweep: on Linux the kernel kills it when the process
+that started it dies (``PR_SET_PDEATHSIG``, so even ``kill -9`` of the sweep leaves no
+orphan), and everywhere a watcher thread in the worker ends it within
+``PARENT_POLL_S`` once its parent is gone.
 """
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing as mp
+import os
 import signal
+import sys
+import threading
 import time
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 from daebench.core.params import ParamError
 
 POLL_S = 0.25               # how often the pool looks at its workers
 BACKSTOP_GRACE_S = 30.0     # a run is killed this long after its cap would have stopped it
 DASK_CONNECT_TIMEOUT = 10.0  # s to reach a Dask scheduler
+PARENT_POLL_S = 1.0         # a worker looks this often whether its sweep still exists
+PR_SET_PDEATHSIG = 1        # prctl option (linux/prctl.h)
 
 Row = dict[str, Any]
 
@@ -53,19 +65,66 @@ def describe_exit(code: int | None) -> str:
     return f"exited with code {code}"
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received while a sweep's runs execute: handled as Ctrl-C (rows kept, table written)."""
+
+
+@contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """While the block runs (in the main thread), SIGTERM raises :class:`Terminated` —
+    a KeyboardInterrupt, so the sweep stops as on Ctrl-C: finished rows kept, the
+    partial table written, the resume command printed."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        raise Terminated("terminated (SIGTERM)")
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _die_with_parent(parent_pid: int) -> None:
+    """Make this worker end when the sweep's process does: the kernel's parent-death signal
+    on Linux, and on every system a daemon thread that polls the parent's pid."""
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent_pid:  # the parent died before the signal was armed
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(PARENT_POLL_S)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="daebench-parent-watch", daemon=True).start()
+
+
 def run_inline(specs: Sequence[Any], fn: Callable[[Any], Row], on_row: Callable[[Row], None],
                on_running: Callable[[list[Any]], None] | None = None) -> None:
     """Each run in this process, one after the other (no crash isolation: for debugging
     and for callers that registered integrators in this process only)."""
-    for s in specs:
-        if on_running is not None:
-            on_running([s])
-        on_row(fn(s))
+    with sigterm_as_interrupt():
+        for s in specs:
+            if on_running is not None:
+                on_running([s])
+            on_row(fn(s))
 
 
 # ---- worker processes ----------------------------------------------------------------
-def _worker_main(conn: Connection, fn: Callable[[Any], Row]) -> None:
+def _worker_main(conn: Connection, fn: Callable[[Any], Row], parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's business, not the worker's
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the sweep's handler (inherited through fork)
+    _die_with_parent(parent_pid)
     while True:
         try:
             spec = conn.recv()
@@ -105,15 +164,22 @@ def run_processes(specs: Sequence[Any], fn: Callable[[Any], Row], jobs: int, on_
 
     def spawn() -> _Worker:
         parent, child = ctx.Pipe()
-        proc = ctx.Process(target=_worker_main, args=(child, fn), daemon=True)
+        proc = ctx.Process(target=_worker_main, args=(child, fn, os.getpid()), daemon=True)
         proc.start()
         child.close()
         return _Worker(proc, parent)
 
     pending = deque(specs)
     workers: list[_Worker] = []
+    with sigterm_as_interrupt():
+        _run_pool(pending, workers, spawn, jobs, len(specs), on_row, make_row, on_running, backstop_s)
+
+
+def _run_pool(pending: deque, workers: list[_Worker], spawn: Callable[[], _Worker], jobs: int, n: int,
+              on_row: Callable[[Row], None], make_row: Callable[[Any, str, str], Row],
+              on_running: Callable[[list[Any]], None] | None, backstop_s: float | None) -> None:
     try:
-        workers = [spawn() for _ in range(max(1, min(jobs, len(specs))))]
+        workers[:] = [spawn() for _ in range(max(1, min(jobs, n)))]
         while pending or any(w.spec is not None for w in workers):
             for w in workers:
                 if w.spec is None and pending:

@@ -18,12 +18,14 @@ a cap that falls inside a compilation takes effect when the compilation ends.
 from __future__ import annotations
 
 import ctypes
+import errno
 import math
+import os
 import tempfile
 import threading
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 from daebench.integrators import base
 from daebench.integrators.base import Integrator, IntegratorError
@@ -35,6 +37,12 @@ MAX_OUTPUT_ROWS = 1e7    # history rows (each ~30 floats: ~2.4 GB at this size)
 
 class GuardError(ParamError):
     """A run refused before its first step; the message says what to change."""
+
+
+class OutputWriteError(GuardError):
+    """A result that was computed but could not be written (full disk, a folder removed
+    or made read-only meanwhile); the message says what was kept and what to do. The
+    command line exits 1 (the work ran; its input was fine)."""
 
 
 class RunTimeout(BaseException):
@@ -290,9 +298,12 @@ def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> N
                        what=f"scene '{scene.name}'")
 
 
-def ensure_writable_dir(path: str | Path, what: str = "output folder") -> Path:
+def ensure_writable_dir(path: str | Path, what: str = "output folder", longest_name: str = "") -> Path:
     """Create ``path`` if needed and prove it writable (a file is made and removed), so
-    that a run never finishes only to fail when it writes."""
+    that a run never finishes only to fail when it writes. ``longest_name``: the longest
+    file name that will be written there, checked against the file system's limit."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
+        raise GuardError(f"{what} must be a folder path (a string), e.g. results/runs; got {path!r}")
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise GuardError(f"{what} '{p}' is a file, not a folder; give a folder (it is created if missing)")
@@ -303,4 +314,57 @@ def ensure_writable_dir(path: str | Path, what: str = "output folder") -> Path:
     except OSError as exc:
         raise GuardError(f"cannot write to {what} '{p}': {exc.strerror or exc}; choose a writable folder "
                          f"(--out, or the DAEBENCH_RESULTS environment variable)") from None
+    if longest_name:
+        check_name_fits(p, longest_name, what)
     return p
+
+
+def check_name_fits(folder: Path, name: str, what: str = "output folder") -> None:
+    """Refuse, before any work, a file name longer than ``folder``'s file system takes."""
+    try:
+        limit = os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    n = len(os.fsencode(name))
+    if n > limit:
+        raise GuardError(f"the file name {name[:40]!r}… would be {n} bytes, more than the {limit} the file system "
+                         f"of {what} '{folder}' takes; use a shorter scene name (--set name=short) or --name")
+
+
+def describe_os_error(exc: BaseException) -> str:
+    """'the disk is full (No space left on device)' and the like, for messages."""
+    code = getattr(exc, "errno", None)
+    text = getattr(exc, "strerror", None) or str(exc)
+    if code in (errno.ENOSPC, errno.EDQUOT) or "disk is full" in str(exc) or "No space left" in str(exc):
+        return f"the disk is full ({text})"
+    if code in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return f"it is not writable ({text})"
+    if code == errno.ENAMETOOLONG:
+        return f"the name is too long for the file system ({text})"
+    return f"{type(exc).__name__}: {text}"
+
+
+def atomic_write(path: Path, write: Callable[[Path], Any], what: str, kept: str = "") -> None:
+    """Write ``path`` through a temporary file beside it (``write(tmp)``, then ``os.replace``).
+    A failure removes the temporary file and raises :class:`OutputWriteError` naming the
+    file, the cause and ``kept`` (what is safe)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise write_error(exc, what, path, kept, tmp) from None
+
+
+def write_error(exc: BaseException, what: str, path: Path | str, kept: str = "",
+                tmp: Path | None = None) -> OutputWriteError:
+    """The :class:`OutputWriteError` of a failed write (the temporary file ``tmp`` removed)."""
+    if tmp is not None:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+    return OutputWriteError(f"could not write {what} {path}: {describe_os_error(exc)}. "
+                            + (f"{kept}. " if kept else "")
+                            + "Free space there or choose another folder (--out, or DAEBENCH_RESULTS), "
+                              "then run again; this is not a fault of the integrator")

@@ -120,8 +120,9 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
     guards.check_contacts_fit(scene, type(integ))
     if not force:
         guards.check_size(scene, integ)
-    if write:
-        guards.ensure_writable_dir(history_dir(out_dir), "history folder")
+    if write:  # the folder and the longest name written there are checked before any step
+        guards.ensure_writable_dir(history_dir(out_dir), "history folder",
+                                   longest_name=f".{history_name(scene, integ)}.json.{os.getpid()}.tmp")
     system = build_system(scene)
     guards.check_observables(scene, system)
     # the history keeps every observable (modal participations included); the scene's
@@ -131,7 +132,11 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
                           record_states=record_states)
     path = None
     if write:
-        path = write_history(result, scene, integ, out_dir)
+        try:
+            path = write_history(result, scene, integ, out_dir)
+        except guards.OutputWriteError as exc:
+            exc.result = result  # what was computed stays reachable (the API's callers)
+            raise
     final = {}
     if len(result.history):
         last = result.history.iloc[-1]
@@ -162,18 +167,24 @@ def write_history(result: RunResult, scene: Scene, integ: Integrator, out_dir: s
     """<folder>/<scene>-<integrator>-<run id>.<csv|parquet>, written atomically, plus a
     .json sidecar (scene, integrator, settings, status) that figures use for legends."""
     out = history_dir(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    fmt = scene.get("output.format", "csv")
-    path = out / f"{scene.name}-{integ.name}-{run_id(scene, integ)}.{fmt}"
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    if fmt == "parquet":
-        result.history.to_parquet(tmp, index=False)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise guards.write_error(exc, "the history folder", out, "the run finished; its history was not kept") from None
+    path = out / history_name(scene, integ)
+    kept = f"the run itself finished ({result.status}); only its history file is missing"
+    if path.suffix == ".parquet":
+        guards.atomic_write(path, lambda p: result.history.to_parquet(p, index=False), "the history", kept)
     else:
-        result.history.to_csv(tmp, index=False, float_format="%.17g")
-    os.replace(tmp, path)
+        guards.atomic_write(path, lambda p: result.history.to_csv(p, index=False, float_format="%.17g"),
+                            "the history", kept)
     side = {"scene": scene.name, "scene_hash": scene.hash, "integrator": integ.name,
             "settings": _jsonable(dict(integ.settings)), "status": result.status, "message": result.message}
-    side_tmp = tmp.with_suffix(".json.tmp")
-    side_tmp.write_text(json.dumps(side, indent=2))
-    os.replace(side_tmp, path.with_suffix(".json"))
+    guards.atomic_write(path.with_suffix(".json"), lambda p: p.write_text(json.dumps(side, indent=2)),
+                        "the history's sidecar", f"the history is in {path}")
     return path
+
+
+def history_name(scene: Scene, integ: Integrator) -> str:
+    """<scene>-<integrator>-<run id>.<csv|parquet>"""
+    return f"{scene.name}-{integ.name}-{run_id(scene, integ)}.{scene.get('output.format', 'csv')}"

@@ -143,12 +143,17 @@ class SweepStore:
         if overwrite:
             for p in existing:
                 p.unlink()
-        store = cls(folder, name, fd)
-        text = json.dumps(manifest, sort_keys=True, default=_plain)
-        old = store.db.execute("SELECT value FROM meta WHERE key = 'manifest'").fetchone()
-        if old is None:
-            store.db.execute("INSERT INTO meta VALUES ('manifest', ?)", (text,))
-        elif old[0] != text:
+        if resume:
+            check_store(store_file)
+        try:
+            store = cls(folder, name, fd)
+            text = json.dumps(manifest, sort_keys=True, default=_plain)
+            old = store.db.execute("SELECT value FROM meta WHERE key = 'manifest'").fetchone()
+            if old is None:
+                store.db.execute("INSERT INTO meta VALUES ('manifest', ?)", (text,))
+        except sqlite3.Error as exc:
+            raise guards.write_error(exc, "the row store", store_file, "nothing has run yet") from None
+        if old is not None and old[0] != text:
             store.db.close()
             raise StoreError(f"cannot resume '{name}': it was planned with other arguments (scene, integrators, "
                              f"grid, steps/tols, options or reference mode differ); repeat the original command "
@@ -160,8 +165,21 @@ class SweepStore:
         return {int(r): json.loads(t) for r, t in self.db.execute("SELECT run, row FROM rows ORDER BY run")}
 
     def append(self, row: dict[str, Any]) -> None:
-        """Write one finished row (its own transaction: on disk when this returns)."""
-        self.db.execute("INSERT OR REPLACE INTO rows VALUES (?, ?)", (int(row["run"]), encode_row(row)))
+        """Write one finished row (its own transaction: on disk when this returns).
+
+        Raises
+        ------
+        OutputWriteError
+            When the row cannot be stored (full disk); the rows stored before it are kept.
+        """
+        try:
+            self.db.execute("INSERT OR REPLACE INTO rows VALUES (?, ?)", (int(row["run"]), encode_row(row)))
+        except sqlite3.Error as exc:
+            n = self.db.execute("SELECT COUNT(*) FROM rows").fetchone()[0]
+            raise guards.write_error(
+                exc, f"the row of run {row['run']} to", self.path,
+                f"the {n} rows stored before it are kept there; free space and complete the sweep with "
+                f"--resume --name {self.name} (the runs without a row are run then)") from None
 
     def close(self) -> None:
         """Close the database and release the lock."""
@@ -180,6 +198,45 @@ class SweepStore:
         self.close()
 
 
+def check_store(path: Path) -> None:
+    """Refuse to resume from a row store that is empty or damaged (truncated, a flipped
+    byte, a row that is not JSON): resuming would silently run the whole sweep again or
+    mix damaged rows into the table.
+
+    Raises
+    ------
+    StoreError
+        Naming the file, what is wrong and the fix.
+    """
+    fix = (f"move it away and run the sweep again with --overwrite (its finished rows are lost), or restore "
+           f"the file from a copy")
+    size = path.stat().st_size
+    if size == 0:
+        raise StoreError(f"cannot resume: the row store {path} is empty (0 bytes; a sweep's store holds at least "
+                         f"its plan): it is damaged; {fix}")
+    try:
+        db = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30.0)
+        try:
+            check = db.execute("PRAGMA integrity_check").fetchall()
+            if check != [("ok",)]:
+                raise sqlite3.DatabaseError("; ".join(str(c[0]) for c in check[:3]))
+            tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            if not {"meta", "rows"} <= tables or db.execute(
+                    "SELECT value FROM meta WHERE key = 'manifest'").fetchone() is None:
+                raise sqlite3.DatabaseError("it has no plan (not a daebench row store)")
+            for run, text in db.execute("SELECT run, row FROM rows"):
+                try:
+                    row = json.loads(text)
+                except (TypeError, ValueError):
+                    raise sqlite3.DatabaseError(f"the row of run {run} is not JSON") from None
+                if not isinstance(row, dict) or row.get("run") != run:
+                    raise sqlite3.DatabaseError(f"the row of run {run} is not a row of this sweep")
+        finally:
+            db.close()
+    except sqlite3.Error as exc:
+        raise StoreError(f"cannot resume: the row store {path} is damaged ({exc}); {fix}") from None
+
+
 def assemble(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
     """The table: one row per run, in plan order (columns in first-appearance order of
     that order, so a table does not depend on which run finished first)."""
@@ -187,26 +244,31 @@ def assemble(rows: Iterable[dict[str, Any]]) -> pd.DataFrame:
     return pd.DataFrame(ordered) if ordered else pd.DataFrame({"run": pd.Series([], dtype="int64")})
 
 
-def _replace_atomic(write: Any, path: Path) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    write(tmp)
-    os.replace(tmp, path)
-
-
 def write_table(df: pd.DataFrame, name: str, scenes: Iterable[Any] = (), folder: Path | None = None,
-                **extra: Any) -> Path:
+                kept: str = "", **extra: Any) -> Path:
     """<folder>/<name>.parquet + .csv + .json (provenance), each written atomically;
-    returns the parquet path. ``folder`` defaults to results/bench."""
+    returns the parquet path. ``folder`` defaults to results/bench.
+
+    Raises
+    ------
+    OutputWriteError
+        When a file cannot be written (full disk); no temporary file is left, and the
+        message says ``kept`` (where the rows are safe).
+    """
     from daebench.harness.runner import results_dir
 
     out = guards.ensure_writable_dir(Path(folder) if folder is not None else results_dir() / "bench", "table folder")
     path = out / f"{name}.parquet"
-    _replace_atomic(lambda p: df.to_parquet(p, index=False), path)
-    _replace_atomic(lambda p: df.to_csv(p, index=False), path.with_suffix(".csv"))
+    if not kept and (out / f"{name}.rows.sqlite").exists():
+        kept = (f"every finished row is kept in {out / name}.rows.sqlite: the same command with --resume --name {name} "
+                f"writes the table without running anything again")
+    guards.atomic_write(path, lambda p: df.to_parquet(p, index=False), "the table", kept)
+    guards.atomic_write(path.with_suffix(".csv"), lambda p: df.to_csv(p, index=False), "the table", kept)
     hashes = sorted(set(df["scene_hash"].dropna())) if "scene_hash" in df else []
     pairs = [(s.name, s.hash) for s in scenes] + [(str(df["case"].iloc[0]), h) for h in hashes if len(df)]
     prov = provenance.collect(list(dict.fromkeys(pairs)))
-    _replace_atomic(lambda p: provenance.write_sidecar(p, prov, rows=len(df), **extra), path.with_suffix(".json"))
+    guards.atomic_write(path.with_suffix(".json"), lambda p: provenance.write_sidecar(p, prov, rows=len(df), **extra),
+                        "the table's sidecar", kept)
     return path
 
 

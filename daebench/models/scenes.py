@@ -5,11 +5,10 @@ checks. The scene value itself (:class:`daebench.core.scene.Scene`) knows no mod
 from __future__ import annotations
 
 import os
-import tomllib
 from typing import Any, Iterable
 
 from daebench.core.params import Param, did_you_mean
-from daebench.core.scene import COMMON_SCHEMA, Scene, SceneError, flatten, resolve_path, validate_key
+from daebench.core.scene import COMMON_SCHEMA, Scene, SceneError, flatten, read_toml, resolve_path, validate_key
 from daebench.models import MODELS, get_model
 
 
@@ -32,15 +31,7 @@ def load_scene(name_or_path: str | os.PathLike, overrides: Iterable[str] | dict[
         On any problem, with a message that names the key and the fix.
     """
     path = resolve_path(name_or_path)
-    try:
-        with open(path, "rb") as fh:
-            raw = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path}: not valid TOML: {exc}") from None
-    except UnicodeDecodeError:
-        raise SceneError(f"{path}: not a text file (a scene is a UTF-8 TOML file)") from None
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot be read: {exc.strerror or exc}") from None
+    raw = read_toml(path)  # a regular UTF-8 file of at most 1 MB; refusals name the fix
     return scene_from_dict(raw, name=path.stem, source=str(path)).with_overrides(overrides)
 
 
