@@ -16,17 +16,29 @@ Laws
 
 The force formulas exist once, compiled, in :mod:`daebench.core.phase` (``law_force``);
 the Python methods here evaluate them.
+
+Scene keys: every model with contacts declares its ``contact.*`` keys through
+:func:`contact_schema` (one set of keys, one default set, one validation); a model
+passes only what differs for it (the laws it offers, a default restitution or stiffness).
+``complementarity`` names no law: the contacts are left to an integrator that resolves
+them itself (:attr:`daebench.core.system.MechanicalSystem.contacts_by_integrator`); the
+restitution the scene gives is still the system's
+(:attr:`daebench.core.system.MechanicalSystem.contact_restitution`).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from daebench.core.params import Param
 from daebench.core.phase import LAW_HERTZ, LAW_PENALTY, law_elastic, law_force, law_potential
+
+if TYPE_CHECKING:  # pragma: no cover
+    from daebench.core.scene import Scene
 
 DAMPING_LAWS = ("lankarani-nikravesh", "hunt-crossley", "flores", "none")
 APPROACH_SPEED_MIN = 1e-3  # m/s: the hysteresis factors scale as 1/v0; a grazing or resting
@@ -133,15 +145,113 @@ class PenaltyLaw(ContactLaw):
 
 
 def make_contact_law(law: str, restitution: float, n_contacts: int = 1, *, hertz_stiffness: float = 0.0,
-                     hertz_damping: str = "lankarani-nikravesh", penalty_stiffness: float = 0.0,
-                     penalty_damping: float = 0.0) -> ContactLaw:
+                     hertz_damping: str = "lankarani-nikravesh", hertz_exponent: float = 1.5,
+                     penalty_stiffness: float = 0.0, penalty_damping: float = 0.0) -> ContactLaw | None:
+    """The law a scene's ``contact.law`` names (None for ``complementarity``: no law, the
+    contacts are left to an integrator that resolves them)."""
+    if law == "complementarity":
+        return None
     if law == "constraint":
         return ConstraintLaw(restitution, n_contacts)
     if law == "hertz":
-        return HertzLaw(restitution, hertz_stiffness, hertz_damping, n_contacts=n_contacts)
+        return HertzLaw(restitution, hertz_stiffness, hertz_damping, exponent=hertz_exponent, n_contacts=n_contacts)
     if law == "penalty":
         return PenaltyLaw(restitution, penalty_stiffness, penalty_damping, n_contacts)
-    raise ValueError(f"unknown contact law '{law}' (constraint | hertz | penalty)")
+    raise ValueError(f"unknown contact law '{law}' (one of {', '.join(CONTACT_LAWS)})")
+
+
+# -- the contact keys of a scene ------------------------------------------------------------
+CONTACT_LAWS = ("constraint", "hertz", "penalty", "complementarity")
+LAW_MEANING = {
+    "constraint": "unilateral constraint + Newton impact law (the driver)",
+    "hertz": "Hertz force K δⁿ with hysteresis damping",
+    "penalty": "linear spring-damper k δ + c δ̇",
+    "complementarity": "left to an integrator that resolves contacts itself",
+}
+#: the one default set of the contact keys (a model overrides what differs for it)
+CONTACT_DEFAULTS: dict[str, Any] = {
+    "law": "constraint", "restitution": 0.0, "hertz_stiffness": 0.0, "hertz_exponent": 1.5,
+    "hertz_damping": "lankarani-nikravesh", "penalty_stiffness": 0.0, "penalty_damping": 0.0, "friction": 0.0,
+}
+
+
+@dataclass(frozen=True)
+class ContactSchema:
+    """The ``contact.*`` keys of one model and their one validation (:func:`contact_schema`)."""
+
+    laws: tuple[str, ...]
+    defaults: dict[str, Any]
+    hertz_rule: str = ""     # what contact.hertz_stiffness = 0 means ("": K must be > 0)
+    exponent: bool = False   # declares contact.hertz_exponent
+    friction: bool = False   # declares contact.friction
+
+    @property
+    def params(self) -> list[Param]:
+        d = self.defaults
+        out = [Param("contact.law", str, d["law"], "contact model: " + "; ".join(
+                   f"{k} = {LAW_MEANING[k]}" for k in self.laws), choices=self.laws),
+               Param("contact.restitution", float, d["restitution"],
+                     "Newton coefficient of restitution e (constraint law, Hertz damping)", low=0.0, high=1.0)]
+        if "hertz" in self.laws:
+            rule = f" (0: {self.hertz_rule})" if self.hertz_rule else ""
+            out.append(Param("contact.hertz_stiffness", float, d["hertz_stiffness"], "Hertz stiffness K" + rule,
+                             low=0.0, high=1e18, unit="N/m^n"))
+            if self.exponent:
+                out.append(Param("contact.hertz_exponent", float, d["hertz_exponent"], "Hertz exponent n in F = K δⁿ",
+                                 low=1.0, high=3.0))
+            out.append(Param("contact.hertz_damping", str, d["hertz_damping"], "Hertz hysteresis damping law",
+                             choices=DAMPING_LAWS))
+        if "penalty" in self.laws:
+            out += [Param("contact.penalty_stiffness", float, d["penalty_stiffness"],
+                          "penalty stiffness k (per contact point)", low=0.0, high=1e18, unit="N/m"),
+                    Param("contact.penalty_damping", float, d["penalty_damping"],
+                          "penalty damping c (per contact point)", low=0.0, high=1e12, unit="N s/m")]
+        if self.friction:
+            out.append(Param("contact.friction", float, d["friction"], "Coulomb friction coefficient μ",
+                             low=0.0))
+        return out
+
+    def check(self, scene: "Scene") -> None:
+        """Cross-key checks of the contact keys (none when ``effects.contact`` is off);
+        raise :class:`daebench.core.scene.SceneError` naming the key and the fix."""
+        from daebench.core.scene import SceneError  # core: the scene module reads models' schemas
+
+        if not scene.get("effects.contact", True):
+            return
+        law = scene["contact.law"]
+        if law == "hertz":
+            if not self.hertz_rule and scene["contact.hertz_stiffness"] <= 0.0:
+                raise SceneError("scene key 'contact.hertz_stiffness' must be > 0 for contact.law = 'hertz'")
+            if scene["contact.hertz_damping"] == "flores" and scene["contact.restitution"] <= 0.0:
+                raise SceneError("scene key 'contact.restitution' must be > 0 with contact.hertz_damping = 'flores'")
+        if law == "penalty" and scene["contact.penalty_stiffness"] <= 0.0:
+            raise SceneError("scene key 'contact.penalty_stiffness' must be > 0 for contact.law = 'penalty'")
+
+    def law(self, scene: "Scene", n_contacts: int, hertz_stiffness: float | None = None) -> ContactLaw | None:
+        """The law of a scene with ``n_contacts`` contact points (None: no contact point, or
+        ``complementarity``); ``hertz_stiffness``: the model's K when the key is 0."""
+        if n_contacts == 0:
+            return None
+        d = {k: scene.get(f"contact.{k}", v) for k, v in self.defaults.items()}
+        return make_contact_law(d["law"], d["restitution"], n_contacts,
+                                hertz_stiffness=d["hertz_stiffness"] or (hertz_stiffness or 0.0),
+                                hertz_damping=d["hertz_damping"], hertz_exponent=d["hertz_exponent"],
+                                penalty_stiffness=d["penalty_stiffness"], penalty_damping=d["penalty_damping"])
+
+
+def contact_schema(laws: tuple[str, ...] = CONTACT_LAWS, *, hertz_rule: str = "", exponent: bool = False,
+                   friction: bool = False, **defaults: Any) -> ContactSchema:
+    """The contact keys of a model offering ``laws``: ``contact.law``, ``contact.restitution``,
+    the Hertz keys if it offers ``hertz`` (``contact.hertz_exponent`` with ``exponent``),
+    the penalty keys if it offers ``penalty``, ``contact.friction`` (Coulomb μ) with
+    ``friction``. ``defaults`` override :data:`CONTACT_DEFAULTS` by key (without the
+    ``contact.`` prefix); ``hertz_rule`` says what the model does with
+    ``contact.hertz_stiffness = 0`` (none: K must be > 0)."""
+    unknown = [k for k in laws if k not in CONTACT_LAWS] + [k for k in defaults if k not in CONTACT_DEFAULTS]
+    if unknown:
+        raise ValueError(f"contact_schema: unknown law or key {unknown}; laws: {CONTACT_LAWS}, "
+                         f"keys: {tuple(CONTACT_DEFAULTS)}")
+    return ContactSchema(tuple(laws), {**CONTACT_DEFAULTS, **defaults}, hertz_rule, exponent, friction)
 
 
 @dataclass

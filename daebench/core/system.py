@@ -19,6 +19,7 @@ Every array is a float64 NumPy array. ``q`` and ``v`` have length ``n``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -64,6 +65,9 @@ class MechanicalSystem:
     n_contacts: int = 0
     coordinate_names: tuple[str, ...] = ()
     contact_law: "ContactLaw | None" = None
+    #: Newton coefficient of restitution e the scene gives its contacts (the law's, also when
+    #: the contacts are left to an integrator, ``complementarity``; NaN: the model declares none)
+    contact_restitution: float = math.nan
 
     # -- dynamics ---------------------------------------------------------
     def mass(self, q: np.ndarray) -> np.ndarray:

@@ -28,14 +28,14 @@ import numpy as np
 from numba import njit
 
 from daebench.core import kernels
-from daebench.core.contact import make_contact_law
+from daebench.core.contact import contact_schema, make_contact_law
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 from daebench.core.system import KernelSystem
 
 DESCRIPTION = "point mass striking a wall: bouncing ball (restitution e) or spring–wall oscillator; exact solutions"
 
-CONTACT_LAWS = ("constraint", "complementarity")
+CONTACT = contact_schema(("constraint", "complementarity"), restitution=0.8)
 
 SCHEMA: dict[str, Param] = {
     p.name: p
@@ -47,8 +47,7 @@ SCHEMA: dict[str, Param] = {
         Param("start.x", float, 1.0, "initial position (height above the ground)", low=-1e6, high=1e6, unit="m"),
         Param("start.v", float, 0.0, "initial velocity", low=-1e6, high=1e6, unit="m/s"),
         Param("effects.contact", bool, True, "the wall (off: the mass passes through)"),
-        Param("contact.law", str, "constraint", "contact model", choices=CONTACT_LAWS),
-        Param("contact.restitution", float, 0.8, "Newton coefficient of restitution e", low=0.0, high=1.0),
+        *CONTACT.params,
         Param("contact.wall", float, 0.0, "position of the wall (ground); gap = x − wall", low=-1e6, high=1e6,
               unit="m"),
     )
@@ -102,7 +101,8 @@ class Ball(KernelSystem):
         self.m, self.g, self.k, self.x_rest = float(mass), float(g), float(stiffness), float(rest)
         self.x0, self.v0, self.wall, self.e = float(x0), float(v0), float(wall), float(restitution)
         self.n_contacts = 1 if contact else 0
-        self.contact_law = make_contact_law(law, self.e, 1) if contact and law == "constraint" else None
+        self.contact_restitution = self.e
+        self.contact_law = make_contact_law(law, self.e, 1) if contact else None
         self.data = BallData(self.m, self.g, self.k, self.x_rest, self.wall)
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
@@ -125,6 +125,7 @@ def build(scene: Scene) -> Ball:
 
 
 def check_scene(scene: Scene) -> None:
+    CONTACT.check(scene)
     if scene["effects.contact"] and scene["start.x"] < scene["contact.wall"]:
         raise SceneError(f"scene key 'start.x' = {scene['start.x']} is behind the wall at contact.wall = "
                          f"{scene['contact.wall']}; start at or above it")

@@ -41,14 +41,15 @@ from typing import Iterable
 
 import numpy as np
 
-from daebench.core.contact import DAMPING_LAWS, HertzLaw, make_contact_law
+from daebench.core.contact import contact_schema, make_contact_law
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 from daebench.core.system import MechanicalSystem
 
 DESCRIPTION = "two spring-mass chains (3 + 3 masses) striking each other: Hertz/penalty/constraint/LCP contact"
 
-CONTACT_LAWS = ("hertz", "penalty", "constraint", "complementarity")
+CONTACT = contact_schema(("hertz", "penalty", "constraint", "complementarity"), exponent=True, law="hertz",
+                         restitution=0.8, hertz_stiffness=140e6)
 
 SCHEMA: dict[str, Param] = {
     p.name: p
@@ -61,32 +62,14 @@ SCHEMA: dict[str, Param] = {
         Param("chain.velocity", float, 0.0, "initial velocity of m3 towards m4 (the paper: 0)", low=-1e6,
               high=1e6, unit="m/s"),
         Param("effects.contact", bool, True, "contact between m3 and m4 (off: they pass through)"),
-        Param("contact.law", str, "hertz", "contact model", choices=CONTACT_LAWS),
-        Param("contact.restitution", float, 0.8, "coefficient of restitution e (hertz damping, constraint)",
-              low=0.0, high=1.0),
-        Param("contact.hertz_stiffness", float, 140e6, "Hertz equivalent stiffness K", low=0.0, high=1e18,
-              unit="N/m^n"),
-        Param("contact.hertz_exponent", float, 1.5, "Hertz exponent n in F = K δⁿ", low=1.0, high=3.0),
-        Param("contact.hertz_damping", str, "lankarani-nikravesh", "Hertz hysteresis damping law",
-              choices=DAMPING_LAWS),
-        Param("contact.penalty_stiffness", float, 0.0, "penalty stiffness k", low=0.0, high=1e18, unit="N/m"),
-        Param("contact.penalty_damping", float, 0.0, "penalty damping c", low=0.0, high=1e12, unit="N s/m"),
+        *CONTACT.params,
     )
 }
 
 
 def check_scene(scene: Scene) -> None:
     """Cross-key checks; raise :class:`SceneError` naming the key and the fix."""
-    if not scene["effects.contact"]:
-        return
-    law = scene["contact.law"]
-    if law == "hertz":
-        if scene["contact.hertz_stiffness"] <= 0.0:
-            raise SceneError("scene key 'contact.hertz_stiffness' must be > 0 for contact.law = 'hertz'")
-        if scene["contact.hertz_damping"] == "flores" and scene["contact.restitution"] <= 0.0:
-            raise SceneError("scene key 'contact.restitution' must be > 0 with contact.hertz_damping = 'flores'")
-    if law == "penalty" and scene["contact.penalty_stiffness"] <= 0.0:
-        raise SceneError("scene key 'contact.penalty_stiffness' must be > 0 for contact.law = 'penalty'")
+    CONTACT.check(scene)
 
 
 def build(scene: Scene) -> "Chain":
@@ -137,14 +120,11 @@ class Chain(MechanicalSystem):
         # "law": a continuous force or the driver's constraint; "integrator": an integrator
         # that treats the contact itself (complementarity); "none": no contact
         self.contact_model = "none" if not contact else law
-        if not contact or law == "complementarity":
-            self.contact_law = None
-        elif law == "hertz":
-            # make_contact_law does not pass the exponent: build the law here
-            self.contact_law = HertzLaw(restitution, hertz_stiffness, hertz_damping, exponent=hertz_exponent)
-        else:
-            self.contact_law = make_contact_law(law, restitution, 1, penalty_stiffness=penalty_stiffness,
-                                                penalty_damping=penalty_damping)
+        self.contact_restitution = float(restitution)
+        self.contact_law = make_contact_law(law, restitution, 1, hertz_stiffness=hertz_stiffness,
+                                            hertz_damping=hertz_damping, hertz_exponent=hertz_exponent,
+                                            penalty_stiffness=penalty_stiffness,
+                                            penalty_damping=penalty_damping) if contact else None
 
     # -- dynamics ---------------------------------------------------------------
     def mass(self, q: np.ndarray) -> np.ndarray:

@@ -36,15 +36,16 @@ from typing import Iterable
 import numpy as np
 import pandas as pd
 
-from daebench.core.contact import DAMPING_LAWS, make_contact_law
+from daebench.core.contact import contact_schema
 from daebench.models.corotational import Frame
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 
 DESCRIPTION = "flexible double pendulum (co-rotational beams) falling onto a smooth rigid foundation"
 
-CONTACT_LAWS = ("constraint", "hertz", "penalty", "complementarity")
 POISSON = 0.3  # for the default Hertz stiffness only
+CONTACT = contact_schema(("constraint", "hertz", "penalty", "complementarity"),
+                         hertz_rule="(4/3) E/(1−ν²) √r, r the section radius, ν = 0.3")
 
 SCHEMA: dict[str, Param] = {
     p.name: p
@@ -66,17 +67,9 @@ SCHEMA: dict[str, Param] = {
         Param("effects.contact", bool, True, "contact of link 2 with the foundation"),
         Param("damping.hs", float, 0.0, "averaging time h_s of the element stress (β_d = h_s/2)", low=0.0,
               high=10.0, unit="s"),
-        Param("contact.law", str, "constraint", "contact model", choices=CONTACT_LAWS),
+        *CONTACT.params,
         Param("contact.points", str, "link2", "which nodes can touch: every node of link 2, or its tip",
               choices=("link2", "tip")),
-        Param("contact.restitution", float, 0.0, "coefficient of restitution e (constraint law, Hertz damping)",
-              low=0.0, high=1.0),
-        Param("contact.hertz_stiffness", float, 0.0, "Hertz K (0: (4/3) E/(1−ν²) √r, r the section radius, ν = 0.3)",
-              low=0.0, high=1e16, unit="N/m^1.5"),
-        Param("contact.hertz_damping", str, "lankarani-nikravesh", "Hertz hysteresis damping law",
-              choices=DAMPING_LAWS),
-        Param("contact.penalty_stiffness", float, 0.0, "penalty stiffness k", low=0.0, high=1e16, unit="N/m"),
-        Param("contact.penalty_damping", float, 0.0, "penalty damping c", low=0.0, high=1e12, unit="N s/m"),
     )
 }
 
@@ -85,12 +78,8 @@ def check_scene(scene: Scene) -> None:
     """Cross-key checks; raise :class:`SceneError` naming the key and the fix."""
     if scene["effects.damping"] and scene["damping.hs"] <= 0.0:
         raise SceneError("scene key 'damping.hs' must be > 0 with effects.damping = true")
+    CONTACT.check(scene)
     if scene["effects.contact"]:
-        law = scene["contact.law"]
-        if law == "penalty" and scene["contact.penalty_stiffness"] <= 0.0:
-            raise SceneError("scene key 'contact.penalty_stiffness' must be > 0 for contact.law = 'penalty'")
-        if law == "hertz" and scene["contact.hertz_damping"] == "flores" and scene["contact.restitution"] <= 0.0:
-            raise SceneError("scene key 'contact.restitution' must be > 0 with contact.hertz_damping = 'flores'")
         if scene["pivot.height"] >= 2.0 * scene["links.length"]:
             raise SceneError(f"scene key 'pivot.height' = {scene['pivot.height']} m: the links "
                              f"(2 × {scene['links.length']} m) can never reach the foundation; choose less "
@@ -133,13 +122,10 @@ class DoublePendulum(Frame):
         self.radius = math.sqrt(A / math.pi)
         law = s["contact.law"]
         self.contact_model = "none" if not on else law
+        self.contact_restitution = float(s["contact.restitution"])
         if on and law != "complementarity":
-            K = s["contact.hertz_stiffness"] or 4.0 / 3.0 * E / (1.0 - POISSON**2) * math.sqrt(self.radius)
-            self.hertz_stiffness = K
-            self.contact_law = make_contact_law(law, s["contact.restitution"], self.n_contacts, hertz_stiffness=K,
-                                                hertz_damping=s["contact.hertz_damping"],
-                                                penalty_stiffness=s["contact.penalty_stiffness"],
-                                                penalty_damping=s["contact.penalty_damping"])
+            self.hertz_stiffness = s["contact.hertz_stiffness"] or 4.0 / 3.0 * E / (1.0 - POISSON**2) * math.sqrt(self.radius)
+            self.contact_law = CONTACT.law(s, self.n_contacts, self.hertz_stiffness)
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         """Tip and joint positions, tip velocity, the tip's gap and the smallest gap of the

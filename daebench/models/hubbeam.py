@@ -61,7 +61,7 @@ from typing import NamedTuple
 from numba import njit
 
 from daebench.core import kernels
-from daebench.core.contact import DAMPING_LAWS, make_contact_law
+from daebench.core.contact import contact_schema
 from daebench.models import _hubbeam_jacobians as hj
 from daebench.models import _hubbeam_kernels as kern
 from daebench.models.meshfree import (MAX_INFLUENCE, MAX_NODES, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE,
@@ -81,6 +81,8 @@ DESCRIPTION = "flexible beam on a turning hub (modes or FEM), gravity, torque, d
 
 # Dense H tables cost nq·nB² doubles; refuse scenes that would need more than this.
 MAX_TABLE_BYTES = 512 * 2**20
+CONTACT = contact_schema(("constraint", "hertz", "penalty"),
+                         hertz_rule="(4/3) E/(1−ν²) √r, r = contact.hertz_radius, ν = beam.poisson")
 
 SCHEMA: dict[str, Param] = {
     p.name: p
@@ -116,19 +118,12 @@ SCHEMA: dict[str, Param] = {
               unit="s"),
         Param("damping.beta", float, 0.0, "structural damping β in Q_d = −β K v_elastic", low=0.0, high=10.0,
               unit="s"),
-        Param("contact.law", str, "constraint", "contact model", choices=("constraint", "hertz", "penalty")),
-        Param("contact.restitution", float, 0.0, "coefficient of restitution e", low=0.0, high=1.0),
+        *CONTACT.params,
         Param("contact.plane_height", float, 0.0, "the plane is Y = −h0 (0: through the hinge)", low=-1e3,
               high=1e3, unit="m"),
         Param("contact.point", float, 1.0, "contact point x_P as a fraction of L (1 = tip)", low=1e-6, high=1.0),
-        Param("contact.hertz_stiffness", float, 0.0, "Hertz K (0: (4/3) E/(1−ν²) √r)", low=0.0, high=1e16,
-              unit="N/m^1.5"),
         Param("contact.hertz_radius", float, 0.01, "radius r of the tip sphere for the default Hertz K",
               low=1e-9, high=1e3, unit="m"),
-        Param("contact.hertz_damping", str, "lankarani-nikravesh", "Hertz hysteresis damping law",
-              choices=DAMPING_LAWS),
-        Param("contact.penalty_stiffness", float, 0.0, "penalty stiffness k", low=0.0, high=1e16, unit="N/m"),
-        Param("contact.penalty_damping", float, 0.0, "penalty damping c", low=0.0, high=1e12, unit="N s/m"),
         Param("start.theta_deg", float, 0.0, "initial hub angle θ from +X", low=-3600.0, high=3600.0, unit="deg"),
         Param("start.omega", float, 0.0, "initial angular velocity θ̇", low=-1e4, high=1e4, unit="rad/s"),
     )
@@ -212,12 +207,7 @@ def check_scene(scene: Scene) -> None:
             raise SceneError(f"scene key 'discretization.n' = {n}: foreshortening tables would need "
                              f"{8 * nq * nB * nB / 2**20:.0f} MiB; use fewer elements or "
                              f"effects.foreshortening = false")
-    if scene["effects.contact"]:
-        law = scene["contact.law"]
-        if law == "penalty" and scene["contact.penalty_stiffness"] <= 0.0:
-            raise SceneError("scene key 'contact.penalty_stiffness' must be > 0 for contact.law = 'penalty'")
-        if law == "hertz" and scene["contact.hertz_damping"] == "flores" and scene["contact.restitution"] <= 0.0:
-            raise SceneError("scene key 'contact.restitution' must be > 0 with contact.hertz_damping = 'flores'")
+    CONTACT.check(scene)
     if scene["effects.torque"] and scene["torque.period"] <= 0.0:
         raise SceneError("scene key 'torque.period' must be > 0")
 
@@ -297,14 +287,11 @@ class HubBeam(KernelSystem):
                                 self.Mc, c(self.K1), c(self.K2), c(wm @ at.phx), c(wm @ at.phy), c(Hbar),
                                 np.zeros((nB + 8, nq)), xp, phx_p, phy_p, H_p, np.zeros(self.n))
 
+        self.contact_restitution = float(s["contact.restitution"])
         if self.effects["contact"]:
-            K = s["contact.hertz_stiffness"] or hertz_default_stiffness(
+            self.hertz_stiffness = s["contact.hertz_stiffness"] or hertz_default_stiffness(
                 s["beam.modulus"], s["beam.poisson"], s["contact.hertz_radius"])
-            self.hertz_stiffness = K
-            self.contact_law = make_contact_law(
-                s["contact.law"], s["contact.restitution"], 1, hertz_stiffness=K,
-                hertz_damping=s["contact.hertz_damping"], penalty_stiffness=s["contact.penalty_stiffness"],
-                penalty_damping=s["contact.penalty_damping"])
+            self.contact_law = CONTACT.law(s, 1, self.hertz_stiffness)
         else:
             self.contact_law = None
 

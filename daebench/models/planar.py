@@ -31,28 +31,19 @@ from typing import Callable
 
 import numpy as np
 
-from daebench.core.contact import make_contact_law
+from daebench.core.contact import contact_schema
 from daebench.models import _planar_imm, _planar_kernels as pk
 from daebench.models._planar_mesh import Mesh2D, assemble
 from daebench.core.params import Param
-from daebench.core.scene import Scene, SceneError
+from daebench.core.scene import Scene
 from daebench.core.system import KernelSystem
 
-CONTACT_LAWS = ("constraint", "penalty", "complementarity")
+CONTACT = contact_schema(("constraint", "penalty", "complementarity"), penalty_stiffness=1e7)
 
 CONTACT_SCHEMA: dict[str, Param] = {
     p.name: p
     for p in (
-        Param("contact.law", str, "constraint",
-              "treatment: constraint (ACM), penalty (PFM), complementarity (left to the integrator: imm)",
-              choices=CONTACT_LAWS),
-        Param("contact.restitution", float, 0.0,
-              "Newton restitution of a contact node at closing (constraint law; 0: the node stops)",
-              low=0.0, high=1.0),
-        Param("contact.penalty_stiffness", float, 1e7, "penalty ε_N per contact point (penalty law)",
-              low=0.0, high=1e18, unit="N/m"),
-        Param("contact.penalty_damping", float, 0.0, "penalty damping per contact point (penalty law)",
-              low=0.0, high=1e12, unit="N s/m"),
+        *CONTACT.params,
         Param("imm.radius", float, 0.0, "radius of the interactive-mode local region; 0: the layout's "
               "Hertz estimate of the contact radius (flat contact: the contact node's own elements)",
               low=0.0, high=1.0, unit="m"),
@@ -60,10 +51,7 @@ CONTACT_SCHEMA: dict[str, Param] = {
 }
 
 
-def check_contact(scene: Scene) -> None:
-    """Cross-key checks of the contact keys."""
-    if scene["contact.law"] == "penalty" and scene["contact.penalty_stiffness"] <= 0.0:
-        raise SceneError("scene key 'contact.penalty_stiffness' must be > 0 for contact.law = 'penalty'")
+check_contact = CONTACT.check  # the cross-key checks of the contact keys
 
 
 @dataclass
@@ -172,9 +160,8 @@ class PlanarBodies(KernelSystem):
             np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
         law = scene["contact.law"]
         self.contact_model = law
-        self.contact_law = None if law == "complementarity" or not self.n_contacts else make_contact_law(
-            law, scene["contact.restitution"], self.n_contacts,
-            penalty_stiffness=scene["contact.penalty_stiffness"], penalty_damping=scene["contact.penalty_damping"])
+        self.contact_restitution = float(scene["contact.restitution"])
+        self.contact_law = CONTACT.law(scene, self.n_contacts)
         self.imm_radius = float(scene["imm.radius"]) or float(layout.imm_radius)
         self.coordinate_names = tuple(f"{c}{i}" for i in range(N) for c in "xy")
 
