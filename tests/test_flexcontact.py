@@ -1,5 +1,5 @@
-"""The three contact treatments of flexible bodies on the rod–wall impact (SEEDS.md A):
-ACM against the semi-discrete exact values of SEEDS.md A.3, IMM and PFM against
+"""The three contact treatments of flexible bodies on the rod–wall impact (docs/sources.md §A):
+ACM against the semi-discrete exact values of docs/sources.md §A.3, IMM and PFM against
 Saint-Venant's solution. Two compiled pairs in the fast suite (planar model × HHT,
 planar model × IMM); sweeps are slow."""
 
@@ -11,7 +11,7 @@ from daebench.studies import flexcontact as fc
 
 
 def test_acm_reproduces_the_semidiscrete_rod():
-    """10 lumped elements, struck node stopped: SEEDS.md A.3 gives T/T_exact = 1.0246,
+    """10 lumped elements, struck node stopped: docs/sources.md §A.3 gives T/T_exact = 1.0246,
     post-impact v/v0 = 0.928, energy after 0.950 (modal superposition, exact in time).
     Two contact nodes close at the same instant (the rod is a one-element-high strip)."""
     rec, res, integ, timer, sc = fc.run("rod-wall", "ACM", {"rod.elements": 10, "output.dt": 5e-7},

@@ -86,7 +86,7 @@ def test_linearization_of_beam_impact_gives_the_pinned_free_frequencies():
     lin = linearize(load_scene("beam-impact", {"discretization.n": 5}))
     assert lin.omega.max() == pytest.approx(11144.5, rel=1e-4)  # J_h = 0: the top mode of the README
     hub = linearize(load_scene("beam-impact", {"discretization.n": 5, "hub.inertia": 1e3}))
-    # a heavy hub clamps the rod: the 5th clamped–free bending frequency, 794.0 Hz (SEEDS.md G.2)
+    # a heavy hub clamps the rod: the 5th clamped–free bending frequency, 794.0 Hz (docs/sources.md §G.2)
     assert hub.omega.max() / (2 * math.pi) == pytest.approx(794.0, rel=2e-3)
 
 
@@ -157,7 +157,8 @@ def test_hub_variant_is_beam_impact_with_a_hub():
     assert diff == {"name", "description", "hub.inertia"}
     assert b["hub.inertia"] == 0.03
     lin = linearize(b.with_overrides({"discretization.n": 7}))
-    assert lin.omega.max() / (2 * math.pi) == pytest.approx(1657.0, rel=2e-3)  # clamped–free mode 7 (SEEDS G.2)
+    # clamped–free mode 7 (docs/sources.md §G.2)
+    assert lin.omega.max() / (2 * math.pi) == pytest.approx(1657.0, rel=2e-3)
 
 
 def _baumgarte_run(n: int, h: float):

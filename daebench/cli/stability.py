@@ -12,7 +12,7 @@ import typer
 
 from daebench.core.params import ParamError
 
-# the beam-impact paper's settings (SEEDS.md G.3), plus generalized-α and two Newmark members:
+# the beam-impact paper's settings (docs/sources.md §G.3), plus generalized-α and two Newmark members:
 # the trapezoidal rule (unconditionally stable) and Fox–Goodwin β = 1/12 (stable for hω ≤ √6)
 DEFAULT_METHODS = ("baumgarte:delta=0,epsilon=0", "baumgarte:delta=10,epsilon=50",
                    "baumgarte:delta=1000,epsilon=5000", "hht:alpha=0", "hht:alpha=-0.15", "hht:alpha=-0.3333",

@@ -59,7 +59,7 @@ class Protocol:
     why: str = ""
 
 
-# beam-impact (SEEDS.md G.2): the paper's h = 1e-4 s outside contact, 1e-6 s in contact, and
+# beam-impact (docs/sources.md §G.2): the paper's h = 1e-4 s outside contact, 1e-6 s in contact, and
 # two halvings of h; IDA first (the longest run: a two-worker sweep then ends together).
 _PAPER = {"h_contact": 1e-6}
 _STEPS = (1e-4, 5e-5, 2.5e-5)

@@ -1,7 +1,7 @@
 """The interactive-mode method (IMM) of seed 001 for flexible bodies in contact.
 
 Wang, Liu & Hong, "Dynamic modeling method of flexible bodies with contact/impact based
-on interactive mode", Acta Phys. Sin. 66(15) 154501 (2017) (SEEDS.md D): the model is
+on interactive mode", Acta Phys. Sin. 66(15) 154501 (2017) (docs/sources.md §D): the model is
 split into a **global dynamics module** — the whole lumped-mass FE model on floating
 frames, M q̈ = f + f_c — and a **local statics module** — the elements around the
 contact, inertia neglected, f(p) + G_pᵀλ = 0, G(p) = 0 solved by Newton with the

@@ -1,7 +1,7 @@
 r"""The source's own complementarity scheme: a force-level LCP on the time-averaged gap
 inside every right-hand side of an adaptive Dormand–Prince 5(4).
 
-Method (seed 003, eqs. 4–22; SEEDS.md §F)
+Method (seed 003, eqs. 4–22; docs/sources.md §F)
 -----------------------------------------
 The gap is expanded to second order over the window [t, t + h] that *starts* at the
 current time and averaged over it:
@@ -68,7 +68,7 @@ References
 ----------
 Zhang Xingang, Qi Zhaohui, Wang Gang, Guo Shudong, Wu Zhigang (seed 003): the
 time-averaged-gap LCP (text: /work/shared/seeds/003_*.txt, equations reconstructed in
-SEEDS.md §F).
+docs/sources.md §F).
 J. R. Dormand, P. J. Prince, "A family of embedded Runge–Kutta formulae", J. Comput.
 Appl. Math. 6 (1980) 19–26. L. F. Shampine, M. W. Reichelt, "The MATLAB ODE suite",
 SIAM J. Sci. Comput. 18 (1997) 1–22 (ode45).

@@ -10,7 +10,7 @@ node b_b. Its rotation θ_b = atan2(d) − θ_ref,b (d = x_b − x_a) and its de
 
 give the strain energy V = Σ_b ½ u_bᵀ K_b u_b (K_b the plane-stress stiffness of the
 body in its frame). This is the floating-frame-of-reference model (R, θ, u) of the
-interactive-mode paper [SEEDS.md D.1] in other generalized coordinates: with lumped
+interactive-mode paper [docs/sources.md §D.1] in other generalized coordinates: with lumped
 nodal masses its kinetic energy ½ Σ m_P |ṙ_P|² is the same function of the nodal
 velocities, so the Lagrangian is the same; written in the absolute nodal positions the
 mass matrix is constant and diagonal and the coupling of rigid motion and deformation

@@ -7,7 +7,7 @@ quadrilaterals (``ElementQuad1``) or linear triangles (``ElementTriP1``); the ma
 scikit-fem's consistent mass ρ t ∫u·v, lumped by row sums (for these elements the
 row sum, the HRZ and the nodal-area lumping coincide: a quadrilateral gives each of its
 nodes a quarter of its mass, a triangle a third), which is the lumped-mass model of
-the interactive-mode paper (SEEDS.md D.1). The element matrices are kept as well: the
+the interactive-mode paper (docs/sources.md §D.1). The element matrices are kept as well: the
 interactive-mode integrator assembles its local statics module from them.
 
 Why scikit-fem: it is maintained, pure Python (NumPy/SciPy only, no compiler, no

@@ -16,7 +16,7 @@ local forces are those of the linear Euler–Bernoulli element,
                                                        [0, 2EI/l₀, 4EI/l₀]],
 
 where β_d u̇_l is the optional stiffness-proportional damping that reproduces the
-"time-averaged stress" of the double-pendulum source (SEEDS.md E.2): the stress averaged
+"time-averaged stress" of the double-pendulum source (docs/sources.md §E.2): the stress averaged
 over [t, t + h_s] is σ + (h_s/2) σ̇, i.e. β_d = h_s/2 (modal damping ratio ζ ≈ h_s ω/4).
 With r = ∂l/∂p = [−c, −s, 0, c, s, 0], z = [s, −c, 0, −s, c, 0] (∂β/∂p = z/l) and
 B = [r; e₃ − z/l; e₆ − z/l] the global internal force and its tangent are

@@ -1,6 +1,6 @@
 """Flexible double pendulum falling onto a smooth rigid foundation (case ``double-pendulum``).
 
-Source: seed 003, Example 2 (SEEDS.md §E): two flexible links (L, A, ρ, E given; the
+Source: seed 003, Example 2 (docs/sources.md §E): two flexible links (L, A, ρ, E given; the
 section's I, element count, pivot height and time span not), released at rest from the
 horizontal under gravity; link 2 strikes a smooth (frictionless) rigid foundation,
 deforms greatly, does not rebound, stays in contact, slides and lifts off.

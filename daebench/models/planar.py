@@ -1,5 +1,5 @@
 """Planar elastic bodies on floating frames in node-to-segment contact — the model behind
-the cases ``rod-wall``, ``rod-plate`` and ``slider-slot`` (seed 001, SEEDS.md A–D).
+the cases ``rod-wall``, ``rod-plate`` and ``slider-slot`` (seed 001, docs/sources.md §A–D).
 
 A scene's layout module (:mod:`.rodwall`, :mod:`.rodplate`, :mod:`.sliderslot`) builds
 its bodies (:class:`Body`: mesh from the scene's dimensions, material, thickness,

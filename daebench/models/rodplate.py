@@ -1,5 +1,5 @@
 """A steel rod with a hemispherical tip striking the centre of a free aluminium plate —
-planar analog (case ``rod-plate``; seed 001 §4, SEEDS.md B).
+planar analog (case ``rod-plate``; seed 001 §4, docs/sources.md §B).
 
 The experiment (seed 001): a steel rod swings onto a suspended square aluminium plate,
 normal and central impact, both free during contact; contact lasted ≈ 1.7 ms

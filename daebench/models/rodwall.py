@@ -1,9 +1,9 @@
-"""Elastic rod striking a rigid wall end-on (case ``rod-wall``; SEEDS.md A).
+"""Elastic rod striking a rigid wall end-on (case ``rod-wall``; docs/sources.md §A).
 
 The rod is a planar body (:mod:`daebench.models.planar`): ``rod.elements`` bilinear
 quadrilaterals along its length, ``rod.elements_across`` across its height. With
 ν = 0 (the default) and one element across, each cross-section's nodes move together
-under an end-on impact and the model *is* the 2-node lumped-mass bar of SEEDS.md A.3
+under an end-on impact and the model *is* the 2-node lumped-mass bar of docs/sources.md §A.3
 (axial stiffness E A / l per element, nodal masses ρ A l/2 and ρ A l at the ends and
 inside). Floating frame: origin at the struck end's lowest node, axis along the lower
 edge. The wall is the line x = 0 (a fixed master segment, outward normal +x); the slave

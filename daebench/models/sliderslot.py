@@ -1,5 +1,5 @@
 """A round-headed slider launched into a smooth slot (case ``slider-slot``; seed 001 §5,
-SEEDS.md C).
+docs/sources.md §C).
 
 Stated by the paper: PVC for both parts (E = 3 GPa, ν = 0.3, ρ = 1800 kg/m³), 1 mm
 thick (plane stress), smooth contact, the slot fixed to the ground, the slider's

@@ -69,7 +69,7 @@ def contact_force(hist: pd.DataFrame) -> np.ndarray:
 
 
 def rod_wall_scores(res: Any, scene: Scene) -> dict[str, float]:
-    """Saint-Venant's numbers for a rod-wall run (SEEDS.md A.2/A.3 conventions: mean
+    """Saint-Venant's numbers for a rod-wall run (docs/sources.md §A.2/A.3 conventions: mean
     reaction = ∫λ dt / T without the impulse of the impact map)."""
     from daebench.models.rodwall import exact
 
