@@ -1,8 +1,8 @@
 """Flexible hub–beam: an Euler–Bernoulli beam clamped to a turning hub, with optional
 gravity, foreshortening, drive torque, structural damping and contact with a plane.
 
-Model (our derivation of /work/shared/MODEL.md)
------------------------------------------------
+Model (derived here; the source paper: docs/sources.md §G)
+----------------------------------------------------------
 A beam of length L, density ρ, area S, second moment I, modulus E is clamped at
 radius a on a hub (inertia J_h) that turns by θ about the fixed hinge O. In the frame
 turning with the hub, material point x ∈ [0, L] sits at
