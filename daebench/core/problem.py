@@ -56,6 +56,7 @@ class Problem:
         self.system = system
         self.active = tuple(int(i) for i in active)
         self.n = system.n
+        self.n_bilateral = system.n_bilateral
         self.m = system.n_bilateral + len(self.active)
         self.n_contacts = system.n_contacts
         nc = system.n_contacts

@@ -34,10 +34,10 @@ import numpy as np
 import pandas as pd
 
 from daebench.core.contact import Impact
-from daebench.driver.events import EventLogic, project  # noqa: F401  (project: part of the driver's API)
+from daebench.driver.events import ContactState, apply_event, find_event
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
-from daebench.stepping.watch import GAP_BAND, Watch
+from daebench.stepping.watch import Watch
 from daebench.core.system import MechanicalSystem, State
 
 DIVERGENCE_ENERGY = 10.0 # energy residual beyond this × energy scale means the run diverged (energy from nowhere)
@@ -72,9 +72,9 @@ class _Diverged(Exception):
     pass
 
 
-class Driver(EventLogic):
-    """Runs one integrator on one system from t = 0 to ``t_end`` (event location and the
-    impact map: :class:`daebench.driver.events.EventLogic`)."""
+class Driver:
+    """Runs one integrator on one system from t = 0 to ``t_end`` (the contacts' state, event
+    location and the impact map: :mod:`daebench.driver.events`)."""
 
     def __init__(self, system: MechanicalSystem, integrator: Integrator, t_end: float,
                  output_dt: float, observables: list[str] | None = None,
@@ -101,8 +101,8 @@ class Driver(EventLogic):
                            contact_law=None if law is None else law.name, n_contacts=system.n_contacts)
         # contacts the driver treats (none when the integrator resolves them itself)
         mine = law is not None and system.n_contacts > 0 and not integrator.capabilities.contacts
-        self.constraint_contacts = mine and not law.continuous
-        self.continuous_contacts = mine and law.continuous
+        self._constraint_contacts = mine and not law.continuous
+        self._continuous_contacts = mine and law.continuous
 
     # -- public -----------------------------------------------------------------
     def run(self) -> RunResult:
@@ -111,37 +111,22 @@ class Driver(EventLogic):
         q, v = sys_.initial_state()
         q = np.asarray(q, float)
         v = np.asarray(v, float)
-        self.active: list[int] = []
-        self.penetrating: set[int] = set()
-        if self.continuous_contacts:
-            self.penetrating = {int(i) for i in np.flatnonzero(sys_.gap(q) < 0.0)}
-        self.impacts: list[Impact] = []
+        cs = self.contacts = ContactState.start(Problem(sys_), q, self._constraint_contacts,
+                                                self._continuous_contacts)
         self.rows: list[dict[str, float]] = []
         self._states: list[tuple] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
-        self.approach_speed = np.full(sys_.n_contacts, np.nan)  # v₀ of each continuous-law episode
-        self._current = self._problem()
+        self._current = cs.phase(sys_)
         self.work: dict[str, float] = {k: 0.0 for k in self._power_terms(0.0, q, v)}  # W(0) = 0, not NaN
         if self.integ.capabilities.contacts:
             self.work["contact"] = 0.0  # booked from Advance.contact_work; the t = 0 row too
         self._contact_work: tuple[float, ...] | None = None
-        self.d_impacts = 0.0
         terms0 = sys_.energy(q, v)
         self.E0 = float(sum(terms0.values()))
         # energy scale of the run: the size of the initial energy terms (a system starting
         # at E0 = 0 with large opposite terms still has a scale)
         self.energy_scale = max(sum(abs(x) for x in terms0.values()), 1e-12)
         self.out_i = 0
-        self._gap_cache: tuple | None = None  # (q, t, gap(q)) of the last step's new state
-        self.last_impact_t = np.full(max(sys_.n_contacts, 1), -np.inf)
-        self.armed = sys_.gap(q) > GAP_BAND if sys_.n_contacts else np.zeros(0, bool)
-        self.last_release_t = np.full(max(sys_.n_contacts, 1), -np.inf)
-        # contacts re-closed within the first step after their release (the free motion went
-        # back into the plane faster than the step resolves — unresolved chatter): they stay
-        # closed for one full step before the sign of λ is read again, so every such cycle
-        # advances time by at least one step (a documented regularization)
-        self.hold: set[int] = set()
-        self.episode_start_W: dict[int, float] = {}  # contact work at first touch
         status, message = "completed", ""
         state = State(0.0, q, v)
         phases = 0
@@ -154,7 +139,7 @@ class Driver(EventLogic):
                 stalled = stalled + 1 if state.t <= t_before else 0
                 if stalled > MAX_STALLED_PHASES:
                     raise StepFailure(f"no progress: {stalled} consecutive events at t = {state.t:.12g} s "
-                                      f"(contact set {self.active}); the event logic cannot resolve this state")
+                                      f"(contact set {cs.active}); the event logic cannot resolve this state")
         except _Diverged as exc:
             status, message = "diverged", str(exc)
         except StepFailure as exc:
@@ -168,7 +153,7 @@ class Driver(EventLogic):
         hist = pd.DataFrame(self.rows)
         res = float(np.nanmax(np.abs(hist["energy_residual"]))) if len(hist) else math.nan
         return RunResult(status, message, self._t_last, time.perf_counter() - wall0,
-                         self.integ.counters_snapshot(), hist, self.impacts, dict(self.cmax), res,
+                         self.integ.counters_snapshot(), hist, cs.impacts, dict(self.cmax), res,
                          self._last_state, phases, self._states_arrays())
 
     _t_last = 0.0
@@ -176,28 +161,25 @@ class Driver(EventLogic):
 
     # -- one smooth phase ----------------------------------------------------------
     def _phase(self, state: State) -> State:
-        sys_ = self.system
-        problem = self._current = self._problem()
+        cs = self.contacts
+        problem = self._current = cs.phase(self.system)
         a, lam = problem.acceleration(state.t, state.q, state.v)
         state = State(state.t, state.q, state.v, a, lam)
-        if self.constraint_contacts and self.active:
+        if cs.constraint and cs.active:
             # a closed contact that would pull (λ < 0) opens before the phase starts
-            k = sys_.n_bilateral
-            tensile = [c for j, c in enumerate(self.active) if lam[k + j] < 0.0 and c not in self.hold]
+            k = problem.n_bilateral
+            tensile = [c for j, c in enumerate(cs.active) if lam[k + j] < 0.0 and c not in cs.hold]
             if tensile:
-                self.active = [c for c in self.active if c not in tensile]
-                self.armed[tensile] = False
-                self.last_release_t[tensile] = state.t  # a release like any other (see hold)
+                cs.release(tensile, state.t)  # a release like any other (see ContactState.hold)
                 return state
-        in_contact = bool(self.active) or bool(self.penetrating)
-        h = self.h = self.integ.step_size(in_contact)
+        h = self.integ.step_size(cs.in_contact)
         self.integ.start(problem, state, h)
         if self.out_i == 0 and state.t == 0.0:
             self._record_until(state, state, problem, 0.0)
         powers0 = self._power(state)
         batch = self._batch_ok(problem)
         while True:
-            watch = self._watch(problem) if (batch and not self.hold and not powers0
+            watch = self._watch(problem) if (batch and not cs.hold and not powers0
                                              and self.out_i < len(self.t_out)) else None
             adv = self._advance(watch)
             prev, new = adv.prev, adv.new
@@ -205,16 +187,16 @@ class Driver(EventLogic):
             self._last_state = new
             self._report_progress(new.t)
             self._check_finite(new)
-            event = self._find_event(prev, new, problem)
-            end = new if event is None else self.integ.dense(event[0])
+            event = find_event(cs, prev, new, problem, self.integ.dense)
+            end = new if event is None else self.integ.dense(event.t)
             if event is not None:
-                end = State(event[0], end.q, end.v, end.a, end.lam)
+                end = State(event.t, end.q, end.v, end.a, end.lam)
             powers1 = self._power(end)
             self._accumulate_work(prev, end, powers0, powers1, problem)
             self._track_constraints(new, problem)  # at the integrator's own step, not an interpolant
             powers0 = powers1
             if event is not None:
-                return self._apply_event(event, end, problem)
+                return apply_event(cs, event, end, problem, self.work.get("contact", 0.0), h)
             if new.t >= self.t_end - 1e-15 * max(1.0, self.t_end):
                 return new
 
@@ -236,16 +218,16 @@ class Driver(EventLogic):
         without event, output time or sign change is exactly what the runner does itself
         (re-arming gaps, constraint maxima); the step that needs more is handed back and
         processed below like any other step, so results do not depend on the path."""
-        return self.system.power_free and not self.penetrating
+        return self.system.power_free and not self.contacts.penetrating
 
     def _watch(self, problem: Problem) -> Watch:
-        sys_ = self.system
-        k = sys_.n_bilateral
-        inactive = np.array([i for i in range(sys_.n_contacts) if i not in self.active], dtype=np.int64) \
-            if (self.constraint_contacts or self.continuous_contacts) else np.zeros(0, dtype=np.int64)
-        lam_rows = np.array([k + j for j in range(len(self.active))], dtype=np.int64) \
-            if self.constraint_contacts else np.zeros(0, dtype=np.int64)
-        armed = self.armed if self.armed.size else np.zeros(1, dtype=bool)
+        cs = self.contacts
+        k = problem.n_bilateral
+        inactive = np.array([i for i in range(problem.n_contacts) if i not in cs.active], dtype=np.int64) \
+            if cs.watched else np.zeros(0, dtype=np.int64)
+        lam_rows = np.array([k + j for j in range(len(cs.active))], dtype=np.int64) \
+            if cs.constraint else np.zeros(0, dtype=np.int64)
+        armed = cs.armed if cs.armed.size else np.zeros(1, dtype=bool)
         cmax = np.array([self.cmax["C"], self.cmax["Cdot"], self.cmax["Cddot"]])
         return Watch(inactive, lam_rows, armed.copy(), problem.m > 0, cmax, float(self.t_out[self.out_i]),
                      self.t_end)
@@ -253,28 +235,17 @@ class Driver(EventLogic):
     def _advance(self, watch: Watch | None) -> Advance:
         """One call of the integrator; adopt its quiet steps' bookkeeping and the contact
         episodes it resolved itself."""
+        cs = self.contacts
         adv = self.integ.advance(self.t_end, watch)
         if watch is not None:
-            if self.armed.size:
-                self.armed = np.asarray(adv.armed, dtype=bool)[:self.armed.size].copy()
+            if cs.armed.size:
+                cs.armed = np.asarray(adv.armed, dtype=bool)[:cs.armed.size].copy()
             c = adv.cmax
             self.cmax.update(C=float(c[0]), Cdot=float(c[1]), Cddot=float(c[2]))
-        self.impacts.extend(adv.events)
+        cs.impacts.extend(adv.events)
         self._contact_work = adv.contact_work
         return adv
 
-    def _problem(self) -> Problem:
-        """The phase the driver is in: closed contacts, engaged continuous contacts, χ."""
-        sys_ = self.system
-        nc = sys_.n_contacts
-        engaged = np.zeros(nc)
-        chi = np.zeros(nc)
-        if self.continuous_contacts:
-            engaged[list(self.penetrating)] = 1.0
-            chi = sys_.contact_law.chi(self.approach_speed)
-        return Problem(sys_, tuple(self.active), engaged, chi)
-
-    # -- events ------------------------------------------------------------------------
     # -- bookkeeping -------------------------------------------------------------------
     def _power(self, s: State) -> dict[str, float]:
         return self._power_terms(s.t, s.q, s.v)
@@ -283,7 +254,7 @@ class Driver(EventLogic):
         """The model's own non-conservative powers, and the continuous contact dissipation
         while a contact penetrates."""
         out = self.system.power(t, q, v)
-        if self.continuous_contacts and self.penetrating:
+        if self._continuous_contacts and self.contacts.penetrating:
             out = {**out, "contact": self._current.contact_power(q, v)}
         return out
 
@@ -307,7 +278,7 @@ class Driver(EventLogic):
     def _record_until(self, prev: State, end: State, problem: Problem, dt: float,
                       base: dict | None = None, p0: dict | None = None, p1: dict | None = None) -> None:
         """Write history rows for the output times in (prev.t, end.t] (t = 0 included once)."""
-        sys_ = self.system
+        sys_, cs = self.system, self.contacts
         while self.out_i < len(self.t_out) and self.t_out[self.out_i] <= end.t + 1e-12 * max(1.0, self.t_end):
             to = float(self.t_out[self.out_i])
             if to >= end.t or dt == 0.0:
@@ -333,20 +304,20 @@ class Driver(EventLogic):
             row["E"] = E
             for k, w in work.items():
                 row[f"W_{k}"] = w
-            row["D_impacts"] = self.d_impacts
-            row["energy_residual"] = E - self.E0 - sum(work.values()) + self.d_impacts
+            row["D_impacts"] = cs.d_impacts
+            row["energy_residual"] = E - self.E0 - sum(work.values()) + cs.d_impacts
             self._check_divergence(to, row["energy_residual"], terms, work)
-            if self.constraint_contacts or self.continuous_contacts:
-                row["n_active"] = len(self.active) + len(self.penetrating)
-            if self.continuous_contacts:
+            if cs.watched:
+                row["n_active"] = len(cs.active) + len(cs.penetrating)
+            if cs.continuous:
                 F = problem.contact_forces(s.q, s.v)
                 for i in range(sys_.n_contacts):
                     row[f"contact_force_{i}"] = float(F[i])
-            if problem.m and self.active:
+            if problem.m and cs.active:
                 C, Cd, Cdd = problem.constraint_residuals(s.t, s.q, s.v, s.a)
                 row.update({"C": C, "Cdot": Cd, "Cddot": Cdd})
-                k = sys_.n_bilateral
-                for j, c in enumerate(self.active):
+                k = problem.n_bilateral
+                for j, c in enumerate(cs.active):
                     row[f"lambda_{c}"] = float(s.lam[k + j]) if s.lam.size > k + j else math.nan
             self.rows.append(row)
             if self.record_states:
@@ -389,7 +360,7 @@ class Driver(EventLogic):
         """Called at each output time (where the energy is computed anyway). The scale is
         fixed by the start and the booked work — never by the current energy, which grows
         with a blow-up."""
-        scale = self.energy_scale + sum(abs(w) for w in work.values()) + self.d_impacts
+        scale = self.energy_scale + sum(abs(w) for w in work.values()) + self.contacts.d_impacts
         if not math.isfinite(resid) or abs(resid) > DIVERGENCE_ENERGY * scale:
             raise _Diverged(f"t = {t:.6g} s: energy residual {resid:.3g} J exceeds "
                             f"{DIVERGENCE_ENERGY:g} × the energy scale {scale:.3g} J")
