@@ -114,3 +114,38 @@ def test_daebench_still_runs_where_the_plugin_is_not_installed(plugin_site, tmp_
                         "--opt", "h=1e-3", "--out", str(tmp_path), "--json"], capture_output=True, text=True, env=env)
     assert p.returncode == 0, p.stderr[-2000:]
     assert json.loads(p.stdout)["status"] == "completed"
+
+
+PROBE = """
+import daebench
+from daebench.core import numba_cache
+from numba.core import event
+from daebench.stepping import control
+
+with event.install_recorder("numba:compile") as rec:
+    control.land(0.0, 1.0, 0.3)
+print("STAMP", numba_cache.source_stamp(), "COMPILES", len(rec.buffer))
+"""
+
+
+def test_a_plugin_leaves_the_builtins_kernel_cache_alone(plugin_site, tmp_path):
+    """Issue 24 item 10: a plugin's version was part of the stamp of every daebench kernel,
+    so a process with a plugin installed (and the next one without) recompiled everything
+    and overwrote the index. The stamp is now the same with and without the plugin, and a
+    built-in kernel cached without it is a hit with it, and again without (numba's compile
+    event fires on a miss only)."""
+    cache = tmp_path / "cache"
+
+    def probe(with_plugin: bool) -> tuple[str, int]:
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(cache),
+                   PYTHONPATH=str(plugin_site) if with_plugin else "")
+        out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True, env=env, timeout=300)
+        assert out.returncode == 0, out.stderr
+        stamp, compiles = out.stdout.split("STAMP")[1].split("COMPILES")
+        return stamp.strip(), int(compiles)
+
+    stamp0, cold = probe(False)
+    assert cold >= 1
+    stamp1, n = probe(True)
+    assert stamp1 == stamp0 and n == 0
+    assert probe(False) == (stamp0, 0)

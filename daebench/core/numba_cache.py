@@ -7,6 +7,18 @@ every daebench function one stamp: a hash of all daebench modules that define nu
 plus the versions of numba and of the plugin distributions registered under daebench's
 entry points. Any change to any of them recompiles; nothing else does.
 
+A plugin's version is not part of that stamp (installing or removing a plugin must not
+throw away the built-ins' cache): it goes into the index key of the entries whose
+signature names one of the plugin's types (a daebench loop compiled for a plugin's
+method or model embeds the plugin's kernels), see :func:`_keyed_index_key`.
+
+A damaged cache heals itself: every data file carries a SHA-256 of its payload
+(:func:`_checked_save_data`); a data file that fails the check or cannot be rebuilt, and an
+index that cannot be read, is reported once on stderr, removed, and its kernel compiled
+again (:func:`_checked_load`, :func:`_tolerant_load_index`). Before, flipped bytes made
+runs fail with ``UnicodeDecodeError`` or ``UnpicklingError`` charged to the integrator,
+in every later process.
+
 Installed by ``daebench/__init__.py`` before any kernel module is imported. Locations
 are numba's own (``NUMBA_CACHE_DIR`` if set, else ``__pycache__`` beside the source).
 """
@@ -18,6 +30,7 @@ import io
 import os
 import pickle
 import re
+import sys
 from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
@@ -27,16 +40,23 @@ from numba.core import caching, config
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # the daebench package
 GROUPS = ("daebench.integrators", "daebench.models")
 _STAMP: str | None = None
+_PLUGINS: dict[str, str] | None = None
+DATA_MAGIC = b"daebench-nbc1"   # data files: magic, SHA-256 of the payload, payload
+_REPORTED: set[str] = set()
 _COMPILED = re.compile(rb"\bnjit\b")
 
 
-def _plugin_versions() -> list[str]:
-    out = set()
-    for group in GROUPS:
-        for ep in entry_points(group=group):
-            if ep.dist is not None and ep.dist.name != "daebench":
-                out.add(f"{ep.dist.name}=={ep.dist.version}")
-    return sorted(out)
+def _plugin_packages() -> dict[str, str]:
+    """{top-level package of a plugin: "distribution==version"} (computed once per process)."""
+    global _PLUGINS
+    if _PLUGINS is None:
+        _PLUGINS = {}
+        for group in GROUPS:
+            for ep in entry_points(group=group):
+                if ep.dist is not None and ep.dist.name != "daebench":
+                    top = ep.value.split(":")[0].split(".")[0].strip()
+                    _PLUGINS[top] = f"{ep.dist.name}=={ep.dist.version}"
+    return _PLUGINS
 
 
 def source_stamp() -> str:
@@ -51,8 +71,6 @@ def source_stamp() -> str:
             if _COMPILED.search(text):
                 h.update(str(path.relative_to(PACKAGE_DIR)).encode())
                 h.update(text)
-        for item in _plugin_versions():
-            h.update(item.encode())
         _STAMP = h.hexdigest()
     return _STAMP
 
@@ -97,6 +115,91 @@ class _IndexUnpickler(pickle.Unpickler):
             return Unavailable
 
 
+def report_damaged(path: str, why: str) -> None:
+    """Remove a damaged cache file and say so on stderr, once per file and process."""
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
+    if path not in _REPORTED:
+        _REPORTED.add(path)
+        sys.stderr.write(f"daebench: the compiled-kernel cache file {path} was damaged ({why}); it was removed "
+                         f"and its kernel is compiled again (once)\n")
+
+
+_original_index_key = caching.Cache._index_key
+
+
+def _keyed_index_key(self: Any, sig: Any, codegen: Any) -> tuple:
+    """numba's index key, plus the versions of the plugins whose types the signature names."""
+    key = _original_index_key(self, sig, codegen)
+    plugins = _plugin_packages()
+    if plugins and _ours(self._py_func.__code__.co_filename):
+        try:
+            blob = caching.dumps(sig)
+        except Exception:  # noqa: BLE001 - an unpicklable signature is not cached by numba either
+            return key
+        named = sorted(v for top, v in plugins.items() if top.encode() in blob)
+        if named:
+            key = key[:-1] + (tuple(key[-1]) + tuple(named),)
+    return key
+
+
+_original_save_data = caching.IndexDataCacheFile._save_data
+_original_load = caching.IndexDataCacheFile.load
+
+
+def _checked_save_data(self: Any, name: str, data: Any) -> None:
+    """numba's data writer with a checksum (daebench's functions: magic, SHA-256 of the
+    payload, payload; other functions' files stay numba's own format)."""
+    if self._source_stamp != source_stamp():
+        return _original_save_data(self, name, data)
+    payload = self._dump(data)
+    with self._open_for_write(self._data_path(name)) as f:
+        f.write(DATA_MAGIC + hashlib.sha256(payload).digest() + payload)
+
+
+def _checked_load(self: Any, key: Any) -> Any:
+    """numba's entry loader; a data file that fails its checksum or unpickling is
+    reported, removed and treated as a miss (the kernel is compiled and saved again)."""
+    if self._source_stamp != source_stamp():
+        return _original_load(self, key)
+    name = self._load_index().get(key)
+    if name is None:
+        return None
+    path = self._data_path(name)
+    try:
+        with open(path, "rb") as f:
+            blob = f.read()
+    except OSError:  # removed while the index still names it
+        return None
+    n = len(DATA_MAGIC)
+    if not blob.startswith(DATA_MAGIC) or len(blob) < n + 32:
+        report_damaged(path, f"{len(blob)} bytes without the checksum header: empty, truncated or overwritten")
+        return None
+    payload = blob[n + 32:]
+    if hashlib.sha256(payload).digest() != blob[n:n + 32]:
+        report_damaged(path, "checksum mismatch: bytes changed after it was written")
+        return None
+    try:
+        return pickle.loads(payload)
+    except Exception as exc:  # noqa: BLE001 - the checksum held, yet it cannot be read back
+        report_damaged(path, f"{type(exc).__name__} while reading it")
+        return None
+
+
+_original_load_overload = caching.Cache._load_overload
+
+
+def _guarded_load_overload(self: Any, sig: Any, target_context: Any) -> Any:
+    """numba's cache lookup; an entry that cannot be rebuilt is a miss, not an error of the run."""
+    try:
+        return _original_load_overload(self, sig, target_context)
+    except Exception as exc:  # noqa: BLE001 - a cache must never fail a run
+        report_damaged(getattr(self._cache_file, "_index_path", "?"), f"{type(exc).__name__} while loading")
+        return None
+
+
 def _tolerant_load_index(self: Any) -> dict:
     """numba's index loader (``IndexDataCacheFile._load_index``), but a class the index
     names and this process cannot import costs only the entries that name it.
@@ -110,24 +213,36 @@ def _tolerant_load_index(self: Any) -> dict:
         with open(self._index_path, "rb") as f:
             version = pickle.load(f)
             data = f.read()
-    except FileNotFoundError:
+    except (FileNotFoundError, IsADirectoryError):
+        return {}
+    except Exception as exc:  # noqa: BLE001 - random bytes, an empty or truncated index
+        report_damaged(self._index_path, f"{type(exc).__name__} while reading its version")
         return {}
     if version != self._version:
         return {}
     try:
         stamp, overloads = _IndexUnpickler(io.BytesIO(data)).load()
-    except Exception:  # noqa: BLE001 - an index this process cannot read at all is a miss
+    except Exception as exc:  # noqa: BLE001 - an index this process cannot read at all
+        report_damaged(self._index_path, f"{type(exc).__name__} while reading it")
+        return {}
+    if not isinstance(overloads, dict):
+        report_damaged(self._index_path, "not an index")
         return {}
     return overloads if stamp == self._source_stamp else {}
 
 
 def install() -> None:
-    """Put the package-stamped locators first and make index loading tolerant (idempotent)."""
+    """Put the package-stamped locators first, make index loading tolerant, data files
+    checksummed and plugin versions part of the keys that name plugin types (idempotent)."""
     classes = caching.CacheImpl._locator_classes
     for cls in (InTreeLocator, UserDirLocator):  # UserDirLocator ends up first
         if cls not in classes:
             classes.insert(0, cls)
     caching.IndexDataCacheFile._load_index = _tolerant_load_index
+    caching.IndexDataCacheFile._save_data = _checked_save_data
+    caching.IndexDataCacheFile.load = _checked_load
+    caching.Cache._index_key = _keyed_index_key
+    caching.Cache._load_overload = _guarded_load_overload
 
 
 def cache_dir_note() -> str:

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +23,7 @@ from typing import Any, Callable
 
 import pandas as pd
 
-from daebench.harness import metrics, provenance
+from daebench.harness import guards, metrics, provenance
 from daebench.core.params import ParamError
 from daebench.harness.runner import make_integrator, results_dir, run_scene
 from daebench.core.scene import Scene
@@ -90,6 +89,9 @@ def validate(scene: Scene, path: Path) -> Reference:
     def damaged(why: str) -> ReferenceDamaged:
         return ReferenceDamaged(f"the cached reference {path} is damaged ({why}); recompute it with {_fix(scene)}")
 
+    for f, what in ((path, "the history"), (side, "the sidecar")):
+        if not f.is_file():
+            raise damaged(f"{what} {f.name} is {'a folder' if f.is_dir() else 'not a regular file'}")
     try:
         meta = json.loads(side.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -100,6 +102,13 @@ def validate(scene: Scene, path: Path) -> Reference:
     missing = [k for k in need if k not in meta]
     if missing:
         raise damaged(f"sidecar lacks {', '.join(missing)} (written by an older daebench?)")
+    kinds = {"sha256": str, "rows": int, "columns": list, "t_span": list, "settings": dict, "impacts": list}
+    wrong = [k for k, typ in kinds.items() if not isinstance(meta[k], typ) or isinstance(meta[k], bool)]
+    wrong += [] if wrong or all(isinstance(t, (int, float)) and not isinstance(t, bool) for t in meta["impacts"]) \
+        else ["impacts"]
+    if wrong:
+        raise damaged(f"sidecar field {', '.join(repr(k) for k in wrong)} has the wrong type "
+                      f"({', '.join(f'{k} = {meta[k]!r:.40}' for k in wrong)})")
     if meta["scene_hash"] != scene.hash:
         raise damaged(f"sidecar is for scene hash {meta['scene_hash']}, not {scene.hash}")
     if sha256(path) != meta["sha256"]:
@@ -118,9 +127,9 @@ def validate(scene: Scene, path: Path) -> Reference:
         raise damaged(f"time span [{t0:g}, {t1:g}] s does not cover the scene's [0, {scene.t_end:g}] s")
     try:
         rtol = float(meta["settings"]["rtol"])
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, OverflowError):
         raise damaged("sidecar settings lack rtol") from None
-    if not rtol > 0:
+    if not 0 < rtol < 1:
         raise damaged(f"rtol {rtol!r} in the sidecar")
     return Reference(hist, [float(t) for t in meta["impacts"]], meta, path)
 
@@ -170,12 +179,6 @@ def reference_tolerances(tightest_rtol: float | None = None, rtol: float | None 
     return r, max(a, 1e-16)
 
 
-def _atomic_write_parquet(df: pd.DataFrame, path: Path) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    df.to_parquet(tmp, index=False)
-    os.replace(tmp, path)
-
-
 def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: float | None = None,
                       atol: float | None = None, check: bool = True,
                       progress: Callable[[str, float], Any] | None = None) -> Reference:
@@ -217,16 +220,24 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
             agreement.update({k: v for k, v in acc.items() if k.endswith("_max")})
             agreement.update(metrics.impact_time_errors([i.t for i in chk.impacts], impacts))
     path = reference_path(scene)
-    path.parent.mkdir(parents=True, exist_ok=True)
     hist = res.history
-    _atomic_write_parquet(hist, path)
+    kept = (f"the reference was computed ({res.wall_s:.3g} s) but is not cached; the runs scored against it "
+            f"need it cached")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise guards.write_error(exc, "the reference folder", path.parent, kept) from None
+    for f in (path, path.with_suffix(".json")):
+        if f.is_dir():
+            raise ReferenceDamaged(f"the cached reference {f} is a folder, not a file; remove it (`rm -r {f}`) "
+                                   f"and run {_fix(scene)}")
+    guards.atomic_write(path, lambda p: hist.to_parquet(p, index=False), "the reference", kept)
     meta = {"scene": scene.name, "scene_hash": scene.hash, "scene_values": scene.values,
             "integrator": REF_INTEGRATOR, "settings": integ.to_config(), "wall_s": res.wall_s,
             "counters": res.counters, "impacts": impacts, "output_dt": dense_scene["output.dt"], "agreement": agreement,
             "energy_residual_max": res.energy_residual, "sha256": sha256(path), "rows": len(hist),
             "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}
-    side = path.with_suffix(".json")
-    tmp = side.with_name(f".{side.name}.{os.getpid()}.tmp")
-    provenance.write_sidecar(tmp, provenance.collect([scene]), **meta)
-    os.replace(tmp, side)
+    guards.atomic_write(path.with_suffix(".json"),
+                        lambda p: provenance.write_sidecar(p, provenance.collect([scene]), **meta),
+                        "the reference's sidecar", kept)
     return Reference(hist, impacts, meta, path)

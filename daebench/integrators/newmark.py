@@ -9,6 +9,9 @@ from daebench.integrators.base import (ADAPTIVE_SETTINGS, STEP_SETTINGS, Capabil
 from daebench.integrators.family import NEWTON_SETTINGS, Coefficients, NewmarkFamily
 
 
+NEWTON_FAILURES = (1, 2, 3)   # stepping.newmark.FAIL_MESSAGES: non-finite residual / iterate, no convergence
+
+
 class Newmark(NewmarkFamily):
     r"""Newmark-β: the trapezoidal rule (β = ¼, γ = ½) by default.
 
@@ -79,3 +82,15 @@ class Newmark(NewmarkFamily):
 
     def coefficients(self) -> Coefficients:
         return Coefficients(0.0, 0.0, float(self.settings["beta"]), float(self.settings["gamma"]), False, False)
+
+    def _message(self, status: int) -> str:
+        """The stepper's failure text; a Newton failure of undamped Newmark (γ = ½) on
+        constraints also names its known cause and the fix (see the class docstring)."""
+        text = super()._message(status)
+        constrained = self.problem is not None and getattr(self.problem, "m", 0) > 0
+        if int(status) in NEWTON_FAILURES and constrained and self.settings["gamma"] <= 0.5:
+            text += (" — the known weak instability of undamped trapezoidal Newmark (γ = ½) on index-3 "
+                     "constraints: the multiplier's spurious oscillation grows from step to step until Newton "
+                     "fails (Cardona & Géradin 1989); use hht or genalpha, or damp it with --opt gamma=0.6 "
+                     "--opt beta=0.3025 (β = (γ + ½)²/4)")
+        return text
