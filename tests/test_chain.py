@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from daebench.integrators.base import IntegratorError
-from daebench.integrators.lcp import ComplementarityLCP, solve_lcp
+from daebench.integrators.base import IntegratorError, StepFailure
+from daebench.integrators.lcp import ComplementarityLCP, solve_contact_lcp
 from daebench.models.chain import Chain, effective_restitution, energetic_restitution
 from daebench.harness.runner import run_scene
 from daebench.core.scene import SceneError
@@ -235,14 +235,19 @@ def test_lcp_refuses_systems_it_cannot_treat():
 
 
 def test_solve_lcp_several_contacts():
+    """The integrator's LCP (the compiled Murty solver called from Python): complementary
+    solutions of random SPD problems; a contact that cannot push is a step failure."""
     rng = np.random.default_rng(3)
     for _ in range(50):
         B = rng.normal(size=(4, 4))
         A = B @ B.T + 0.1 * np.eye(4)
         b = rng.normal(size=4)
-        z = solve_lcp(A, b)
+        z = solve_contact_lcp(A, b)
         w = A @ z + b
         assert np.all(z >= 0) and np.all(w >= -1e-12) and abs(z @ w) < 1e-12
+    assert solve_contact_lcp(np.array([[4.0]]), np.array([-2.0]))[0] == 0.5  # max(0, −b/A)
+    with pytest.raises(StepFailure, match="cannot push"):
+        solve_contact_lcp(np.array([[0.0]]), np.array([-1.0]))
 
 
 @pytest.mark.parametrize("over, key", [

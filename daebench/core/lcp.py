@@ -234,3 +234,18 @@ def solve_lcp_lemke(A, b, m, z, w, lw):
                 w[i] = s
             return pivots
     return LCP_NO_CONVERGENCE
+
+
+LCP_FAILURES = {LCP_SINGULAR: "a basis block of the LCP matrix is singular (dependent contacts?)",
+                LCP_NO_CONVERGENCE: f"no solution after {LCP_MAX_PIVOTS} pivots (the matrix is not a P-matrix?)"}
+
+
+def lcp(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, int]:
+    """The compiled :func:`solve_lcp` on all rows, from Python: (z, status), status the
+    number of pivots (≥ 0) or LCP_SINGULAR / LCP_NO_CONVERGENCE (messages: LCP_FAILURES)."""
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    k = b.size
+    z, w = np.zeros(k), np.zeros(k)
+    status = solve_lcp(np.ascontiguousarray(A, dtype=np.float64).reshape(k, k), b, np.ones(k, np.bool_), z, w,
+                       lcp_work(k))
+    return z, int(status)

@@ -114,9 +114,11 @@ class Capabilities:
     friction: bool = False
 
 
+DEFAULT_STEP = 1e-4  # s: the default fixed step (the paper's protocol outside contact)
+
 # Settings every stepping integrator shares: the paper's protocol and adaptivity.
 STEP_SETTINGS = (
-    Setting("h", float, 1e-4, "fixed step size outside contact [s]", low=1e-12, high=1.0),
+    Setting("h", float, DEFAULT_STEP, "fixed step size outside contact [s]", low=1e-12, high=1.0),
     Setting("h_contact", float, 0.0, "fixed step size while a contact is closed or penetrating [s]; 0 = same as h",
             low=0.0, high=1.0),
 )
@@ -205,7 +207,7 @@ class Integrator:
 
     def step_size(self, in_contact: bool) -> float:
         """The fixed step of the paper's protocol for the current phase."""
-        h = float(self.settings.get("h", 1e-4))
+        h = float(self.settings.get("h", DEFAULT_STEP))
         hc = float(self.settings.get("h_contact", 0.0) or 0.0)
         return hc if (in_contact and hc > 0.0) else h
 
@@ -439,7 +441,3 @@ def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
             f"integrator '{cls.name}' has no adaptive step-size control; "
             f"drop `--opt adaptive=true` and give a fixed step with `--opt h=...`."
         )
-
-
-def norm_rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(x * x))) if x.size else 0.0

@@ -18,7 +18,8 @@ v₁ is affine in P, so ḡ = b + A P with A = (θh/2) g_q S⁻¹ g_qᵀ, S = M 
 the step is a Newton iteration whose every linearization is solved as an LCP
 (Newton–LCP); M is taken at the step midpoint and g_q at the midpoint iterate.
 
-The LCP is solved exactly: one contact in closed form, P = max(0, −b/A); several by
+The LCP is solved exactly by the compiled solver of :mod:`daebench.core.lcp` (the one
+the compiled steppers use): one contact in closed form, P = max(0, −b/A); several by
 Murty's least-index principal pivoting (finite for P-matrices; A is symmetric
 positive definite when M, −∂Q/∂q, −∂Q/∂v are symmetric and the gap Jacobians are
 independent).
@@ -81,41 +82,22 @@ from typing import ClassVar
 import numpy as np
 
 from daebench.core.contact import Impact
+from daebench.core.lcp import LCP_FAILURES, lcp
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, IntegratorError, Setting, \
     StepFailure
 from daebench.core.system import State
 
-LCP_MAX_PIVOTS = 1000      # Murty's method: pivots before giving up (finite for P-matrices)
-LCP_TOL = 1e-14            # relative tolerance of the complementarity check
-
-
-def solve_lcp(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """z ≥ 0 with w = A z + b ≥ 0 and zᵀw = 0 (exact, for P-matrices A).
-
-    One unknown: z = max(0, −b/A). Several: Murty's least-index principal pivoting,
-    which flips the lowest-index infeasible variable between the active set (w = 0)
-    and the inactive set (z = 0) until both are feasible.
-    """
-    n = b.size
-    if n == 1:
-        a = float(A[0, 0])
-        if a <= 0.0:
-            raise StepFailure(f"LCP matrix not positive ({a:g}): the contact cannot push")
-        return np.array([max(0.0, -float(b[0]) / a)])
-    active = np.zeros(n, dtype=bool)
-    scale = max(1.0, float(np.max(np.abs(b))))
-    for _ in range(LCP_MAX_PIVOTS):
-        z = np.zeros(n)
-        if active.any():
-            idx = np.flatnonzero(active)
-            z[idx] = np.linalg.solve(A[np.ix_(idx, idx)], -b[idx])
-        w = A @ z + b
-        bad = (active & (z < -LCP_TOL * scale)) | (~active & (w < -LCP_TOL * scale))
-        if not bad.any():
-            return np.maximum(z, 0.0)
-        i = int(np.flatnonzero(bad)[0])
-        active[i] = not active[i]
-    raise StepFailure(f"LCP: no solution after {LCP_MAX_PIVOTS} pivots (matrix not a P-matrix?)")
+def solve_contact_lcp(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The contact impulses z ≥ 0 with w = A z + b ≥ 0, zᵀw = 0: the compiled Murty solver
+    (:func:`daebench.core.lcp.lcp`); a StepFailure when a contact cannot push (A_ii ≤ 0)
+    or the solver finds no solution."""
+    diag = np.diagonal(A)
+    if np.any(diag <= 0.0):
+        raise StepFailure(f"LCP matrix not positive ({float(np.min(diag)):g}): the contact cannot push")
+    z, status = lcp(A, b)
+    if status < 0:
+        raise StepFailure(f"LCP: {LCP_FAILURES[status]}")
+    return z
 
 
 class ComplementarityLCP(Integrator):
@@ -217,7 +199,7 @@ class ComplementarityLCP(Integrator):
             # ḡ(P') = (1−θ) g0 + θ [g1 + G1 (h/2)(dv_new − dv)]
             b = (1.0 - th) * g0 + th * (g1 + 0.5 * h * G1 @ (free - dv))
             A = th * 0.5 * h * G1 @ Sinv_W
-            P_new = solve_lcp(A, b)
+            P_new = solve_contact_lcp(A, b)
             dv_new = free + Sinv_W @ P_new
             step = float(np.max(np.abs(dv_new - dv))) / vscale
             dv, P = dv_new, P_new

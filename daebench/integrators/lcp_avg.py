@@ -67,7 +67,7 @@ is :func:`contact_forces` (the same compiled right-hand side).
 References
 ----------
 Zhang Xingang, Qi Zhaohui, Wang Gang, Guo Shudong, Wu Zhigang (seed 003): the
-time-averaged-gap LCP (text: /work/shared/seeds/003_*.txt, equations reconstructed in
+time-averaged-gap LCP (its equations, reconstructed where the printed forms were lost:
 docs/sources.md §F).
 J. R. Dormand, P. J. Prince, "A family of embedded Runge–Kutta formulae", J. Comput.
 Appl. Math. 6 (1980) 19–26. L. F. Shampine, M. W. Reichelt, "The MATLAB ODE suite",
@@ -88,7 +88,7 @@ from daebench.core.contact import Impact
 from daebench.integrators.base import Advance, Capabilities, IntegratorError, Setting, STEP_SETTINGS
 from daebench.integrators.compiled import MAX_STEPS_PER_CALL, CompiledIntegrator
 from daebench.core.problem import Problem
-from daebench.stepping import control, lcpavg as _lcpavg
+from daebench.stepping import control, lcp_avg as _lcp_avg
 from daebench.stepping.methods import N_COUNTERS
 
 
@@ -118,15 +118,15 @@ class LcpAvg(CompiledIntegrator):
         Setting("h_avg", float, 1e-3, "averaging window h of the gap, ḡ = g + (h/2)ġ + (h²/6)g̈ [s]",
                 low=1e-12, high=10.0),
     )
-    fail_messages = {k: v.replace("{lcp_pivots}", str(_lcpavg.LCP_MAX_PIVOTS))
-                     for k, v in _lcpavg.FAIL_MESSAGES.items()}  # the message's braces are not settings
+    fail_messages = {k: v.replace("{lcp_pivots}", str(_lcp_avg.LCP_MAX_PIVOTS))
+                     for k, v in _lcp_avg.FAIL_MESSAGES.items()}  # the message's braces are not settings
 
-    def method(self) -> _lcpavg.LcpAvgMethod:
-        return _lcpavg.LcpAvgMethod(float(self.settings["h_avg"]))
+    def method(self) -> _lcp_avg.LcpAvgMethod:
+        return _lcp_avg.LcpAvgMethod(float(self.settings["h_avg"]))
 
-    def workspace(self, n: int, m: int) -> _lcpavg.LcpAvgWork:
+    def workspace(self, n: int, m: int) -> _lcp_avg.LcpAvgWork:
         nc = self.problem.n_contacts
-        ws = _lcpavg.workspace(n, nc, 3 * nc * MAX_STEPS_PER_CALL + nc)
+        ws = _lcp_avg.workspace(n, nc, 3 * nc * MAX_STEPS_PER_CALL + nc)
         old = getattr(self, "_ws", None)
         if old is not None and old.ep.shape == ws.ep.shape:  # a restart: open episodes go on
             ws.ep[:] = old.ep
@@ -192,11 +192,11 @@ def contact_forces(problem: Problem, h_avg: float, t: float, q: np.ndarray, v: n
     """The contact forces f the scheme applies at (t, q, v) with window ``h_avg`` (the same
     compiled right-hand side the integrator evaluates)."""
     n, nc = problem.n, problem.n_contacts
-    ws = _lcpavg.workspace(n, nc, 1)
+    ws = _lcp_avg.workspace(n, nc, 1)
     y = np.concatenate([np.asarray(q, float), np.asarray(v, float)])
     cnt = np.zeros(N_COUNTERS, dtype=np.int64)
-    status = _lcpavg.rhs(_lcpavg.LcpAvgMethod(float(h_avg)), ws, problem.kernel, float(t), y, np.empty(2 * n), 0,
+    status = _lcp_avg.rhs(_lcp_avg.LcpAvgMethod(float(h_avg)), ws, problem.kernel, float(t), y, np.empty(2 * n), 0,
                          cnt)
     if status:
-        raise RuntimeError(_lcpavg.FAIL_MESSAGES.get(status, f"status {status}"))
+        raise RuntimeError(_lcp_avg.FAIL_MESSAGES.get(status, f"status {status}"))
     return ws.sf[0, :nc].copy()

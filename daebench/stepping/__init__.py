@@ -6,8 +6,14 @@
 * :mod:`.methods` — the generic stepper interface (``start``, ``step``, ``accept``)
   that a method's data class implements;
 * :mod:`.runner` — one loop for every stepper: many steps per call, fixed or adaptive;
-* :mod:`.newmark` and :mod:`.abm` — the built-in steppers (Newmark family: Newmark,
-  HHT-α, generalized-α; Adams–Bashforth–Moulton 4 with Baumgarte stabilization).
+* the compiled steppers, every one of daebench's, one module each: :mod:`.newmark`
+  (Newmark family: Newmark, HHT-α, generalized-α; its iteration matrix in
+  :mod:`.newmark_matrix`), :mod:`.abm` (Adams–Bashforth–Moulton 4 with Baumgarte
+  stabilization), :mod:`.central` (explicit central differences), :mod:`.lcp_avg`
+  (Dormand–Prince with the time-averaged-gap contact LCP), and the event-capturing
+  :mod:`.moreau` (Moreau–Jean) and :mod:`.nsgenalpha` (nonsmooth generalized-α), which
+  share :mod:`.episodes` (contact episodes) and :mod:`.friction` (Coulomb friction LCP).
+  The LCP solvers they use are :mod:`daebench.core.lcp`'s.
 
 May import: :mod:`daebench.core` only — steppers know the kernel interface, never a
 model or an integrator class.
