@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 
 from daebench.harness import metrics, plots
-from daebench.studies.paper import BAUMGARTE, HHT_ALPHAS, PUBLISHED_TABLE1, table1
-from daebench.studies.paper_figures import _fig_cost, _fig_difference, _fig_series
+from daebench.studies.paper_table import BAUMGARTE, HHT_ALPHAS, PUBLISHED_TABLE1, table1
+from daebench.studies.paper_figures import fig_cost, fig_difference, fig_series
 
 
 # ==== claim helpers =================================================================
@@ -126,7 +126,7 @@ def claim1(df, hists, p, stem, prov):
                           f"{_num(rng(apex, 'Baum') * 1e3, '.3g', ' mm')}; 2nd impact time spread α "
                           f"{_num(rng(imp2, 'HHT') * 1e3, '.3g', ' ms')} vs (δ,ε) {_num(rng(imp2, 'Baum') * 1e3, '.3g', ' ms')})")
     hm = _hmap(_pick(df, set="rebound"), hists)
-    figs = _fig_difference(hm, "HHT α=0", "theta_deg", stem, prov,
+    figs = fig_difference(hm, "HHT α=0", "theta_deg", stem, prov,
                            "claim 1: θ(t) for α and (δ,ε), e = %g, N = %d" % (p.e_rebound, p.n_main))
     return _verdict(list(zip(parts, ok))), figs
 
@@ -142,7 +142,7 @@ def claim2(df, hists, p, stem, prov):
         ok = d_hn < d_bh and d_hn < d_bn
     rows = pd.concat([_pick(df, set="rebound", setting="HHT α=-0.15"), _pick(df, set="hertz"),
                       _pick(df, set="rebound", setting="Baumgarte (1000,5000)")])
-    figs = _fig_difference(_hmap(rows, hists), "HHT α=-0.15", "theta_deg", stem, prov,
+    figs = fig_difference(_hmap(rows, hists), "HHT α=-0.15", "theta_deg", stem, prov,
                            "claim 2: HHT α=−0.15 (constraint) vs Newmark (Hertz) vs Baumgarte (1000,5000)")
     return _verdict([(f"max |Δθ| HHT−Newmark(Hertz) = {_num(d_hn, '.3g', '°')}, Baumgarte(1000,5000)−HHT = "
                       f"{_num(d_bh, '.3g', '°')}, Baumgarte−Newmark = {_num(d_bn, '.3g', '°')}{_status_note(rows)}",
@@ -171,7 +171,7 @@ def claim3(df, hists, p, stem, prov):
     gains = [jump.get(k, math.nan) for k in ("Baumgarte (0,0)", "Baumgarte (10,50)")]
     ok_b = all(math.isfinite(g) and g > 0 for g in gains)
     testable = all(math.isfinite(x) for x in an + [a0] + gains)
-    figs = _fig_series(_hmap(rows, hists), "energy_residual", stem, prov,
+    figs = fig_series(_hmap(rows, hists), "energy_residual", stem, prov,
                        f"claim 3: energy-balance residual, e = {p.e_rebound:g}, N = {p.n_main}")
     txt = ("energy residual before the 1st impact: " + ", ".join(f"{k} {v:.3g} J" for k, v in drain.items()
                                                                 if k.startswith("HHT"))
@@ -184,7 +184,7 @@ def claim4(df, hists, p, stem, prov):
     """Results depend on N, more after each impact; at N = 9 Baumgarte diverges, HHT goes on."""
     rows = _pick(df, set="table", setting="HHT α=-0.15").sort_values("N")
     hm = _hmap(rows, hists)
-    figs = _fig_difference(hm, next(reversed(hm), ""), "theta_deg", stem, prov,
+    figs = fig_difference(hm, next(reversed(hm), ""), "theta_deg", stem, prov,
                            "claim 4: θ(t) of HHT α=−0.15 for each N") if hm else []
     parts: list[tuple[str, bool | None]] = []
     if len(rows) > 1:
@@ -255,10 +255,10 @@ def claim6(df, hists, p, stem, prov):
     # a run that did not complete has no residuals to compare (it may never have touched the plane)
     val = {r["setting"]: (r.get("Cdot_max", math.nan), r.get("Cddot_max", math.nan), r["status"])
            if r["status"] == "completed" else (math.nan, math.nan, r["status"]) for _, r in rows.iterrows()}
-    figs = _fig_series(_hmap(rows, hists), "Cdot", stem, prov,
+    figs = fig_series(_hmap(rows, hists), "Cdot", stem, prov,
                        f"claim 6: |Ċ| while the contact is closed, e = {p.e_table:g}, N = {N}", logy=True,
                        ylabel="|Ċ| [m/s]")
-    figs += _fig_series(_hmap(rows, hists), "Cddot", Path(str(stem) + "-Cddot"), prov,
+    figs += fig_series(_hmap(rows, hists), "Cddot", Path(str(stem) + "-Cddot"), prov,
                         f"claim 6: |C̈| while the contact is closed, N = {N}", logy=True, ylabel="|C̈| [m/s²]")
     h = val.get("HHT α=-0.15", (math.nan,) * 3)
     b1, b2 = val.get("Baumgarte (1000,5000)", (math.nan,) * 3), val.get("Baumgarte (10,50)", (math.nan,) * 3)
@@ -273,7 +273,7 @@ def claim6(df, hists, p, stem, prov):
 def claim7(df, hists, p, stem, prov):
     """Cost grows steeply with N; at these fixed steps HHT is slower than Baumgarte."""
     t = table1(df)
-    figs = _fig_cost(t, stem, prov)
+    figs = fig_cost(t, stem, prov)
     ratios = []
     for N in sorted(set(t["N"])):
         m = t[t["N"] == N]

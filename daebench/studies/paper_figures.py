@@ -11,13 +11,13 @@ import pandas as pd
 from daebench.harness import metrics, plots
 
 
-def _fig_series(hm, col, stem, prov, title, logy=False, ylabel=None) -> list[Path]:
+def fig_series(hm, col, stem, prov, title, logy=False, ylabel=None) -> list[Path]:
     if not hm:
         return []
     return plots.series(hm, col, stem, prov, title=title, logy=logy, ylabel=ylabel)[1]
 
 
-def _fig_difference(hm: dict[str, pd.DataFrame], base: str, col: str, stem: Path, prov: dict[str, Any],
+def fig_difference(hm: dict[str, pd.DataFrame], base: str, col: str, stem: Path, prov: dict[str, Any],
                     title: str) -> list[Path]:
     """Top: ``col`` of every run against t. Bottom: |difference| to the run whose label
     starts with ``base`` (log axis) — the difference a claim is about, not six overlapping
@@ -26,7 +26,7 @@ def _fig_difference(hm: dict[str, pd.DataFrame], base: str, col: str, stem: Path
 
     key = next((k for k in hm if k.startswith(base)), None)
     if key is None or len(hm) < 2:
-        return _fig_series(hm, col, stem, prov, title)
+        return fig_series(hm, col, stem, prov, title)
     unit = plots.label_of(col)
     fig, (ax, ad) = plt.subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
     g = metrics.uniform_grid(0.0, float(min(h["t"].iloc[-1] for h in hm.values())), 4001)
@@ -49,10 +49,10 @@ def _fig_difference(hm: dict[str, pd.DataFrame], base: str, col: str, stem: Path
     return plots.save(fig, stem, prov)
 
 
-def _fig_cost(t: pd.DataFrame, stem: Path, prov: dict[str, Any]) -> list[Path]:
+def fig_cost(t: pd.DataFrame, stem: Path, prov: dict[str, Any]) -> list[Path]:
     import matplotlib.pyplot as plt
 
-    from daebench.studies.paper import PUBLISHED_TABLE1
+    from daebench.studies.paper_table import PUBLISHED_TABLE1
 
     fig, ax = plt.subplots(figsize=(7.0, 4.6))
     for i, s in enumerate(PUBLISHED_TABLE1.columns):
