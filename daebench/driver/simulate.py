@@ -39,6 +39,7 @@ from daebench.integrators.base import Advance, Integrator, StepFailure, check_ca
 from daebench.core.problem import Problem
 from daebench.stepping.watch import Watch
 from daebench.core.system import MechanicalSystem, State
+from daebench.core.energyscale import energy_scale
 
 DIVERGENCE_ENERGY = 10.0 # energy residual beyond this × energy scale means the run diverged (energy from nowhere)
 MAX_STALLED_PHASES = 100 # consecutive phases that do not advance time: the event logic is stuck
@@ -125,7 +126,7 @@ class Driver:
         self.E0 = float(sum(terms0.values()))
         # energy scale of the run: the size of the initial energy terms (a system starting
         # at E0 = 0 with large opposite terms still has a scale)
-        self.energy_scale = max(sum(abs(x) for x in terms0.values()), 1e-12)
+        self.energy_scale = energy_scale(sys_, q, v)  # core.energyscale: the one rule (zero starts too)
         self.out_i = 0
         status, message = "completed", ""
         state = State(0.0, q, v)

@@ -75,8 +75,9 @@ Its error is of the size of the step error (pendulum, rtol 1e-8: 4.5e-8 both).
 Step size
 ---------
 IDA chooses its own steps: ``adaptive`` must be true. The protocol settings
-``h`` and ``h_contact`` (shared by every stepping integrator) are accepted and
-ignored; bound the step with ``max_step`` and seed it with ``first_step``.
+``h`` and ``h_contact`` (shared by every stepping integrator) are declared but a value
+other than their default is refused (it would be ignored); bound the step with
+``max_step`` and seed it with ``first_step``.
 
 Counters
 --------
@@ -174,7 +175,8 @@ class IDA(Integrator):
     jacobian : {"analytic", "fd"}
         Assembled iteration matrix or IDA's difference quotients.
     h, h_contact :
-        Shared protocol settings; ignored (IDA chooses its steps).
+        Shared protocol settings; IDA chooses its steps, so a value other than the
+        default is refused.
     adaptive : bool
         Must be true.
 
@@ -220,6 +222,12 @@ class IDA(Integrator):
                 "integrator 'ida' always chooses its own steps; drop `--opt adaptive=false` "
                 "(bound the step with `--opt max_step=...` instead)."
             )
+        for key in ("h", "h_contact"):  # declared for the shared protocol; a value given for IDA does nothing
+            default = next(p.default for p in self.settings_spec if p.name == key)
+            if self.settings[key] != default:
+                raise IntegratorError(
+                    f"integrator 'ida' chooses its own steps: setting '{key}' = {self.settings[key]:g} would be "
+                    f"ignored; bound the step with `--opt max_step=...` or seed it with `--opt first_step=...`")
 
     # -- lifecycle -------------------------------------------------------------
     def _start(self) -> None:

@@ -53,6 +53,7 @@ import scipy.linalg as sl
 
 from daebench.models import build_system
 from daebench.core.scene import Scene
+from daebench.core.energyscale import energy_scale
 from daebench.driver.simulate import DIVERGENCE_ENERGY
 
 MIN_STEPS = 100         # the largest step tried gives a trial this many steps (hω_max ≤ 5 at 80 periods)
@@ -233,7 +234,7 @@ def linearize(scene: Scene) -> Linearization:
     keep = w2 > 0.0
     omega = np.sqrt(w2[keep])
     f = phi[:, keep].T @ Q0
-    scale = max(sum(abs(x) for x in sysm.energy(q0, v0).values()), 1e-12)
+    scale = energy_scale(sysm, q0, v0)  # the driver's rule (core.energyscale)
     seed = np.maximum(f * f / (2.0 * omega * omega), (1e-16) ** 2 * scale)   # round-off seeds every mode
     return Linearization(omega, seed, scale)
 
