@@ -15,7 +15,8 @@ time spent on the case so far plus :data:`ROUND_GROWTH` × the last round's wall
 halved step costs about twice as much) fits the budget. The runs of rounds left out are
 rows with status ``skipped-budget`` (not stored: ``--resume`` with a larger ``--budget``
 runs them). The time to compute a missing reference is not counted. A single run is
-capped at the budget (``timeout`` row) unless ``run_cap`` is smaller.
+capped (``timeout`` row) at ``run_cap``, by default the budget but at least
+:data:`MIN_RUN_CAP_S` (a cold numba compile alone takes 30–90 s).
 
 **Resumable.** Each case's rows go to its own row store
 (``results/survey/<name>/runs/<name>--<case>.rows.sqlite``,
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,6 +53,7 @@ QUICK_LEVELS = 2           # --quick: defaults and one halving
 LEVELS = 3                 # defaults and two halvings
 DEFAULT_BUDGET_S = 300.0   # per case
 QUICK_BUDGET_S = 30.0
+MIN_RUN_CAP_S = 120.0     # default cap of one run: the budget, at least this (a cold compile takes 30-90 s)
 ROUND_GROWTH = 2.0         # predicted cost of the next round of halved steps / the last round's
 SKIPPED = "skipped-budget"
 #: measures a case's protocol does not declare are taken from these, in order, when present
@@ -223,7 +226,7 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
         return CaseResult(scene.name, pd.DataFrame(), refused, [], 0.0, 0, 0, "no integrator applies")
     ref_mode, note = _reference(scene, specs, opts)
     budget = opts.budget
-    cap = min(x for x in (opts.run_cap, budget) if x is not None)
+    cap = opts.run_cap if opts.run_cap is not None else max(budget, MIN_RUN_CAP_S)
     store = _open_store(folder, name, scene, specs, opts, ref_mode)
     skipped: list[dict[str, Any]] = []
     groups = rounds(specs)
@@ -239,8 +242,8 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
                 skipped += [_skipped_row(s, scene, why) for g in groups[k:] for s in g if s.index not in done]
                 break
             r0 = time.perf_counter()
-            if todo:
-                bench.run_specs(todo, scene, jobs=opts.jobs, scheduler=opts.scheduler, reference_mode=ref_mode,
+            if todo:  # the finished rows of earlier rounds are in the store: the bar counts them as done
+                bench.run_specs([s for g in groups[:k + 1] for s in g], scene, jobs=opts.jobs, scheduler=opts.scheduler, reference_mode=ref_mode,
                                 progress=opts.progress, description=f"survey {scene.name} round {k + 1}",
                                 run_cap=cap, store=store)
             last, ran = time.perf_counter() - r0, k + 1
@@ -351,7 +354,9 @@ def write(res: SurveyResult, opts: SurveyOptions | None = None) -> list[Path]:
             df.to_csv(f / f"{stem}.csv", index=False)
             files.append(f / f"{stem}.csv")
     if len(res.table):
-        sweepstore._replace_atomic(lambda p: res.table.to_parquet(p, index=False), f / "table.parquet")
+        tmp = f / f".table.parquet.{os.getpid()}.tmp"
+        res.table.to_parquet(tmp, index=False)
+        os.replace(tmp, f / "table.parquet")
     prov = provenance.collect(scene_hashes(res.table))
     if len(res.reach) and res.reach["reached"].any():
         files += profiles.figure(res.reach, f / "profile-wall", prov=prov)
