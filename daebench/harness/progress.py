@@ -5,11 +5,12 @@ stderr (stdout stays for results and ``--json``):
 
 * a single run (:class:`RunProgress`): a bar on simulated time once the driver reports
   it (``progress(t)``, every 0.25 s of wall time). If no report has come ``NOTICE_AFTER``
-  seconds after the start, one line says why (the JIT compiles the kernels on first use,
-  once; they are cached afterwards), then an elapsed-time line every ``TICK_S`` until the
-  first report. Nothing here knows about the compiler: silence is the only signal. (This
-  file must not name the compiler package: the kernel cache is stamped with every
-  source that does.)
+  seconds after the start, one line says why — the JIT compiles the kernels on first use
+  (once; they are cached afterwards) when the compiler's own events say it is compiling
+  (:data:`daebench.harness.guards.COMPILE_DEPTH`), else that the first step is slow — then,
+  until the first report, the elapsed time: on a terminal in the bar's one updating line,
+  in a pipe a line every ``TICK_S``. (This file must not name the compiler's decorator:
+  the kernel cache is stamped with every source that does.)
 * a sweep (:class:`SweepProgress`): finished/total, elapsed, and the runs in flight.
 
 On a terminal these are rich bars; otherwise (a pipe, a log file) plain lines, at most
@@ -26,8 +27,17 @@ from typing import Any, Callable, TextIO
 POLL_S = 0.25
 NOTICE_AFTER = 1.0
 TICK_S = 1.5
-COMPILE_NOTICE = ("no step yet after {s:.1f} s — on a first run the numerical kernels are being compiled for "
-                  "their first use (about 1–2 min, once; they are cached for later runs)")
+COMPILE_NOTICE = ("no step yet after {s:.1f} s — the numerical kernels are being compiled for their first use "
+                  "(about 1–2 min on a first run, once; they are cached for later runs)")
+SLOW_NOTICE = "no step yet after {s:.1f} s (nothing is being compiled: the first step is slow)"
+
+
+def _compiling() -> bool:
+    """Whether some thread of this process is inside the JIT compiler (or loading its cache)
+    right now (:data:`daebench.harness.guards.COMPILE_DEPTH`, the compiler's own events)."""
+    from daebench.harness.guards import COMPILE_DEPTH
+
+    return any(d > 0 for d in list(COMPILE_DEPTH.depth.values()))
 
 
 def _is_terminal(stream: TextIO) -> bool:
@@ -128,12 +138,19 @@ class RunProgress(_Ticker):
         now = time.monotonic()
         elapsed = now - self.t0
         if self.t is None:
+            compiling = _compiling()
             if not self.noticed and elapsed >= self.notice_after:
                 self.noticed = True
-                self.line(f"{self.label}: " + COMPILE_NOTICE.format(s=elapsed))
-            elif self.noticed and now - self._last_line >= self.tick:
-                self.line(f"{self.label}: still compiling, {elapsed:.0f} s elapsed")
+                self.line(f"{self.label}: " + (COMPILE_NOTICE if compiling else SLOW_NOTICE).format(s=elapsed))
+            elif self.noticed:
+                what = "compiling" if compiling else "no step yet"
+                if self._bar is not None:  # a terminal: one line that updates, not a line per tick
+                    self._bar.update(self._task, description=f"{self.label}: {what}, {elapsed:.0f} s")
+                elif now - self._last_line >= self.tick:
+                    self.line(f"{self.label}: {what}, {elapsed:.0f} s elapsed")
             return
+        if self.noticed and self._bar is not None and self._bar.tasks[0].description != self.label:
+            self._bar.update(self._task, description=self.label)
         end = self.t_end or float("nan")
         if self._bar is not None:
             self._bar.update(self._task, completed=min(self.t, end))
