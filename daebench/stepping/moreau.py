@@ -29,7 +29,10 @@ and tangential impulses together — the planar Coulomb cone, exact in 2-D
 (:mod:`daebench.stepping.friction`, Lemke's method); the tangential impulses P_T then act
 through the tangent rows as the normal ones through g_q. The contact work booked adds
 Σ P_T (U_T⁻ + U_T⁺)/2 (friction's dissipation). Without friction the path above is
-unchanged (Murty's solver on the normal impulses only).
+unchanged (Murty's solver on the normal impulses only). With friction a contact resting
+at g = 0 is kept in the index set when round-off makes its predicted gap slightly
+positive (≤ ACTIVATION_ROUNDOFF · max(1, |q|)): a one-step lapse would drop that step's
+friction impulse (a velocity error μ g h, a position error that stays).
 
 Projection (``projection``, Siconos' MoreauJeanCombinedProjectionOSI): after the step,
 positions with a negative gap are projected onto g ≥ 0 along the mass metric,
@@ -59,6 +62,7 @@ from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES
 
 NEWTON_RATE_REFRESH = 0.1   # contraction rate above which a reused S is rebuilt
 PROJECTION_MAXITER = 20     # Newton–LCP iterations of the position projection
+ACTIVATION_ROUNDOFF = 1e-12  # with friction: a predicted gap ≤ this × max(1, |q|) is closed
 
 ST_NOT_FINITE, ST_NEWTON, ST_SINGULAR, ST_LCP, ST_PROJECTION, ST_FRICTION_LCP = 1, 2, 3, 4, 5, 6
 FAIL_MESSAGES = {
@@ -250,7 +254,13 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     t1 = t + h
     q, v = cur.q, cur.v
     q1, v1, r, vfree = ws.q1, ws.v1, ws.r, ws.vfree
-    # the index set, from the state at the step's start (the last step's end when known)
+    # the index set, from the state at the step's start (the last step's end when known);
+    # with friction a round-off gap counts as closed (module docstring)
+    thr = 0.0
+    if meth.friction:
+        for j in range(n):
+            thr = max(thr, abs(q[j]))
+        thr = ACTIVATION_ROUNDOFF * max(1.0, thr)
     for i in range(nc):
         if ws.st[W_G0] == 0.0:
             ws.g0[i], _ = kernels.gap(ph.model, i, q, v, ws.gq)
@@ -258,7 +268,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
             for j in range(n):
                 gd += ws.gq[j] * v[j]
             ws.gd0[i] = gd
-        ws.active[i] = ws.g0[i] + meth.gamma * h * ws.gd0[i] <= 0.0
+        ws.active[i] = ws.g0[i] + meth.gamma * h * ws.gd0[i] <= thr
     if th < 1.0 and ws.st[W_A0] == 0.0:
         phase.mass_force(ph, t, q, v, ws.LUm, ws.a0)
         cnt[C_RES] += 1
