@@ -41,6 +41,8 @@ def register(app: typer.Typer) -> None:
 
     @app.command("survey")
     def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-separated case names (default: all)"),
+               integrators: Optional[str] = typer.Option(None, "--integrators", "-i",
+                                                         help="only these integrators (default: every registered one)"),
                quick: bool = typer.Option(False, "--quick",
                                           help="reduced protocol for CI: pendulum, ball, spring-wall; t_end ≤ 0.5 s; "
                                                "each integrator at its default step and one halving"),
@@ -68,7 +70,8 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         try:
             opts = S.SurveyOptions(cases=tuple(c.strip() for c in cases.split(",") if c.strip()) if cases else (),
-                                   quick=quick, budget_s=budget, jobs=jobs, scheduler=scheduler,
+                                   integrators=tuple(i.strip() for i in integrators.split(",") if i.strip())
+                                   if integrators else (), quick=quick, budget_s=budget, jobs=jobs, scheduler=scheduler,
                                    name=name, resume=resume, overwrite=overwrite, run_cap=run_cap,
                                    targets=costs.parse_targets(target) or None, reference=reference)
             res = S.run_survey(opts)

@@ -26,6 +26,7 @@ import pandas as pd
 
 from daebench.harness import bench, metrics, provenance
 from daebench.harness.runner import results_dir
+from daebench.harness.survey import execute_specs
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene
 
@@ -81,8 +82,8 @@ def run_effects(scene: Scene, integrator: str = "hht", options: Mapping[str, Any
             refused[k] = str(exc)
     for i, s in enumerate(specs):
         s.index = i
-    df = bench.run_specs(specs, scene, jobs=jobs, reference_mode="none", progress=False,
-                         description=f"effects {scene.name}", history_dir=folder / "histories")
+    df = execute_specs(specs, scene, jobs=jobs, reference_mode="none", description=f"effects {scene.name}",
+                       history_dir=folder / "histories")
     obs = [str(o) for o in (scene.get("output.observables") or [])]
     hist = {int(r["run"]): pd.read_parquet(r["history"]) if isinstance(r.get("history"), str) else pd.DataFrame()
             for _, r in df.iterrows()}

@@ -40,7 +40,7 @@ from typing import Any, Mapping, Sequence
 
 import pandas as pd
 
-from daebench.harness import bench, compare, costs, digest, profiles, provenance, recommend, sweepstore
+from daebench.harness import bench, compare, costs, guards, profiles, provenance, recommend, sweepstore
 from daebench.harness.compare import Entry, Protocol
 from daebench.harness.runner import results_dir
 from daebench.integrators import base
@@ -65,6 +65,7 @@ class SurveyOptions:
     """What a survey runs and how (defaults: every case, 2 workers, 300 s a case)."""
 
     cases: tuple[str, ...] = ()
+    integrators: tuple[str, ...] = ()       # only these (default: every registered one)
     quick: bool = False
     budget_s: float | None = None
     jobs: int = 2
@@ -187,6 +188,34 @@ def case_measures(df: pd.DataFrame, proto: Protocol) -> list[str]:
 
 
 # ---- running ---------------------------------------------------------------------------------
+def execute_specs(specs: Sequence[bench.RunSpec], scene: Scene, *, jobs: int = 1, executor: str = "process",
+                  scheduler: Any = None, reference_mode: str = "auto", progress: bool = False,
+                  description: str = "runs", run_cap: float | None = None, store: Any = None,
+                  history_dir: Path | None = None, repeats: int | None = None, warmup: bool = True) -> pd.DataFrame:
+    """:func:`daebench.harness.bench.run_specs` with its settings as keywords (the one place
+    that builds the sweep's option values: :mod:`daebench.harness.options` where it exists)."""
+    try:
+        from daebench.harness.options import Execution, Timing
+    except ImportError:  # the sweep before its option values
+        kw = {} if repeats is None else {"repeats": repeats}
+        return bench.run_specs(specs, scene, jobs=jobs, executor=executor, scheduler=scheduler,
+                               reference_mode=reference_mode, progress=progress, description=description,
+                               run_cap=run_cap, store=store, history_dir=history_dir, warmup=warmup, **kw)
+    tm = Timing(run_cap=run_cap, warmup=warmup, **({} if repeats is None else {"repeats": repeats}))
+    return bench.run_specs(specs, scene, Execution(jobs=jobs, executor=executor, scheduler=scheduler,
+                                                   progress=progress), tm, reference_mode=reference_mode,
+                           store=store, history_dir=history_dir, description=description)
+
+
+def execute_one(spec: bench.RunSpec, scene: Scene) -> dict[str, Any]:
+    """One run in this process, unscored, one cold timed call (for the repeat check)."""
+    try:
+        from daebench.harness.options import Timing
+    except ImportError:
+        return bench.execute(spec, scene, reference_mode="none", repeats=1, warmup=False)
+    return bench.execute(spec, scene, reference_mode="none", timing=Timing(repeats=1, warmup=False))
+
+
 def _skipped_row(spec: bench.RunSpec, scene: Scene, why: str) -> dict[str, Any]:
     row = bench.outcome_row(spec, scene, SKIPPED, why)
     row["verdict"] = SKIPPED
@@ -221,6 +250,8 @@ def _reference(scene: Scene, specs: Sequence[bench.RunSpec], opts: SurveyOptions
 def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> CaseResult:
     """Plan, run (in rounds, within the budget) and store one case; see the module docstring."""
     proto = survey_protocol(scene, opts.quick)
+    if opts.integrators:
+        proto = Protocol(tuple(e for e in proto.entries if e.integrator in opts.integrators), proto.measures, proto.why)
     specs, refused = compare.plan(scene, proto)
     if not specs:
         return CaseResult(scene.name, pd.DataFrame(), refused, [], 0.0, 0, 0, "no integrator applies")
@@ -243,9 +274,9 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
                 break
             r0 = time.perf_counter()
             if todo:  # the finished rows of earlier rounds are in the store: the bar counts them as done
-                bench.run_specs([s for g in groups[:k + 1] for s in g], scene, jobs=opts.jobs, scheduler=opts.scheduler, reference_mode=ref_mode,
-                                progress=opts.progress, description=f"survey {scene.name} round {k + 1}",
-                                run_cap=cap, store=store)
+                execute_specs([s for g in groups[:k + 1] for s in g], scene, jobs=opts.jobs, scheduler=opts.scheduler,
+                              reference_mode=ref_mode, progress=opts.progress, run_cap=cap, store=store,
+                              description=f"survey {scene.name} round {k + 1}")
             last, ran = time.perf_counter() - r0, k + 1
         rows = list(store.finished().values())
     finally:
@@ -273,7 +304,7 @@ def repeat_check(df: pd.DataFrame, specs: Sequence[bench.RunSpec], scene: Scene,
         return {}
     r = ok.loc[pd.to_numeric(ok["wall_s"], errors="coerce").idxmin()]
     spec = next(s for s in specs if s.index == int(r["run"]))
-    again = bench.execute(spec, scene, reference_mode="none", repeats=1, warmup=False)
+    again = execute_one(spec, scene)
     return {"run": int(r["run"]), "label": str(r["label"]), "digest": str(r["digest"]),
             "repeat": str(again.get("digest")), "match": again.get("digest") == r["digest"]}
 
@@ -301,6 +332,8 @@ def run_survey(opts: SurveyOptions) -> SurveyResult:
         On Ctrl-C, after the finished rows are stored (``name`` in its ``name``).
     """
     cases = select_cases(opts)
+    for i in opts.integrators:
+        guards.resolve_integrator(i)   # an unknown name is refused (with did-you-mean) before anything runs
     opts.budget  # noqa: B018  (validated before anything runs)
     name = sweepstore.check_name(opts.name) if opts.name else sweepstore.unique_name("survey" + ("-quick" if opts.quick else ""))
     folder = Path(opts.folder) if opts.folder is not None else results_dir() / "survey" / name
