@@ -12,6 +12,7 @@ order of a parallel reduction, state left by an earlier run in the process).
 from __future__ import annotations
 
 import hashlib
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -47,3 +48,23 @@ def mismatches(a: pd.DataFrame, b: pd.DataFrame, keys: Sequence[str] = RUN_KEYS)
     y = b[cols].dropna(subset=["digest"]).drop_duplicates(keys).rename(columns={"digest": "digest_other"})
     both = x.merge(y, on=keys, how="inner")
     return both[both["digest"] != both["digest_other"]].reset_index(drop=True)
+
+
+def previous_table(path: Path) -> pd.DataFrame | None:
+    """The table a command wrote last time at ``path`` (.parquet), to compare digests with
+    the new run's; None when there is none or it cannot be read."""
+    try:
+        return pd.read_parquet(path) if Path(path).exists() else None
+    except Exception:  # a damaged old table only means there is nothing to compare with
+        return None
+
+
+def mismatch_lines(old: pd.DataFrame | None, new: pd.DataFrame) -> list[str]:
+    """'DETERMINISM: …' lines for the runs whose digest changed since ``old`` (same scene
+    variant, integrator and settings); [] when none did or nothing can be compared."""
+    if old is None:
+        return []
+    bad = mismatches(new, old)
+    return [f"DETERMINISM: {r.get('integrator')} {r.get('settings')} on {r.get('case')}: history digest "
+            f"{str(r['digest'])[:12]} now, {str(r['digest_other'])[:12]} in the previous run of the same "
+            f"settings" for _, r in bad.iterrows()]

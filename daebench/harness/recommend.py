@@ -119,3 +119,12 @@ def for_table(df: pd.DataFrame, measures: Sequence[str], targets: Mapping[str, S
         return pd.DataFrame(), {}
     reach = costs.reach_table(df, tg)
     return reach, paragraphs(reach)
+
+
+def compare_lines(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
+    """What `daebench compare` ends with: the recommendation paragraph of the case over
+    the protocol's measures (default targets), or why there is none."""
+    if not len(df) or not measures:
+        return ["recommendation: none (no run was scored on the protocol's measures)"]
+    _, paras = for_table(df, measures)
+    return [f"recommendation — {p}" for p in paras.values()] or ["recommendation: none (no completed run)"]
