@@ -305,15 +305,16 @@ def ensure_writable_dir(path: str | Path, what: str = "output folder", longest_n
     if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
         raise GuardError(f"{what} must be a folder path (a string), e.g. results/runs; got {path!r}")
     p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise GuardError(f"{what} '{p}' is a file, not a folder; give a folder (it is created if missing)")
     try:
+        if p.exists() and not p.is_dir():
+            raise GuardError(f"{what} '{p}' is a file, not a folder; give a folder (it is created if missing)")
         p.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=p, prefix=".write-test-"):
             pass
     except OSError as exc:
-        raise GuardError(f"cannot write to {what} '{p}': {exc.strerror or exc}; choose a writable folder "
-                         f"(--out, or the DAEBENCH_RESULTS environment variable)") from None
+        raise GuardError(f"cannot write to {what} '{str(p)[:120]}{'…' if len(str(p)) > 120 else ''}': "
+                         f"{describe_os_error(exc)}; choose a writable folder (--out, or the DAEBENCH_RESULTS "
+                         f"environment variable)") from None
     if longest_name:
         check_name_fits(p, longest_name, what)
     return p
@@ -365,6 +366,6 @@ def write_error(exc: BaseException, what: str, path: Path | str, kept: str = "",
         except OSError:
             pass
     return OutputWriteError(f"could not write {what} {path}: {describe_os_error(exc)}. "
-                            + (f"{kept}. " if kept else "")
+                            + (f"{kept[0].upper()}{kept[1:]}. " if kept else "")
                             + "Free space there or choose another folder (--out, or DAEBENCH_RESULTS), "
                               "then run again; this is not a fault of the integrator")

@@ -29,7 +29,8 @@ NOTICE_AFTER = 1.0
 TICK_S = 1.5
 COMPILE_NOTICE = ("no step yet after {s:.1f} s — the numerical kernels are being compiled for their first use "
                   "(about 1–2 min on a first run, once; they are cached for later runs)")
-SLOW_NOTICE = "no step yet after {s:.1f} s (nothing is being compiled: the first step is slow)"
+SLOW_NOTICE = ("no step yet after {s:.1f} s (loading the modules and cached kernels, or a slow first step; "
+               "nothing is being compiled)")
 
 
 def _compiling() -> bool:
