@@ -136,14 +136,18 @@ def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: di
     ncol = min(3, len(keys))
     nrow = math.ceil(len(keys) / ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow + 0.6), squeeze=False)
+    names = list(dict.fromkeys(reach[setting].astype(str)))       # one colour and line style per setting
+    style = {s: dict(color=f"C{i % 10}", ls=("-", "--", ":", "-.")[(i // 10) % 4]) for i, s in enumerate(names)}
+    handles = {}
     for ax, (m, t) in zip(axes.flat, keys):
         r = ratio_matrix(reach, m, t, cost, setting)
         fin = r.to_numpy(float)
         top = max(4.0, float(np.nanmax(np.where(np.isfinite(fin), fin, np.nan))) * 1.5) if np.isfinite(fin).any() else 4.0
-        for i, s in enumerate(r.columns):
+        for s in r.columns:
             x, y = curve(r, s)
-            ax.step(np.append(x, top), np.append(y, y[-1]), where="post", lw=1.4,
-                    ls=("-", "--", ":", "-.")[(i // 10) % 4], label=str(s))
+            (ln,) = ax.step(np.append(x, top), np.append(y, y[-1]), where="post", lw=1.4, label=str(s),
+                            **style[str(s)])
+            handles.setdefault(str(s), ln)
         ax.set_xscale("log")
         ax.set_xlim(1.0, top)
         ax.set_xticks([2.0 ** k for k in range(0, int(math.log2(top)) + 1)])
@@ -156,8 +160,8 @@ def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: di
         ax.grid(True, which="both", alpha=0.3)
     for ax in list(axes.flat)[len(keys):]:
         ax.axis("off")
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=min(6, max(1, len(labels))), fontsize=7,
+    labels = [s for s in names if s in handles]
+    fig.legend([handles[s] for s in labels], labels, loc="lower center", ncol=min(6, max(1, len(labels))), fontsize=7,
                title="integrator (settings)", title_fontsize=7, bbox_to_anchor=(0.5, 0.0))
     fig.suptitle(f"Performance profiles (Dolan & Moré): cost = {cost_label}", fontsize=10)
     fig.tight_layout(rect=(0, 0.06 + 0.03 * math.ceil(len(labels) / 6), 1, 0.97))
