@@ -126,7 +126,7 @@ def register(app: typer.Typer) -> None:
         sc = load_scene_or_exit(case, set_)
         try:
             options = parse_pairs(opt, "--opt", "h=1e-4") if opt else {}
-            res = E.run_effects(sc, integrator, options, Path(out_dir) if out_dir else None)
+            res = E.run_effects(sc, integrator, options, Path(out_dir) if out_dir else None, progress=True)
         except ParamError as exc:
             fail(str(exc))
         cols, rows = E.table_rows(res.table)

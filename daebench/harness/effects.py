@@ -59,7 +59,7 @@ def max_differences(on: pd.DataFrame, off: pd.DataFrame, observables: list[str])
 
 
 def run_effects(scene: Scene, integrator: str = "hht", options: Mapping[str, Any] | None = None,
-                folder: Path | None = None, jobs: int = 1) -> EffectsResult:
+                folder: Path | None = None, jobs: int = 1, progress: bool = False) -> EffectsResult:
     """Run ``scene`` all on and with each switchable effect off; the table and its files
     (effects.csv, effects.json with provenance) in ``folder`` (default
     results/effects/<scene>-<hash>).
@@ -83,7 +83,7 @@ def run_effects(scene: Scene, integrator: str = "hht", options: Mapping[str, Any
     for i, s in enumerate(specs):
         s.index = i
     df = execute_specs(specs, scene, jobs=jobs, reference_mode="none", description=f"effects {scene.name}",
-                       history_dir=folder / "histories")
+                       history_dir=folder / "histories", progress=progress)
     obs = [str(o) for o in (scene.get("output.observables") or [])]
     hist = {int(r["run"]): pd.read_parquet(r["history"]) if isinstance(r.get("history"), str) else pd.DataFrame()
             for _, r in df.iterrows()}
