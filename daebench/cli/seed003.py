@@ -20,7 +20,7 @@ def register(app: typer.Typer) -> None:
         """chain-impact: lcp-avg at several h_avg beside Hertz–Flores/LN under IDA (unclipped Flores force)."""
         from daebench.studies.seed003 import chain_table
 
-        df, _ = chain_table(_floats(windows), _floats(restitutions))
+        df, _ = chain_table(_floats(windows), _floats(restitutions), progress=True)
         _emit(df, Path(out) / "chain.csv")
 
     @sub.command("pendulum")
@@ -30,7 +30,7 @@ def register(app: typer.Typer) -> None:
         """double-pendulum: event-driven IDA, lcp-avg and Hertz; outcome table and tip gap/force figure."""
         from daebench.studies.seed003 import pendulum_figure, pendulum_table
 
-        df, runs = pendulum_table(_floats(windows), hertz=hertz)
+        df, runs = pendulum_table(_floats(windows), hertz=hertz, progress=True)
         folder = Path(out)
         _emit(df, folder / "pendulum.csv")
         pendulum_figure(runs, str(folder / "double-pendulum.png"))
@@ -40,12 +40,17 @@ def register(app: typer.Typer) -> None:
 
 
 def _floats(text: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(x) for x in text.split(",") if x.strip())
-    except ValueError:
-        from daebench.cli.common import fail
+    """Comma-separated finite numbers ≥ 0 (the package's one number rule); exit 2 otherwise."""
+    from daebench.cli.common import fail
+    from daebench.core.params import Param, ParamError
 
+    vals = [x.strip() for x in text.split(",") if x.strip()]
+    if not vals:
         fail(f"'{text}' is not a comma-separated list of numbers (e.g. 1e-3,1e-2)")
+    try:
+        return tuple(Param("value", float, 0.0, "a list value", low=0.0, high=1e5).validate(v, "a") for v in vals)
+    except ParamError as exc:
+        fail(f"{exc} (in '{text}')")
         raise
 
 

@@ -138,9 +138,9 @@ def work_precision_figures(df: pd.DataFrame, out_dir: str | Path, measures: Sequ
 # -- histories: penetration and energy -----------------------------------------------------------
 def capture_histories(scene: str = "beam-impact", restitution: float = 0.3, h: float = 1e-4,
                       lineup: Mapping[str, tuple[str, dict[str, Any]]] = LINEUP, rtol: float = 1e-8,
-                      overrides: Mapping[str, Any] | None = None) -> dict[str, pd.DataFrame]:
+                      overrides: Mapping[str, Any] | None = None, progress: bool = False) -> dict[str, pd.DataFrame]:
     """One run per line-up entry (fixed-step integrators at h, ida at rtol): label → history.
-    Labels carry the step or tolerance."""
+    Labels carry the step or tolerance; ``progress``: a bar per run on stderr."""
     import daebench
 
     ov = {"contact.restitution": float(restitution), **dict(overrides or {})}
@@ -153,7 +153,7 @@ def capture_histories(scene: str = "beam-impact", restitution: float = 0.3, h: f
         else:
             s.setdefault("h", h)
             tag = f"{label}, h = {s['h']:g} s"
-        r = daebench.run(scene, name, overrides=ov, settings=s)
+        r = daebench.run(scene, name, overrides=ov, settings=s, progress=progress)
         out[tag] = r.observables
     return out
 

@@ -72,21 +72,22 @@ def _chain_row(label: str, run: Any, force: np.ndarray, raw: np.ndarray, factor:
 
 
 def chain_table(windows=CHAIN_WINDOWS, restitutions=CHAIN_RESTITUTIONS, rtol: float = 1e-4, atol: float = 1e-6,
-                t_end: float = 0.1, output_dt: float = 1e-5, overrides: dict | None = None
-                ) -> tuple[pd.DataFrame, dict[str, Any]]:
+                t_end: float = 0.1, output_dt: float = 1e-5, overrides: dict | None = None,
+                progress: bool = False) -> tuple[pd.DataFrame, dict[str, Any]]:
     """The chain-impact comparison (see the module docstring). ``rtol``/``atol``: lcp-avg's
     tolerances (the source's ode45 defaults); the continuous laws run under tight IDA.
-    ``overrides``: scene keys for every run (e.g. two free masses: chain.stiffness = 0)."""
+    ``overrides``: scene keys for every run (e.g. two free masses: chain.stiffness = 0);
+    ``progress``: a bar per run on stderr."""
     base = {"t_end": t_end, "output.dt": output_dt, **(overrides or {})}
     runs: dict[str, Any] = {}
     for h in windows:
         runs[f"lcp-avg h_avg={h:g}"] = daebench.run("chain-impact", integrator="lcp-avg",
                                                     overrides={**base, "contact.law": "complementarity"},
-                                                    h_avg=h, rtol=rtol, atol=atol)
+                                                    h_avg=h, rtol=rtol, atol=atol, progress=progress)
     for law in ("flores", "lankarani-nikravesh"):
         for e in restitutions if law == "flores" else (0.3,):
             runs[f"{law} e={e:g}"] = daebench.run("chain-impact", integrator="ida", overrides={
-                **base, "contact.hertz_damping": law, "contact.restitution": e}, **IDA_TIGHT)
+                **base, "contact.hertz_damping": law, "contact.restitution": e}, progress=progress, **IDA_TIGHT)
     ref_key = f"lcp-avg h_avg={1e-3:g}"
     ref = runs[ref_key].observables["x3"].to_numpy() if ref_key in runs else None
     rows = []
@@ -102,16 +103,17 @@ def chain_table(windows=CHAIN_WINDOWS, restitutions=CHAIN_RESTITUTIONS, rtol: fl
 
 
 def pendulum_table(windows=(1e-3, 1e-2), ida_rtol: float = 1e-6, hertz: bool = True,
-                   overrides: dict | None = None) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """The double-pendulum comparison: the outcome per run (see the module docstring)."""
+                   overrides: dict | None = None, progress: bool = False) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The double-pendulum comparison: the outcome per run (see the module docstring);
+    ``progress``: a bar per run on stderr."""
     over = dict(overrides or {})
     runs: dict[str, Any] = {"ida, constraint e=0": daebench.run("double-pendulum", integrator="ida",
-                                                                   overrides=over, rtol=ida_rtol)}
+                                                                   overrides=over, rtol=ida_rtol, progress=progress)}
     for h in windows:
-        runs[f"lcp-avg h_avg={h:g}"] = daebench.run("double-pendulum", integrator="lcp-avg",
+        runs[f"lcp-avg h_avg={h:g}"] = daebench.run("double-pendulum", integrator="lcp-avg", progress=progress,
                                                     overrides={**over, "contact.law": "complementarity"}, h_avg=h)
     if hertz:
-        runs["ida, hertz LN e=0"] = daebench.run("double-pendulum", integrator="ida",
+        runs["ida, hertz LN e=0"] = daebench.run("double-pendulum", integrator="ida", progress=progress,
                                                  overrides={**over, "contact.law": "hertz"}, rtol=ida_rtol)
     rows = []
     for label, r in runs.items():
