@@ -21,7 +21,8 @@ def fig_difference(hm: dict[str, pd.DataFrame], base: str, col: str, stem: Path,
                     title: str) -> list[Path]:
     """Top: ``col`` of every run against t. Bottom: |difference| to the run whose label
     starts with ``base`` (log axis) — the difference a claim is about, not six overlapping
-    curves."""
+    curves — over the base run's whole span, each run's curve ending where its history
+    ends (a run that diverged after 6 ms used to cut every curve there)."""
     import matplotlib.pyplot as plt
 
     key = next((k for k in hm if k.startswith(base)), None)
@@ -29,12 +30,12 @@ def fig_difference(hm: dict[str, pd.DataFrame], base: str, col: str, stem: Path,
         return fig_series(hm, col, stem, prov, title)
     unit = plots.label_of(col)
     fig, (ax, ad) = plt.subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
-    g = metrics.uniform_grid(0.0, float(min(h["t"].iloc[-1] for h in hm.values())), 4001)
+    g = metrics.uniform_grid(0.0, float(hm[key]["t"].iloc[-1]), 4001)
     ref = metrics.interpolate(hm[key], col, g)
     for i, (lab, h) in enumerate(hm.items()):
         ax.plot(h["t"], h[col], color=f"C{i % 10}", lw=1.0, label=lab)
-        if lab != key:
-            d = np.abs(metrics.interpolate(h, col, g) - ref)
+        if lab != key and len(h) > 1:
+            d = np.abs(metrics.interpolate(h, col, g) - ref)   # NaN past the end of a shorter run
             ad.semilogy(g, np.where(d > 0, d, np.nan), color=f"C{i % 10}", lw=0.9, label=lab)
     sym, _, u = unit.partition(" [")
     ax.set_ylabel(unit)
