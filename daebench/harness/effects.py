@@ -122,6 +122,8 @@ def table_rows(table: pd.DataFrame) -> tuple[list[str], list[list[Any]]]:
     cols = ["effect off", "status", "wall[s]", "×wall", "steps", "×steps"] + ["max|Δ " + c[10:] + "|" for c in dcols]
     rows = []
     for _, r in table.iterrows():
-        rows.append([r["effect"], r["status"], r.get("wall_s"), r.get("wall_ratio"), r.get("steps"),
+        steps = r.get("steps")
+        rows.append([r["effect"], r["status"], r.get("wall_s"), r.get("wall_ratio"),
+                     int(steps) if isinstance(steps, float) and math.isfinite(steps) else steps,
                      r.get("steps_ratio")] + [r.get(c) for c in dcols])
     return cols, rows
