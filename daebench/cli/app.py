@@ -229,7 +229,7 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
               rtol: Optional[float] = typer.Option(None, "--rtol", help="IDA rtol (default 1e-11)"),
               atol: Optional[float] = typer.Option(None, "--atol", help="IDA atol (default rtol·1e-2)"),
               force: bool = typer.Option(False, "--force", help="recompute even if cached")) -> None:
-    """Compute (or show) the cached IDA reference of a scene, checked against a 10× looser run."""
+    """Compute (or show) the cached reference of a scene: its trusted span, digits and check run."""
     from daebench import api
 
     sc = load_scene_or_exit(scene, set_)
@@ -240,11 +240,21 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
     except RuntimeError as exc:
         fail(str(exc), 1)
     out(f"reference: {ref.path}")
-    out(f"IDA rtol {ref.rtol:g}, {ref.meta['wall_s']:.3g} s, {len(ref.impacts)} impacts")
+    out(f"{ref.meta.get('integrator', 'ida')} rtol {ref.rtol:g}, {ref.meta['wall_s']:.3g} s, {len(ref.impacts)} impacts")
     agr = ref.meta.get("agreement", {})
     worst = [f"{k} {v:.2e}" for k, v in agr.items() if k.startswith("err_") and k.endswith("_max") and v == v]
     if worst:
-        out("agreement with the 10× looser check run: " + ", ".join(worst))
+        out(f"agreement with the 10× looser check run ({agr.get('check', '')}): " + ", ".join(worst))
+    from daebench.harness import accuracy
+
+    for line in accuracy.summary_lines(ref.meta, ref.impacts, sc.t_end):
+        out(line)
+    from daebench.studies import ivptest
+
+    if sc.model in ivptest.REFERENCES and abs(sc.t_end - ivptest.REFERENCES[sc.model].t_end) < 1e-12:
+        dig = ivptest.reference_digits(sc.model, ref.history)
+        out("digits at t_end against the IVP test set's published solution: "
+            + ", ".join(f"{k} {v:.2f}" for k, v in dig.items()))
 
 
 @app.command()

@@ -25,7 +25,11 @@ import pandas as pd
 
 from daebench.harness import guards, metrics, provenance
 from daebench.core.params import ParamError
+from daebench.harness import accuracy
 from daebench.harness.runner import make_integrator, results_dir, run_scene
+from daebench.integrators.odeint import IndexOneODE
+from daebench.models import build_system
+from daebench.driver.simulate import simulate
 from daebench.core.scene import Scene
 
 REF_RTOL = 1e-11        # default reference tolerances (IDA)
@@ -62,6 +66,17 @@ class Reference:
     @property
     def rtol(self) -> float:
         return float(self.meta["settings"]["rtol"])
+
+    @property
+    def trust_span(self) -> tuple[float, int]:
+        """(trust_t, trust_impacts) from the sidecar's accuracy record
+        (:mod:`daebench.harness.accuracy`); ReferenceDamaged when it has none."""
+        acc = self.meta.get("accuracy") or {}
+        if "trust_t" not in acc:
+            raise ReferenceDamaged(f"the reference {self.path} has no accuracy record (computed without the check "
+                                   f"runs, or by an older daebench); recompute it with "
+                                   f"`daebench reference {self.meta.get('scene', 'NAME')} --force`")
+        return float(acc["trust_t"]), int(acc["trust_impacts"])
 
 
 def reference_path(scene: Scene) -> Path:
@@ -182,15 +197,20 @@ def reference_tolerances(tightest_rtol: float | None = None, rtol: float | None 
 def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: float | None = None,
                       atol: float | None = None, check: bool = True,
                       progress: Callable[[str, float], Any] | None = None) -> Reference:
-    """Compute, check and cache the reference of ``scene``.
+    """Compute, check and cache the reference of ``scene``, with its accuracy record.
 
-    IDA runs at (rtol, atol) (defaults 1e-11 / 1e-13, or REF_MARGIN tighter than
-    ``tightest_rtol``), then again CHECK_FACTOR looser as an independent check, both
-    with output REF_OVERSAMPLE× denser than the scene's. The
-    measured agreement (max error of the check run per observable, impact times) is
-    stored in the JSON sidecar with the settings, the checksum and provenance.
-    ``progress(label, t_end)`` is a context manager factory whose value receives the
-    simulated time of each of the two runs (:class:`daebench.harness.progress.RunProgress`).
+    The reference solver is IDA, or — for a model that declares ``reference_solver``
+    (the IVP test-set mechanisms) — that solver on the index-1 ODE with per-component
+    absolute tolerances rtol × the model's ``state_scale()``
+    (:mod:`daebench.integrators.odeint`). It runs at (rtol, atol) (defaults 1e-11 /
+    1e-13, or REF_MARGIN tighter than ``tightest_rtol``); with ``check``, again
+    CHECK_FACTOR looser and again at (rtol, atol) from a start perturbed at the round-off
+    level of rtol (:mod:`daebench.harness.accuracy`): their spread gives the digits per
+    observable over time, ``trust_t`` and ``trust_impacts`` (sidecar ``accuracy``). A
+    reference by the ODE solver is also checked by IDA CHECK_FACTOR looser (another method
+    family; sidecar ``agreement``). All runs write REF_OVERSAMPLE× denser output than the
+    scene's. ``progress(label, t_end)`` is a context manager factory whose value receives the
+    simulated time of each run (:class:`daebench.harness.progress.RunProgress`).
 
     Raises
     ------
@@ -198,27 +218,45 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
         If the reference run does not complete.
     """
     r, a = reference_tolerances(tightest_rtol, rtol, atol)
-
     dense_scene = scene.with_overrides({"output.dt": scene["output.dt"] / REF_OVERSAMPLE})
+    solver = getattr(build_system(scene), "reference_solver", REF_INTEGRATOR)
 
-    def ida(rt: float, at: float, label: str) -> tuple[Any, Any]:
-        integ = make_integrator(REF_INTEGRATOR, {"rtol": rt, "atol": at})
+    def run(rt: float, at: float, label: str, method: str = solver, start: Any = None) -> tuple[Any, Any]:
+        integ = (make_integrator(REF_INTEGRATOR, {"rtol": rt, "atol": at}) if method == REF_INTEGRATOR
+                 else IndexOneODE(rtol=rt, atol=at, method=method))
         with progress(label, scene.t_end) if progress is not None else nullcontext() as cb:
-            return integ, run_scene(dense_scene, integ, write=False, force=True, progress=cb)[1]
+            if start is None:
+                return integ, run_scene(dense_scene, integ, write=False, force=True, progress=cb)[1]
+            system = accuracy.with_start(build_system(dense_scene), *start)
+            return integ, simulate(system, integ, scene.t_end, dense_scene["output.dt"], progress=cb)
 
-    integ, res = ida(r, a, f"reference of {scene.name}: IDA rtol {r:g}")
+    integ, res = run(r, a, f"reference of {scene.name}: {solver} rtol {r:g}")
     if res.status != "completed":
         raise RuntimeError(f"reference run of '{scene.name}' {res.status}: {res.message}")
     impacts = [float(i.t) for i in res.impacts]
     agreement: dict[str, Any] = {}
+    acc_meta: dict[str, Any] = {}
     if check:
-        _, chk = ida(r * CHECK_FACTOR, a * CHECK_FACTOR, f"check of the reference: IDA rtol {r * CHECK_FACTOR:g}")
+        # the independent check: IDA CHECK_FACTOR looser (for an ODE reference, also its loose run below)
+        _, chk = run(r * CHECK_FACTOR, a * CHECK_FACTOR, f"check of the reference: IDA rtol {r * CHECK_FACTOR:g}",
+                     REF_INTEGRATOR)
         agreement = {"check": f"{REF_INTEGRATOR} rtol={r * CHECK_FACTOR:g} atol={a * CHECK_FACTOR:g}",
                      "status": chk.status}
         if chk.status == "completed":
             acc = metrics.accuracy(chk.history, res.history, ref_impacts=impacts)
             agreement.update({k: v for k, v in acc.items() if k.endswith("_max")})
             agreement.update(metrics.impact_time_errors([i.t for i in chk.impacts], impacts))
+        loose, f = chk, CHECK_FACTOR
+        if solver != REF_INTEGRATOR:
+            f = accuracy.LOOSE_FACTOR
+            _, loose = run(r * f, a * f, f"accuracy of the reference: {solver} rtol {r * f:g}")
+        start = accuracy.perturbed_start(build_system(scene), r)
+        _, pert = run(r, a, f"accuracy of the reference: {solver} rtol {r:g}, perturbed start", start=start)
+        cols = list(scene["output.observables"]) or metrics.observable_columns(res.history)
+        acc_meta = accuracy.assess(res.history, impacts, loose.history, pert.history, cols, scene.t_end,
+                                   loose_factor=f)
+        acc_meta.update({"loose": loose.status, "perturbed": pert.status,
+                         "perturbed_impacts": len(pert.impacts), "loose_impacts": len(loose.impacts)})
     path = reference_path(scene)
     hist = res.history
     kept = (f"the reference was computed ({res.wall_s:.3g} s) but is not cached; the runs scored against it "
@@ -233,8 +271,9 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
                                    f"and run {_fix(scene)}")
     guards.atomic_write(path, lambda p: hist.to_parquet(p, index=False), "the reference", kept)
     meta = {"scene": scene.name, "scene_hash": scene.hash, "scene_values": scene.values,
-            "integrator": REF_INTEGRATOR, "settings": integ.to_config(), "wall_s": res.wall_s,
+            "integrator": integ.name, "settings": integ.to_config(), "wall_s": res.wall_s,
             "counters": res.counters, "impacts": impacts, "output_dt": dense_scene["output.dt"], "agreement": agreement,
+            "accuracy": acc_meta,
             "energy_residual_max": res.energy_residual, "sha256": sha256(path), "rows": len(hist),
             "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}
     guards.atomic_write(path.with_suffix(".json"),

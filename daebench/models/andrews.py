@@ -80,6 +80,9 @@ class Andrews(MechanicalSystem):
     n_bilateral = 6
     n_contacts = 0
     coordinate_names = NAMES
+    #: the reference solver (daebench.harness.references): the index-1 ODE by DOP853, with
+    #: absolute tolerances rtol × state_scale() (daebench.integrators.odeint)
+    reference_solver = "dop853"
 
     def __init__(self, mom: float = MOM) -> None:
         self.mom = float(mom)
@@ -245,6 +248,12 @@ class Andrews(MechanicalSystem):
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         return Q0.copy(), np.zeros(7)
+
+    def state_scale(self) -> tuple[np.ndarray, np.ndarray]:
+        """Size of each q_i and q̇_i over the test set's run (max |·| on [0, 0.03], rounded
+        up): the error weights of a reference (absolute tolerance rtol × scale)."""
+        return (np.array([16.0, 16.0, 0.5, 0.55, 0.55, 0.55, 1.25]),
+                np.array([1200.0, 1500.0, 170.0, 300.0, 18.0, 300.0, 75.0]))
 
 
 def build(scene) -> Andrews:

@@ -157,6 +157,9 @@ class CarAxis(KernelSystem):
     n_bilateral = 2
     n_contacts = 0
     coordinate_names = NAMES
+    #: the reference solver (daebench.harness.references): the index-1 ODE by DOP853, with
+    #: absolute tolerances rtol × state_scale() (daebench.integrators.odeint)
+    reference_solver = "dop853"
 
     def __init__(self, eps: float = 1e-2, mass: float = 10.0, length: float = 1.0, rest_length: float = 0.5,
                  bump_height: float = 0.1, bump_frequency: float = 10.0, g: float = 1.0) -> None:
@@ -179,6 +182,11 @@ class CarAxis(KernelSystem):
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         return {name: float(x) for name, x in zip(NAMES, q)}
+
+    def state_scale(self) -> tuple[np.ndarray, np.ndarray]:
+        """Size of each q_i and q̇_i over the test set's run (max |·| on [0, 3] with its data,
+        rounded up): the error weights of a reference (absolute tolerance rtol × scale)."""
+        return np.array([0.05, 0.5, 1.05, 0.65]), np.array([0.5, 0.03, 0.6, 2.1])
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         md = self.data

@@ -1,4 +1,5 @@
-"""The IVP test set's own accuracy measures for its mechanical cases (``crank``, ``caraxis``).
+"""The IVP test set's own accuracy measures for its mechanical cases (``andrews``, ``crank``,
+``caraxis``), and the digits of daebench's references against its published solutions.
 
 F. Mazzia, C. Magherini, *Test Set for IVP Solvers*, release 2.4 (Univ. Bari, 2008)
 scores a run by the number of correct digits at the end time against its published
@@ -41,6 +42,15 @@ class Reference:
 
 
 REFERENCES: dict[str, Reference] = {
+    # andrews.f, subroutine solut (andsoln): PSIDE at rtol = atol = 1e-14 on a Cray C90,
+    # t = 0.03; the seven angles (the positions; the velocities agree with every solver to
+    # 7.3–10 digits only, tests/test_andrews.py).
+    "andrews": Reference(
+        "andrews", 0.03, ("beta", "theta", "gamma", "phi", "delta", "omega", "epsilon"),
+        np.array([0.1581077119629904e+2, -0.1575637105984298e+2, 0.4082224013073101e-1,
+                  -0.5347301163226948e+0, 0.5244099658805304e+0, 0.5347301163226948e+0,
+                  0.1048080741042263e+1]),
+        "Mazzia & Magherini, Test Set for IVP Solvers 2.4, andrews.f solut (PSIDE, rtol = atol = 1e-14)"),
     # crank.f, subroutine solut (= deTestSet's cranksoln): MEBDFI at rtol = atol = 1e-14,
     # initial step 1e-12, t = 0.1 (176 556 accepted steps). The test set scores the first
     # seven components, the positions (deTestSet ex_crank.R: "first seven components").
@@ -83,11 +93,33 @@ def component_digits(y: np.ndarray, ref: np.ndarray) -> np.ndarray:
 def reference_components(case: str, system: Any, t: float, q: np.ndarray, v: np.ndarray,
                     lam: np.ndarray | None) -> np.ndarray:
     """Our state at t in the test set's scored components (see :data:`REFERENCES`)."""
-    if case == "crank":
+    if case in ("crank", "andrews"):
         return np.asarray(q, float).copy()
     if case == "caraxis":
         return system.test_set_vector(t, q, v, lam)
     raise KeyError(f"no IVP test-set reference for case '{case}'; have {', '.join(REFERENCES)}")
+
+
+#: the position components of each case (what a reference must match to 9 digits)
+POSITIONS = {"andrews": 7, "crank": 7, "caraxis": 4}
+
+
+def reference_digits(case: str, history: Any) -> dict[str, float]:
+    """Significant digits of a reference history's final row against the published solution,
+    per position component (the observables of these scenes are their positions).
+
+    Raises
+    ------
+    KeyError
+        For a case without a published solution.
+    """
+    ref = REFERENCES[case]
+    names = ref.names[:POSITIONS[case]]
+    last = history.iloc[-1]
+    if abs(float(last["t"]) - ref.t_end) > 1e-9 * ref.t_end:
+        raise ValueError(f"the history ends at t = {float(last['t']):g} s, the published solution is at {ref.t_end:g} s")
+    y = np.array([float(last[c]) for c in names])
+    return {c: float(d) for c, d in zip(names, component_digits(y, ref.values[:len(names)]))}
 
 
 @dataclass
@@ -117,7 +149,7 @@ class Score:
 
 def score(case: str | Scene, integrator: str = "ida", *, multipliers: str = "integrator",
           **settings: Any) -> Score:
-    """Run ``case`` (``crank`` or ``caraxis``, or a Scene of one) with ``integrator`` and
+    """Run ``case`` (``andrews``, ``crank`` or ``caraxis``, or a Scene of one) with ``integrator`` and
     score the state at t_end by the test set's scd and mescd.
 
     Parameters

@@ -1,0 +1,230 @@
+"""How accurate a reference is, and for how long: its digits per observable over time and
+its trusted span.
+
+A reference (:mod:`daebench.harness.references`) is computed three times: at its
+tolerance (the *reference run*), :data:`LOOSE_FACTOR` looser (the *loose run*) and at its
+tolerance again from a start perturbed at the round-off level of that tolerance (the
+*perturbed run*: relative :data:`PERTURB_FACTOR` × rtol on every q and q̇, then projected
+back onto the bilateral constraints, :func:`perturbed_start`). The loose run measures the
+discretization error; the perturbed run measures how much an error the reference run
+itself makes is amplified by the dynamics — after impacts, by a different event sequence.
+
+Definitions (per scored observable c, reference history y(t), range R_c = max y − min y
+over the run):
+
+* estimated error e_c(t) = max(|y_loose(t) − y(t)| / LOOSE_FACTOR, |y_perturbed(t) − y(t)|)
+  at the reference's output times (the other runs interpolated linearly there): the loose
+  run's difference scaled by the tolerance ratio (a tolerance-proportional error), and the
+  perturbed run's difference as it is (NaN where a run stopped early);
+* estimated correct digits in a time window W: d_c(W) = −log10(max_{t∈W} e_c(t) / R_c),
+  capped at :data:`DIGITS_CAP` (a table of :data:`WINDOWS` equal windows × observables);
+* ``trust_t``: the last output time before the first one at which e_c(t) > :data:`TRUST_REL`
+  × R_c for some scored observable c (``t_end`` if there is none). On [0, trust_t] every
+  scored observable of the reference is right to TRUST_REL of its range, far below the
+  errors the harness scores (fixed-step runs: 1e-3 … 1e-1 of the range); after it the
+  reference runs disagree by more than that, and an error measured there would measure
+  the reference as much as the run;
+* ``trust_impacts``: the number of the reference's impacts at t ≤ trust_t.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import numpy as np
+import pandas as pd
+
+from daebench.core.scene import Scene
+
+LOOSE_FACTOR = 10.0     # the loose run's tolerance / the reference's
+PERTURB_FACTOR = 10.0   # relative perturbation of the start / the reference's rtol
+TRUST_REL = 1e-4        # spread / range beyond which the reference is not trusted
+WINDOWS = 10            # time windows of the digits table
+DIGITS_CAP = 16.0       # digits reported when the runs agree to round-off
+
+
+def _unique(hist: pd.DataFrame) -> pd.DataFrame:
+    """Rows at distinct times (an event written twice keeps the state after it)."""
+    return hist[~hist["t"].duplicated(keep="last")]
+
+
+def observable_ranges(hist: pd.DataFrame, columns: Sequence[str]) -> dict[str, float]:
+    """Peak-to-peak range of each column over the run (0 for a constant one)."""
+    return {c: float(hist[c].max() - hist[c].min()) for c in columns}
+
+
+def spreads(ref: pd.DataFrame, others: Sequence[pd.DataFrame], columns: Sequence[str],
+            weights: Sequence[float] | None = None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(t, {c: e_c(t)}): the largest weighted difference w_k |y_k − y| of ``others`` from
+    ``ref`` at ref's output times (others linearly interpolated there; NaN where another
+    run stopped early). Weights default to 1."""
+    weights = [1.0] * len(others) if weights is None else list(weights)
+    r = _unique(ref)
+    t = r["t"].to_numpy(float)
+    out = {}
+    for c in columns:
+        y = r[c].to_numpy(float)
+        s = np.zeros_like(y)
+        for o, w in zip(others, weights):
+            u = _unique(o)
+            to = u["t"].to_numpy(float)
+            yo = np.interp(t, to, u[c].to_numpy(float))
+            yo[t > to[-1] + 1e-12 * max(1.0, abs(to[-1]))] = np.nan
+            s = np.fmax(s, w * np.abs(yo - y))
+            s[np.isnan(yo)] = np.nan
+        out[c] = s
+    return t, out
+
+
+def digits(spread: np.ndarray, scale: float) -> float:
+    """−log10(max spread / scale), capped at DIGITS_CAP (NaN spread: 0 digits)."""
+    if not scale > 0:
+        return math.nan
+    if spread.size and np.any(np.isnan(spread)):
+        return 0.0
+    worst = float(np.max(spread)) if spread.size else 0.0
+    return DIGITS_CAP if worst <= scale * 10.0 ** -DIGITS_CAP else min(DIGITS_CAP, -math.log10(worst / scale))
+
+
+def assess(ref: pd.DataFrame, ref_impacts: Sequence[float], loose: pd.DataFrame, perturbed: pd.DataFrame,
+           columns: Sequence[str], t_end: float, windows: int = WINDOWS,
+           loose_factor: float = LOOSE_FACTOR) -> dict[str, Any]:
+    """The accuracy record of a reference (stored in its sidecar under ``accuracy``).
+
+    Parameters
+    ----------
+    ref : the reference run's history
+    ref_impacts : its impact times
+    loose, perturbed : the loose (``loose_factor`` × the tolerances) and the perturbed runs' histories
+    columns : the scored observables
+    t_end : the scene's end time
+
+    Returns
+    -------
+    dict
+        ``trust_t`` [s], ``trust_impacts``, ``trust_limited_by`` (the observable whose
+        spread first exceeds the threshold, or None), ``trust_rel`` (the threshold),
+        ``ranges`` {c: R_c}, ``digits`` {"windows": [[t0, t1], …], c: [digits per
+        window]}, ``digits_final`` {c: digits of the value at t_end relative to |y(t_end)|
+        (the IVP test set's significant digits)}.
+    """
+    cols = [c for c in columns if c in ref.columns]
+    ranges = observable_ranges(ref, cols)
+    t, s = spreads(ref, [loose, perturbed], cols, [1.0 / loose_factor, 1.0])
+    first = len(t)
+    limited_by = None
+    for c in cols:
+        if not ranges[c] > 0:
+            continue
+        bad = np.flatnonzero(~(s[c] <= TRUST_REL * ranges[c]))
+        if bad.size and bad[0] < first:
+            first, limited_by = int(bad[0]), c
+    trust_t = float(t_end) if first >= len(t) else float(t[max(first - 1, 0)])
+    edges = np.linspace(0.0, float(t_end), windows + 1)
+    table: dict[str, Any] = {"windows": [[float(a), float(b)] for a, b in zip(edges[:-1], edges[1:])]}
+    for c in cols:
+        row = []
+        for a, b in zip(edges[:-1], edges[1:]):
+            k = (t >= a) & (t <= b)
+            row.append(round(digits(s[c][k], ranges[c]), 2))
+        table[c] = row
+    final = _unique(ref).iloc[-1]
+    dfinal = {c: round(digits(s[c][-1:], abs(float(final[c]))), 2) for c in cols}
+    return {"trust_t": trust_t, "trust_impacts": int(sum(1 for x in ref_impacts if x <= trust_t)),
+            "trust_limited_by": limited_by, "trust_rel": TRUST_REL, "ranges": ranges, "digits": table,
+            "digits_final": dfinal, "loose_factor": loose_factor, "perturb_factor": PERTURB_FACTOR}
+
+
+def _project(system: Any, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """q onto C(t, q) = 0 (minimum-norm Gauss–Newton), then v onto C_q v + C_t = 0."""
+    if system.n_bilateral == 0:
+        return q, v
+    for _ in range(20):
+        C = system.constraint(t, q)
+        G = system.constraint_jacobian(t, q)
+        q = q - G.T @ np.linalg.solve(G @ G.T, C)
+        if np.max(np.abs(C)) <= 1e-15 * max(1.0, float(np.max(np.abs(q)))):
+            break
+    G = system.constraint_jacobian(t, q)
+    v = v - G.T @ np.linalg.solve(G @ G.T, G @ v + system.constraint_t(t, q))
+    return q, v
+
+
+def _sizes(x: np.ndarray, scale: np.ndarray | None) -> np.ndarray:
+    """|x_i|, and for a zero entry 1e-3 of its declared scale (or of the largest |x_j|)."""
+    a = np.abs(x)
+    floor = 1e-3 * (np.asarray(scale, float) if scale is not None else float(np.max(a, initial=0.0)))
+    return np.where(a > 0, a, floor)
+
+
+def perturbed_start(system: Any, rtol: float, factor: float = PERTURB_FACTOR) -> tuple[np.ndarray, np.ndarray]:
+    """The system's start, every q_i and q̇_i moved by ±factor·rtol·|x_i| (alternating
+    signs; a zero entry by factor·rtol·1e-3·its scale: the model's ``state_scale()`` if it
+    declares one, else the largest |x_j|), projected back onto the bilateral constraints.
+    Contact points that are open at the start stay open: if a gap would close, only the
+    velocities are perturbed."""
+    q0, v0 = (np.asarray(x, float) for x in system.initial_state())
+    d = float(factor) * float(rtol)
+    sign_q = np.where(np.arange(q0.size) % 2 == 0, 1.0, -1.0)
+    sign_v = np.where(np.arange(v0.size) % 2 == 0, -1.0, 1.0)
+    scale = getattr(system, "state_scale", None)
+    qs, vs = scale() if scale is not None else (None, None)
+    sq, sv = _sizes(q0, qs), _sizes(v0, vs)
+    q = q0 + d * sign_q * sq
+    v = v0 + d * sign_v * sv
+    qp, vp = _project(system, 0.0, q, v)
+    if system.n_contacts:
+        g0, g1 = system.gap(q0), system.gap(qp)
+        if np.any((g0 > 0) & (g1 <= 0)):
+            qp, vp = _project(system, 0.0, q0.copy(), v)
+    return qp, vp
+
+
+def with_start(system: Any, q: np.ndarray, v: np.ndarray) -> Any:
+    """``system`` starting from (q, v) instead of its own start (this instance only)."""
+    system.initial_state = lambda: (q.copy(), v.copy())
+    return system
+
+
+def trust_span(scene: Scene) -> tuple[float, int]:
+    """(trust_t, trust_impacts) of the cached reference of ``scene`` (module docstring).
+
+    Raises
+    ------
+    daebench.harness.references.ReferenceMissing, ReferenceDamaged
+        No cached reference, or one without an accuracy record (computed by an older
+        daebench: recompute it with ``daebench reference NAME --force``).
+    """
+    from daebench.harness.references import load_reference
+
+    return load_reference(scene, mode="require").trust_span
+
+
+def summary_lines(meta: dict[str, Any], impacts: Sequence[float], t_end: float) -> list[str]:
+    """What `daebench reference` prints about a reference's accuracy record."""
+    acc = meta.get("accuracy") or {}
+    if "trust_t" not in acc:
+        return ["accuracy: not assessed (computed without the check runs); `--force` recomputes it"]
+    tt, ti = float(acc["trust_t"]), int(acc["trust_impacts"])
+    lim = acc.get("trust_limited_by")
+    why = (f"after it the runs disagree by more than {acc['trust_rel']:g} of the range of {lim}" if lim
+           else f"the runs agree to {acc['trust_rel']:g} of every observable's range over the whole run")
+    lines = [f"trust_t = {tt:.6g} s of {t_end:g} s, trust_impacts = {ti} of {len(impacts)} ({why})"]
+    if not impacts:
+        lines.append("the scene's horizon ends before its first impact: the reference has no impact")
+    elif tt < impacts[0]:
+        lines.append(f"the trusted span ends before the first impact (t = {impacts[0]:.6g} s)")
+    lines.append(f"runs: loose ×{acc['loose_factor']:g} {acc.get('loose')}, perturbed start "
+                 f"(relative {acc['perturb_factor']:g}×rtol) {acc.get('perturbed')}, "
+                 f"impacts {acc.get('loose_impacts')} / {acc.get('perturbed_impacts')} (reference {len(impacts)})")
+    table = acc.get("digits", {})
+    cols = [c for c in table if c != "windows"]
+    if cols:
+        lines.append("estimated correct digits (spread / range) per time window:")
+        lines.append("  window [s]          " + " ".join(f"{c[:10]:>10s}" for c in cols))
+        for k, (a, b) in enumerate(table["windows"]):
+            lines.append(f"  {a:8.4g} – {b:<8.4g} " + " ".join(f"{table[c][k]:10.1f}" for c in cols))
+        fin = acc.get("digits_final", {})
+        lines.append("  at t_end (relative) " + " ".join(f"{fin.get(c, math.nan):10.1f}" for c in cols))
+    return lines
