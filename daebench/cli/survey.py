@@ -101,10 +101,10 @@ def register(app: typer.Typer) -> None:
         """Write one self-contained HTML page of a survey: recommendations, sortable tables, figures,
         the reference's trusted span where known, provenance."""
         from daebench.cli.common import fail, out
-        from daebench.harness import report as R, survey as S
+        from daebench.harness import report as R
 
         try:
-            res = S.load(name)
+            res = R.load_survey(name)
             path = R.write_survey_report(res, Path(out_path) if out_path else None)
         except ParamError as exc:
             fail(str(exc))

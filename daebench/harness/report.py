@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import base64
 import html
+import json
 import math
 from pathlib import Path
 from typing import Any, Sequence
 
 import pandas as pd
 
+from daebench.core.params import ParamError
 from daebench.harness import provenance
 
 #: columns the reference's trusted span may be recorded in (added by the reference's own check)
@@ -171,3 +173,31 @@ def write_survey_report(res: Any, path: Path | None = None) -> Path:
     out.write_text(page(f"daebench survey {res.name}", list(res.paragraphs.values()), sections, prov),
                    encoding="utf-8")
     return out
+
+
+def load_survey(name: str, folder: Path | None = None) -> Any:
+    """A written survey (:class:`daebench.harness.survey.SurveyResult`) back from
+    results/survey/<name>/, for `daebench report NAME`.
+
+    Raises
+    ------
+    ParamError
+        When there is no such survey.
+    """
+    from daebench.harness.recommend import paragraphs
+    from daebench.harness.runner import results_dir
+    from daebench.harness.survey import CaseResult, SurveyResult
+
+    f = Path(folder) if folder is not None else results_dir() / "survey" / name
+    side = f / "survey.json"
+    if not side.exists():
+        raise ParamError(f"no survey '{name}' in {f.parent} (run `daebench survey --name {name}` first)")
+    meta = json.loads(side.read_text())
+    tab = pd.read_parquet(f / "table.parquet") if (f / "table.parquet").exists() else pd.DataFrame()
+    reach = pd.read_csv(f / "reach.csv") if (f / "reach.csv").exists() else pd.DataFrame()
+    prof = pd.read_csv(f / "profiles.csv") if (f / "profiles.csv").exists() else pd.DataFrame()
+    paras = paragraphs(reach) if len(reach) else {}
+    cases = [CaseResult(c["case"], tab[tab["case"] == c["case"]] if len(tab) else tab, c["not_applicable"],
+                        c["measures"], c["wall_s"], c["rounds_run"], c["rounds"], c["note"], c["repeat_check"])
+             for c in meta["cases"]]
+    return SurveyResult(name, f, tab, reach, prof, paras, cases, float(meta["wall_s"]))

@@ -53,6 +53,7 @@ QUICK_LEVELS = 2           # --quick: defaults and one halving
 LEVELS = 3                 # defaults and two halvings
 DEFAULT_BUDGET_S = 300.0   # per case
 QUICK_BUDGET_S = 30.0
+QUICK_REPEATS = 1          # --quick: one timed run after the warm-up (the full survey: the sweep's rule)
 MIN_RUN_CAP_S = 120.0     # default cap of one run: the budget, at least this (a cold compile takes 30-90 s)
 ROUND_GROWTH = 2.0         # predicted cost of the next round of halved steps / the last round's
 SKIPPED = "skipped-budget"
@@ -79,6 +80,11 @@ class SurveyOptions:
     progress: bool = True
     repeat_check: bool = True
     folder: Path | None = None
+
+    @property
+    def repeats(self) -> int | None:
+        """Timed runs after the warm-up: :data:`QUICK_REPEATS` under ``quick``, else the sweep's rule."""
+        return QUICK_REPEATS if self.quick else None
 
     @property
     def budget(self) -> float:
@@ -226,7 +232,7 @@ def _open_store(folder: Path, name: str, scene: Scene, specs: Sequence[bench.Run
                 ref_mode: str) -> sweepstore.SweepStore:
     store_name = f"{name}--{scene.name}"
     exists = (folder / f"{store_name}.rows.sqlite").exists()
-    return sweepstore.SweepStore.open(folder, store_name, bench.manifest(scene, specs, ref_mode, 3),
+    return sweepstore.SweepStore.open(folder, store_name, bench.manifest(scene, specs, ref_mode, opts.repeats or 0),
                                       resume=opts.resume and exists, overwrite=opts.overwrite)
 
 
@@ -276,6 +282,7 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
             if todo:  # the finished rows of earlier rounds are in the store: the bar counts them as done
                 execute_specs([s for g in groups[:k + 1] for s in g], scene, jobs=opts.jobs, scheduler=opts.scheduler,
                               reference_mode=ref_mode, progress=opts.progress, run_cap=cap, store=store,
+                              repeats=opts.repeats,
                               description=f"survey {scene.name} round {k + 1}")
             last, ran = time.perf_counter() - r0, k + 1
         rows = list(store.finished().values())
@@ -420,26 +427,3 @@ def scene_hashes(table: pd.DataFrame) -> list[tuple[str, str]]:
 def mismatches(res: SurveyResult) -> list[dict[str, Any]]:
     """The repeat checks whose digests differ."""
     return [dict(case=r.case, **r.repeat) for r in res.cases if r.repeat and not r.repeat.get("match")]
-
-
-def load(name: str, folder: Path | None = None) -> SurveyResult:
-    """A written survey back from results/survey/<name>/ (for `daebench report NAME`).
-
-    Raises
-    ------
-    ParamError
-        When there is no such survey.
-    """
-    f = Path(folder) if folder is not None else results_dir() / "survey" / name
-    side = f / "survey.json"
-    if not side.exists():
-        raise ParamError(f"no survey '{name}' in {f.parent} (run `daebench survey --name {name}` first)")
-    meta = json.loads(side.read_text())
-    tab = pd.read_parquet(f / "table.parquet") if (f / "table.parquet").exists() else pd.DataFrame()
-    reach = pd.read_csv(f / "reach.csv") if (f / "reach.csv").exists() else pd.DataFrame()
-    prof = pd.read_csv(f / "profiles.csv") if (f / "profiles.csv").exists() else pd.DataFrame()
-    paras = recommend.paragraphs(reach) if len(reach) else {}
-    cases = [CaseResult(c["case"], tab[tab["case"] == c["case"]] if len(tab) else tab, c["not_applicable"],
-                        c["measures"], c["wall_s"], c["rounds_run"], c["rounds"], c["note"], c["repeat_check"])
-             for c in meta["cases"]]
-    return SurveyResult(name, f, tab, reach, prof, paras, cases, float(meta["wall_s"]))
