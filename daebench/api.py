@@ -22,7 +22,6 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 import pandas as pd
 
-from daebench.harness import metrics
 from daebench.integrators.base import Capabilities
 from daebench.models import build_system
 from daebench.core.params import Param
@@ -105,8 +104,8 @@ class RunOutput:
     counters : steps, rejected, residual/Jacobian evaluations, LU factorizations, Newton iterations
     energy_residual : max |E − E0 − W_nc + D_impacts| over the run [J]
     status, message : completed | diverged | failed, and why
-    error : the error against the case's exact solution or its cached reference, when one
-        exists ({'against': ..., 'err_<observable>_max': ...}), else {}
+    error : the whole-run errors against the case's exact solution or its cached reference,
+        when one exists ({'against': ..., 'err_<observable>_{final,max,l2}': ...}), else {}
     """
 
     scene: Scene
@@ -138,33 +137,24 @@ class RunOutput:
         return self.status == "completed"
 
 
-def exact_or_reference_error(scene: Scene, system: Any, hist: pd.DataFrame) -> dict[str, Any]:
-    """Errors of a history against the case's exact solution (a model with
-    ``exact_theta``/``exact_position``), else against a valid cached reference, else {}."""
-    if not len(hist):
-        return {}
-    t = hist["t"].to_numpy(float)
-    out: dict[str, Any] = {}
-    if hasattr(system, "exact_theta") and "theta_deg" in hist:
-        try:
-            e = hist["theta_deg"].to_numpy(float) - np.rad2deg(system.exact_theta(t))
-            out.update(metrics.error_norms(e, "err_theta"))
-            if hasattr(system, "exact_position") and {"x", "y"} <= set(hist.columns):
-                xy = system.exact_position(t)
-                out.update(metrics.error_norms(np.hypot(hist["x"] - xy[0], hist["y"] - xy[1]), "err_pos"))
-            return {"against": "exact solution", **out}
-        except ValueError:  # outside the exact solution's range (e.g. a revolving pendulum)
-            out = {}
+def _error(scene: Scene, hist: pd.DataFrame, impacts: Sequence[Any]) -> dict[str, Any]:
+    """The whole-run errors of a history (:func:`daebench.harness.scoring.score`) against
+    the case's exact solution, else a valid cached reference, else {}."""
+    from daebench.harness import scoring
     from daebench.harness.references import ReferenceDamaged, ReferenceMissing, load_reference
 
-    try:
-        ref = load_reference(scene, mode="require")
-    except (ReferenceMissing, ReferenceDamaged):
+    def cached() -> Any:
+        try:
+            return load_reference(scene, mode="require")
+        except (ReferenceMissing, ReferenceDamaged):
+            return None
+
+    run = scoring.Run(scene, build_system(scene), hist, impacts, scoring.declared(scene.model))
+    truth = scoring.truth(run, cached) if len(hist) else None
+    if truth is None:
         return {}
-    scored = [o for o in scene.get("output.observables") or [] if o in hist.columns]
-    acc = metrics.accuracy(hist, ref.history, scored or None, ref_impacts=ref.impacts)
-    return {"against": f"cached reference (IDA rtol {ref.rtol:g})",
-            **{k: v for k, v in acc.items() if k.endswith("_max")}}
+    scores = scoring.score(run, truth, (scoring.accuracy,))
+    return {"against": truth.description, **{k: v for k, v in scores.items() if k.startswith("err_")}}
 
 
 def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] | dict[str, Any] | None = None,
@@ -207,7 +197,7 @@ def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] |
     st = res.states
     return RunOutput(sc, rec.integrator, rec.settings, rec.status, rec.message, rec.wall_s, st["t"], st["q"],
                      st["v"], st["a"], st["lam"], hist, rec.impacts, rec.counters, rec.energy_residual,
-                     rec.constraint_max, rec.history, exact_or_reference_error(sc, build_system(sc), hist), rec)
+                     rec.constraint_max, rec.history, _error(sc, hist, res.impacts), rec)
 
 
 # ---- references and sweeps ----------------------------------------------------------------------
@@ -230,14 +220,14 @@ def reference(scene: SceneLike, *, overrides: Iterable[str] | dict[str, Any] | N
     return references.load_reference(sc, mode="compute", **kw)
 
 
-def bench(scene: SceneLike, integrators: Sequence[str] | str, *, steps: Sequence[float] | None = None,
-          tols: Sequence[float] | None = None, grid: dict[str, Sequence[Any]] | None = None,
-          options: dict[str, Any] | None = None, overrides: Iterable[str] | dict[str, Any] | None = None,
-          reference: str = "auto", jobs: int = 1, name: str | None = None, write: bool = True,
-          resume: bool = False, overwrite: bool = False, run_cap: float | None = None, repeats: int = 3,
-          scheduler: Any = None, executor: str = "process", progress: bool = False,
-          force: bool = False) -> pd.DataFrame:
+def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *,
+          overrides: Iterable[str] | dict[str, Any] | None = None, plan: Any = None, timing: Any = None,
+          storage: Any = None, execution: Any = None, **keywords: Any) -> pd.DataFrame:
     """Sweep integrators × grid × steps (or tolerances) on a scene; one scored row per run.
+
+    The sweep's settings are four values (:mod:`daebench.harness.options`): ``plan``
+    (what to run), ``timing``, ``storage``, ``execution``; or, for convenience, these
+    keyword arguments (mapped onto them by :func:`daebench.harness.options.from_keywords`):
 
     Parameters
     ----------
@@ -246,15 +236,19 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str, *, steps: Sequence
     steps, tols : fixed steps h [s], or tolerances (adaptive runs: rtol = tol, atol = tol/100)
     grid : {key: values}: an integrator setting or a scene key
     options : integrator settings fixed for every run that has them
-    reference : 'auto' (score if a reference is cached), 'compute', 'require', 'none'
+    reference : 'auto' (score if a reference is cached), 'compute', 'require', 'none'; a
+        model with an exact solution is scored against it
+    force : allow runs beyond the step-count limit
     jobs : worker processes (a crashing run costs only its own row)
-    name, write, resume, overwrite : the table results/bench/<name>.parquet (unique name
-        by default; rows stored as they finish; ``resume`` completes an interrupted sweep)
+    scheduler : Dask scheduler address, 'local', or a Client
+    executor : 'process' (default), 'inline' (this process, no isolation) or 'dask'
+    progress : progress bars on stderr (default False)
+    name, folder, write, resume, overwrite : the table results/bench/<name>.parquet (unique
+        name by default; ``folder`` instead of results/bench; rows stored as they finish;
+        ``resume`` completes an interrupted sweep)
     run_cap : wall-time cap of one run [s]; a run over it is a 'timeout' row
     repeats : timed runs (minimum taken) after a warm-up run, made while a run takes
         under a second (:data:`daebench.harness.timing.REPEATS`); 1: one cold run, no warm-up
-    scheduler : Dask scheduler address, 'local', or a Client
-    executor : 'process' (default), 'inline' (this process, no isolation) or 'dask'
 
     Returns
     -------
@@ -263,33 +257,8 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str, *, steps: Sequence
         (``err_<observable>_{final,max,l2}``), energy and constraint residuals.
     """
     from daebench.harness import bench as B
+    from daebench.harness import options
 
     sc = load_scene(scene, overrides)
-    names = [x.strip() for x in integrators.split(",")] if isinstance(integrators, str) else list(integrators)
-    return B.run_sweep(sc, names, grid, _numbers(steps, "steps"), _numbers(tols, "tols"), jobs=jobs,
-                       executor=executor, scheduler=scheduler, options=options, name=name,
-                       reference_mode=reference, repeats=repeats, warmup=repeats > 1, write=write,
-                       progress=progress, run_cap=run_cap, resume=resume, overwrite=overwrite, force=force)
-
-
-STEP_PARAM = Param("h", float, 1e-4, "a fixed step size [s] in --steps", low=1e-12, high=1.0)
-TOL_PARAM = Param("tol", float, 1e-6, "a tolerance in --tols", low=1e-14, high=1.0)
-
-
-def _numbers(values: Sequence[Any] | None, what: str) -> list[float] | None:
-    """--steps/--tols values, each checked by the one parameter rule (finite, in range)."""
-    if values is None:
-        return None
-    if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
-        raise _sweep_error(f"{what} must be a list of numbers, e.g. [1e-3, 5e-4]; got {values!r}")
-    p = STEP_PARAM if what == "steps" else TOL_PARAM
-    out = [p.validate(x, what) for x in values]
-    if not out:
-        raise _sweep_error(f"{what} is empty; give at least one value")
-    return out
-
-
-def _sweep_error(msg: str) -> Exception:
-    from daebench.harness.bench import SweepError
-
-    return SweepError(msg)
+    given = dict(plan=plan, timing=timing, storage=storage, execution=execution)
+    return B.run_sweep(sc, *options.from_keywords(integrators, keywords, given))

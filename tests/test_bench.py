@@ -10,12 +10,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness import bench
+from daebench.harness import bench, options
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
 
 # the exploding test integrator overflows on purpose
 pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
+
+
+def sweep(scene, integrators, **keywords):
+    """A sweep with the API's keyword names (:func:`daebench.harness.options.from_keywords`)."""
+    return bench.run_sweep(scene, *options.from_keywords(integrators, keywords))
 
 
 class Boom(Integrator):
@@ -70,8 +75,8 @@ def pendulum():
 
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_raise_diverge_succeed_give_three_rows(registry, pendulum, tmp_path, jobs):
-    df = bench.run_sweep(pendulum, ["boom", "explode", "hht"], steps=[1e-2], jobs=jobs,
-                         reference_mode="none", progress=False, name="three")
+    df = sweep(pendulum, ["boom", "explode", "hht"], steps=[1e-2], jobs=jobs,
+               reference="none", progress=False, name="three")
     assert len(df) == 3
     by = df.set_index("integrator")
     assert by.loc["boom", "status"] == "error" and "deliberate bug" in by.loc["boom", "message"]
@@ -84,15 +89,17 @@ def test_raise_diverge_succeed_give_three_rows(registry, pendulum, tmp_path, job
     assert side["rows"] == 3 and "numpy" in side["provenance"]["versions"]
 
 
-def test_scored_against_reference_and_nan_for_diverged(registry, pendulum):
+def test_scored_against_the_exact_solution_and_nan_for_diverged(registry, pendulum):
+    """The pendulum has an exact solution: a sweep scores against it (as `daebench.run`
+    does), not against the reference it also requires."""
     ref = bench.compute_reference(pendulum, rtol=1e-10, atol=1e-12)
     assert ref.path.exists() and ref.meta["agreement"]["err_theta_max"] < 1e-5
     again = bench.load_reference(pendulum)
     pd.testing.assert_frame_equal(again.history, ref.history)
-    df = bench.run_sweep(pendulum, ["explode", "hht"], steps=[1e-2, 5e-3], jobs=1, reference_mode="require",
-                         progress=False, write=False)
+    df = sweep(pendulum, ["explode", "hht"], steps=[1e-2, 5e-3], jobs=1, reference="require",
+               progress=False, write=False)
     ok = df[df.integrator == "hht"].sort_values("h")
-    assert ok["err_theta_max"].notna().all()
+    assert ok["err_theta_max"].notna().all() and (ok["against"] == "exact solution").all()
     e_big, e_small = ok["err_theta_max"].iloc[1], ok["err_theta_max"].iloc[0]
     assert 3.0 < e_big / e_small < 5.0  # order 2
     assert df[df.integrator == "explode"]["err_theta_max"].isna().all()
@@ -111,7 +118,7 @@ def test_grid_keys_classified_and_unknown_refused(registry, pendulum):
     with pytest.raises(bench.SweepError, match="unknown integrator 'hhtt'"):
         bench.plan_sweep(pendulum, ["hhtt"])
     with pytest.raises(bench.ReferenceMissing, match="daebench reference pendulum"):
-        bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode="require", progress=False)
+        sweep(pendulum, ["hht"], steps=[1e-2], reference="require", progress=False)
 
 
 def test_tols_skip_fixed_step_only(registry, pendulum):
@@ -119,7 +126,7 @@ def test_tols_skip_fixed_step_only(registry, pendulum):
     hht, boom = specs
     assert hht.options["adaptive"] is True and hht.options["rtol"] == 1e-4
     assert "no adaptive" in boom.skip
-    df = bench.run_specs(specs, pendulum, reference_mode="none", progress=False)
+    df = bench.run_specs(specs, pendulum, bench.Execution(progress=False), reference_mode="none")
     assert list(df.status) == ["completed", "skipped"]
 
 
@@ -144,8 +151,8 @@ def test_hanging_run_is_a_failed_row(registry, pendulum, monkeypatch):
     reg = {**base.registry(), "hang": Registered("hang", Hang, "tests")}
     monkeypatch.setattr(base, "registry", lambda: dict(reg))
     bench.run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded (workers fork from here)
-    df = bench.run_sweep(pendulum, ["hang", "hht"], steps=[1e-2], reference_mode="none", progress=False,
-                         write=False, run_cap=2.0)
+    df = sweep(pendulum, ["hang", "hht"], steps=[1e-2], reference="none", progress=False,
+               write=False, run_cap=2.0)
     by = df.set_index("integrator")
     assert by.loc["hang", "status"] == "timeout" and "wall-time cap" in by.loc["hang", "message"]
     assert by.loc["hht", "status"] == "completed"
@@ -184,17 +191,17 @@ def test_dask_executor_gives_the_rows_of_the_process_pool(registry, pendulum):
     from dask.distributed import Client, LocalCluster
 
     bench.compute_reference(pendulum, rtol=1e-10, atol=1e-12)
-    kw = dict(steps=[1e-2, 5e-3], reference_mode="require", progress=False, write=False)
-    local = bench.run_sweep(pendulum, ["hht", "newmark"], jobs=2, **kw)
-    dask = bench.run_sweep(pendulum, ["hht", "newmark"], jobs=2, scheduler="local", **kw)
+    kw = dict(steps=[1e-2, 5e-3], reference="require", progress=False, write=False)
+    local = sweep(pendulum, ["hht", "newmark"], jobs=2, **kw)
+    dask = sweep(pendulum, ["hht", "newmark"], jobs=2, scheduler="local", **kw)
     assert list(dask["label"]) == list(local["label"]) and (dask["status"] == "completed").all()
     assert list(dask["steps"]) == list(local["steps"])
     np.testing.assert_allclose(dask["err_theta_max"], local["err_theta_max"], rtol=1e-9)
 
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:
-        df = bench.run_sweep(pendulum, ["boom", "explode", "hht"], steps=[1e-2], scheduler=client,
-                             reference_mode="none", progress=False, write=False)
+        df = sweep(pendulum, ["boom", "explode", "hht"], steps=[1e-2], scheduler=client,
+                   reference="none", progress=False, write=False)
     by = df.set_index("integrator")
     assert by.loc["boom", "status"] == "error" and "deliberate bug" in by.loc["boom", "message"]
     assert by.loc["explode", "status"] == "diverged" and by.loc["hht", "steps"] == 20
@@ -207,7 +214,7 @@ def test_observable_of_a_switched_off_effect_is_reported_not_scored(registry):
     from daebench.models.scenes import load_scene
 
     sc = load_scene("beam-impact", ["effects.contact=false", "discretization.n=3", "t_end=0.05"])
-    df = bench.run_sweep(sc, ["hht"], steps=[1e-4], reference_mode="compute", progress=False, write=False)
+    df = sweep(sc, ["hht"], steps=[1e-4], reference="compute", progress=False, write=False)
     row = df.iloc[0]
     assert row["status"] == "completed" and row["unscored_observables"] == "gap"
     assert math.isfinite(row["err_theta_max"]) and "err_gap_max" not in df.columns

@@ -18,6 +18,11 @@ import pytest
 from daebench.harness import impact_metrics as IM
 from daebench.harness import metrics
 from daebench.core.contact import impact_map
+from daebench.core.observables import Observable, Observables
+
+#: θ as the hub–beam declares it: short name 'theta', Hermite with ω [rad/s]
+THETA = Observable("theta_deg", "deg", short="theta", derivative="omega", derivative_factor=180.0 / math.pi)
+DECLARED = Observables([THETA])
 
 
 def _hist(t, theta_rad, omega=None, **cols):
@@ -35,8 +40,9 @@ def test_hermite_with_omega_is_exact_for_a_cubic_and_linear_is_not():
     seg = _hist(t, th, om)
     x = np.linspace(0.0, 1.0, 97)
     exact = np.degrees(0.3 * x**3 - x + 0.2)
-    assert np.max(np.abs(metrics.dense(seg, "theta_deg", x) - exact)) < 1e-12
-    lin = metrics.dense(seg.drop(columns="omega"), "theta_deg", x)
+    deriv = DECLARED.derivative("theta_deg")             # θ [deg] has dθ/dt = ω [rad/s]·180/π
+    assert np.max(np.abs(metrics.dense(seg, "theta_deg", x, deriv) - exact)) < 1e-12
+    lin = metrics.dense(seg.drop(columns="omega"), "theta_deg", x, deriv)
     assert np.max(np.abs(lin - exact)) > 1e-3     # the cubic's curvature shows between rows
 
 
@@ -46,7 +52,7 @@ def test_whole_run_error_at_run_times_against_a_dense_reference():
     w = 300.0                                           # a tone the run's rows alias
     ref = _hist(ref_t, np.sin(w * ref_t), w * np.cos(w * ref_t))
     run = _hist(run_t, np.sin(w * run_t) + 1e-6 * run_t)   # the run errs by 1e-6 t rad
-    acc = metrics.accuracy(run, ref, ["theta_deg"])
+    acc = metrics.accuracy(run, ref, ["theta_deg"], declared=DECLARED)
     assert acc["err_theta_final"] == pytest.approx(math.degrees(1e-6), rel=1e-4)
     assert acc["err_theta_max"] == pytest.approx(math.degrees(1e-6), rel=1e-4)
 
@@ -64,12 +70,12 @@ def test_resynchronised_windows_score_zero_for_a_shifted_event_sequence():
     t_ref, t_run = np.arange(0, 20001) * 5e-5, np.arange(0, 1001) * 1e-3
     ref = _hist(t_ref, _bouncing(t_ref, ref_imp))
     run = _hist(t_run, _bouncing(t_run, run_imp))
-    w = IM.window_errors(run, run_imp, ref, ref_imp, pairs=())
+    w = IM.window_errors(run, run_imp, ref, ref_imp, [THETA])
     assert w["windows_matched"] == 3 == w["windows_ref"]
     assert w["err_win_theta_max"] < 2e-3              # linear interpolation of the reference only
-    whole = metrics.accuracy(run, ref, ["theta_deg"], ref_impacts=ref_imp)
+    whole = metrics.accuracy(run, ref, ["theta_deg"], ref_impacts=ref_imp, declared=DECLARED)
     assert whole["err_theta_max"] > 20 * w["err_win_theta_max"]   # the whole-run error sees the shift
-    pre = IM.pre_impact_errors(run, ref, ref_imp[0], pairs=())
+    pre = IM.pre_impact_errors(run, ref, ref_imp[0], [THETA])
     assert pre["err_pre_theta_max"] < 2e-3
 
 
@@ -81,7 +87,7 @@ def test_window_matching_stops_at_the_first_unmatched_impact():
     assert IM.match_impacts([], ref) == 0
     t = np.arange(0, 1001) * 1e-3
     h = _hist(t, _bouncing(t, ref))
-    w = IM.window_errors(h, [0.3001, 0.6001], h, ref, pairs=())
+    w = IM.window_errors(h, [0.3001, 0.6001], h, ref, [THETA])
     assert w["windows_matched"] == 1 and math.isnan(w["err_win_theta_max"]) and math.isfinite(w["err_winm_theta_max"])
 
 
@@ -133,16 +139,16 @@ ORDER_STEPS = (1e-4, 5e-5, 2.5e-5, 1.25e-5)
 def order_sweep(tmp_path_factory):
     import os
 
-    from daebench.harness import bench
+    from daebench.harness import bench, options
     from daebench.models.scenes import load_scene
 
     old = os.environ.get("DAEBENCH_RESULTS")
     os.environ["DAEBENCH_RESULTS"] = str(tmp_path_factory.mktemp("results"))
     try:
         sc = load_scene("beam-impact", {"discretization.n": 1, "t_end": 0.38})
-        df = bench.run_sweep(sc, ["hht", "newmark"], steps=list(ORDER_STEPS), options={"h_contact": 1e-6},
-                             reference_mode="compute", write=False, progress=False, executor="inline",
-                             repeats=1, warmup=False)
+        df = bench.run_sweep(sc, *options.from_keywords(
+            ["hht", "newmark"], dict(steps=list(ORDER_STEPS), options={"h_contact": 1e-6}, reference="compute",
+                                     write=False, executor="inline", repeats=1)))
     finally:
         if old is None:
             os.environ.pop("DAEBENCH_RESULTS")

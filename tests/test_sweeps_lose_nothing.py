@@ -19,12 +19,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness import bench, references
+from daebench.harness import bench, options, references
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
 from daebench.models.scenes import load_scene
 
 pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
+
+
+def sweep(scene, integrators, **keywords):
+    """A sweep with the API's keyword names (:func:`daebench.harness.options.from_keywords`)."""
+    return bench.run_sweep(scene, *options.from_keywords(integrators, keywords))
 
 
 class _Stepper(Integrator):
@@ -85,8 +90,8 @@ def pendulum():
 
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_crashing_plugins_cost_only_their_own_rows(plugins, pendulum, jobs):
-    df = bench.run_sweep(pendulum, ["segv", "hht", "exit3", "ctrlc"], steps=[1e-2, 5e-3], jobs=jobs,
-                         reference_mode="none", progress=False, name="crash")
+    df = sweep(pendulum, ["segv", "hht", "exit3", "ctrlc"], steps=[1e-2, 5e-3], jobs=jobs,
+               reference="none", progress=False, name="crash")
     by = {(r.integrator, r.h): r for r in df.itertuples()}
     for h, steps in ((1e-2, 20), (5e-3, 40)):
         assert by["hht", h].status == "completed" and by["hht", h].steps == steps
@@ -115,8 +120,8 @@ def test_run_cap_under_dask_leaves_a_timeout_row_and_the_sweep_goes_on(plugins, 
     run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded: the cap measures the run alone
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:
-        df = bench.run_sweep(pendulum, ["hang", "hht"], steps=[1e-2], scheduler=client, reference_mode="none",
-                             progress=False, write=False, run_cap=2.0)
+        df = sweep(pendulum, ["hang", "hht"], steps=[1e-2], scheduler=client, reference="none",
+                   progress=False, write=False, run_cap=2.0)
     by = df.set_index("integrator")
     assert by.loc["hang", "status"] == "timeout" and "wall-time cap of 2 s" in by.loc["hang", "message"]
     assert by.loc["hht", "status"] == "completed"
@@ -143,19 +148,19 @@ def _damage_drop_column(path: Path) -> None:
                                     _damage_drop_column])
 def test_damaged_reference_is_caught_in_every_mode(plugins, pendulum, damage):
     good = references.compute_reference(pendulum, rtol=1e-9, atol=1e-11, check=False)
-    truth = bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode="require", progress=False,
-                            write=False)["err_theta_max"].iloc[0]
+    truth = sweep(pendulum, ["hht"], steps=[1e-2], reference="require", progress=False,
+                  write=False)["err_theta_max"].iloc[0]
     damage(good.path)
     with pytest.raises(references.ReferenceDamaged, match="daebench reference pendulum --force"):
-        bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode="require", progress=False, write=False)
+        sweep(pendulum, ["hht"], steps=[1e-2], reference="require", progress=False, write=False)
     for i, mode in enumerate(("auto", "compute")):  # recomputed (default tolerance), then scored as before
         if i:
             damage(references.reference_path(pendulum))
-        df = bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode=mode, progress=False, write=False)
+        df = sweep(pendulum, ["hht"], steps=[1e-2], reference=mode, progress=False, write=False)
         assert df["err_theta_max"].iloc[0] == pytest.approx(truth, rel=1e-3)
         references.validate(pendulum, references.reference_path(pendulum))  # valid again
     damage(references.reference_path(pendulum))
-    df = bench.run_sweep(pendulum, ["hht"], steps=[1e-2], reference_mode="none", progress=False, write=False)
+    df = sweep(pendulum, ["hht"], steps=[1e-2], reference="none", progress=False, write=False)
     assert "err_theta_max" not in df.columns
 
 

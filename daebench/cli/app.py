@@ -125,11 +125,14 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
     pairs = [("run", f"{r.scene.name} with integrator {r.integrator}"),
              ("settings", _settings_text(r.settings) or "(none)"),
              ("status", f"{r.status}{' — ' + r.message if r.message else ''} ({r.wall_s:.3g} s wall)")]
+    from daebench.harness import scoring
+
+    declared = scoring.declared(r.scene.model)
     obs = r.record.observables
-    for k in ("t", "theta_deg", "tip_w2", "tip_y", "x", "y"):
+    finals = [("t", "s")] + [(o.name, o.unit) for o in declared.declared if o.summary]
+    for k, unit in finals:
         if k in obs:
-            unit = {"t": "s", "theta_deg": "deg", "tip_w2": "m", "tip_y": "m", "x": "m", "y": "m"}[k]
-            pairs.append((f"final {k} [{unit}]", f"{obs[k]:.10g}"))
+            pairs.append((f"final {k}" + (f" [{unit}]" if unit else ""), f"{obs[k]:.10g}"))
     pairs.append(("energy balance", f"max |E − E0 − W_nc + D_impacts| = {r.energy_residual:.3e} J "
                                     f"(bookkeeping error of the run; 0 is exact)"))
     if r.impacts:
@@ -140,9 +143,15 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
                                      f"|C̈| {c['Cddot']:.2e} m/s²"))
     pairs.append(("work", ", ".join(f"{k} {v}" for k, v in r.counters.items())))
     if r.error:
-        errs = [f"{k.removeprefix('err_').removesuffix('_max')} {v:.3e}" for k, v in r.error.items()
-                if k.startswith("err_") and k.endswith("_max")]
-        pairs.append((f"error vs {r.error['against']} (max over the run; θ in deg, positions in m)", ", ".join(errs)))
+        names = [k.removeprefix("err_").removesuffix("_max") for k in r.error
+                 if k.startswith("err_") and k.endswith("_max")]
+        points = [p for p in declared.positions if p.score_name in names]
+        parts = {c for p in points for c in (declared.get(p.x).score_name, declared.get(p.y).score_name)}
+        names = [n for n in names if n not in parts]  # a point's coordinates: its one error says it
+        errs = [f"{n} {r.error[f'err_{n}_max']:.3e}" for n in names]
+        units = _units_text(declared, names)
+        pairs.append((f"error vs {r.error['against']} (max over the run{'; ' + units if units else ''})",
+                      ", ".join(errs)))
     else:
         pairs.append(("error", f"no exact solution or cached reference for this scene "
                                f"(`daebench reference {r.scene.name}` makes one)"))
@@ -153,6 +162,16 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
     if r.history_path:
         pairs.append(("history", r.history_path))
     return pairs
+
+
+def _units_text(declared: Any, names: list[str]) -> str:
+    """'theta in deg, x, y, pos in m': the declared units of the scored names, grouped."""
+    by_unit: dict[str, list[str]] = {}
+    for n in names:
+        d = declared.by_score_name(n)
+        if d is not None and d.unit:
+            by_unit.setdefault(d.unit, []).append(n)
+    return ", ".join(f"{', '.join(ns)} in {u}" for u, ns in by_unit.items())
 
 
 @app.command()
@@ -281,15 +300,17 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
     """Sweep integrators × grid × steps/tols on a scene; one scored row per run, stored as it finishes."""
     from daebench import api
     from daebench.harness import bench as B
+    from daebench.harness.options import Execution, Plan, Storage, Timing
     from daebench.core.params import parse_pairs
 
     sc = load_scene_or_exit(scene, set_)
     try:
         options = parse_pairs(opt, "--opt", "h_contact=1e-6") if opt else {}
-        df = api.bench(sc, integrators, grid=_grid(grid), steps=_floats(steps, "--steps"),
-                       tols=_floats(tols, "--tols"), jobs=jobs, scheduler=scheduler, options=options, name=name,
-                       reference=ref_mode, repeats=repeats, run_cap=run_cap, resume=resume, overwrite=overwrite,
-                       force=force, progress=True)
+        plan = Plan(integrators, steps=_floats(steps, "--steps"), tols=_floats(tols, "--tols"), grid=_grid(grid),
+                    options=options, reference=ref_mode, force=force)
+        df = api.bench(sc, plan=plan, timing=Timing.for_repeats(repeats, run_cap),
+                       storage=Storage(name=name, resume=resume, overwrite=overwrite),
+                       execution=Execution(jobs=jobs, scheduler=scheduler, progress=True))
     except ParamError as exc:
         fail(str(exc))
     except B.SweepInterrupted as exc:

@@ -40,7 +40,7 @@ def register(app: typer.Typer) -> None:
         if json_out:
             sys.stdout.write(C.as_json(res) + "\n")
         else:
-            cols, rows = C.table_rows(res.table)
+            cols, rows = C.table_rows(res.table, res.headline)
             for line in textout.table_lines(cols, rows, title=f"{sc.name}: {res.protocol.why}"):
                 say(line)
             for line in C.summary_lines(res):

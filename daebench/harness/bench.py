@@ -7,7 +7,8 @@
 * :func:`run_specs` / :func:`run_sweep` — run the plan on an executor
   (:mod:`daebench.harness.executors`), storing each row on disk as it arrives
   (:mod:`daebench.harness.sweepstore`); interrupted, a sweep keeps its finished rows and can be
-  resumed.
+  resumed. What to run, how to time, where to store and how to execute are one value each
+  (:mod:`daebench.harness.options`).
 
 Statuses: ``completed``, ``diverged``, ``failed`` are the integrator's verdict (the
 driver's); ``skipped`` a run that does not apply; ``error``, ``timeout``, ``crashed``
@@ -23,19 +24,20 @@ from __future__ import annotations
 import itertools
 import json
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import pandas as pd
 
-from daebench.harness import executors, guards, sweepstore, timing
+from daebench.harness import executors, guards, sweepstore
 from daebench.harness.guards import RunTimeout, deadline  # noqa: F401  (re-exported: studies use them)
 from daebench.integrators import base
 from daebench.integrators.base import IntegratorError
 from daebench.models import build_system
 from daebench.core.params import ParamError, did_you_mean
+from daebench.harness.options import Execution, Plan, Storage, SweepError, Timing  # noqa: F401  (re-exported)
 from daebench.harness.references import (  # noqa: F401  (re-exported)
     CHECK_FACTOR, REF_ATOL, REF_INTEGRATOR, REF_MARGIN, REF_RTOL, Reference, ReferenceDamaged, ReferenceMissing,
     compute_reference, load_reference, reference_path, reference_tolerances)
@@ -48,10 +50,6 @@ TOL_ATOL_RATIO = 1e-2   # --tols t sets rtol = t, atol = t · this
 HARNESS_FAILURES = ("error", "timeout", "crashed")
 TIMING_COLUMNS = ("wall_s", "cpu_s", "repeats")   # the only columns that differ between identical runs
 MAX_JOBS = 512
-
-
-class SweepError(ParamError):
-    """A sweep that cannot be planned (unknown integrator or grid key …); raised before any run."""
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -229,11 +227,6 @@ def prepare_references(specs: Sequence[RunSpec], scene: Scene, reference_mode: s
                 f"--rtol {tight / REF_MARGIN:g}`")
 
 
-def check_reference_tolerance(specs: Sequence[RunSpec], scene: Scene, reference_mode: str) -> None:
-    """Kept for callers of the old name: :func:`prepare_references` without a progress bar."""
-    prepare_references(specs, scene, reference_mode)
-
-
 # ==== running ===================================================================================
 def _int_at_least_1(value: Any, what: str, high: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= high:
@@ -241,37 +234,36 @@ def _int_at_least_1(value: Any, what: str, high: int) -> int:
     return value
 
 
-def run_specs(specs: Sequence[RunSpec], scene: Scene, jobs: int = 1, executor: str = "process",
-              scheduler: Any = None, reference_mode: str = "auto", repeats: int = timing.REPEATS,
-              warmup: bool = True, time_cap: float = timing.TIME_CAP_S, progress: bool = True,
-              description: str = "runs",
-              history_dir: str | Path | None = None, run_cap: float | None = None,
-              store: SweepStore | None = None) -> pd.DataFrame:
+def run_specs(specs: Sequence[RunSpec], scene: Scene, execution: Execution = Execution(),
+              timing: Timing = Timing(), reference_mode: str = "auto", store: SweepStore | None = None,
+              history_dir: str | Path | None = None, description: str = "runs") -> pd.DataFrame:
     """Execute planned runs; one row each, in plan order.
 
-    ``executor``: 'process' (``jobs`` worker processes; a crash costs one row), 'inline'
-    (this process), or 'dask' (or any ``scheduler``). With a ``store`` every row is on
-    disk as soon as it exists, and runs that already have a row there are not run again.
+    ``execution``: 'process' (``jobs`` worker processes; a crash costs one row), 'inline'
+    (this process), or 'dask' (or any ``scheduler``); ``timing`` as
+    :class:`daebench.harness.options.Timing`. With a ``store`` every row is on disk as soon
+    as it exists, and runs that already have a row there are not run again; with
+    ``history_dir`` each run's history is kept there.
 
     Raises
     ------
     SweepInterrupted
         On Ctrl-C, after every finished row is stored; it carries the partial table.
     """
+    jobs, executor, scheduler, progress = execution.jobs, execution.executor, execution.scheduler, execution.progress
     jobs = _int_at_least_1(jobs, "jobs", MAX_JOBS)
-    repeats = _int_at_least_1(repeats, "repeats", 1000)
-    run_cap = guards.check_run_cap(run_cap)
+    repeats = _int_at_least_1(timing.repeats, "repeats", 1000)
+    run_cap = guards.check_run_cap(timing.run_cap)
     if executor not in ("process", "inline", "dask"):
         raise SweepError(f"unknown executor '{executor}' (process, inline or dask)")
     use_dask = executor == "dask" or scheduler is not None
     client, release = executors.connect_dask(scheduler, jobs) if use_dask else (None, lambda: None)
     rows: dict[int, dict[str, Any]] = dict(store.finished()) if store is not None else {}
     todo = [s for s in specs if s.index not in rows]
-    kw = dict(reference_mode=reference_mode, repeats=repeats, warmup=warmup, time_cap=time_cap,
-              history_dir=history_dir, run_cap=run_cap)
-    fn = partial(execute, scene=scene, **kw)
+    tm = Timing(repeats, timing.warmup, timing.time_cap, run_cap)
+    fn = partial(execute, scene=scene, reference_mode=reference_mode, timing=tm, history_dir=history_dir)
     make_row = partial(_make_row, scene=scene)
-    calls = repeats + (1 if warmup else 0)
+    calls = repeats + (1 if timing.warmup else 0)
     backstop = run_cap * calls + executors.BACKSTOP_GRACE_S if run_cap else None
     from daebench.harness.progress import SweepProgress
 
@@ -316,44 +308,26 @@ def manifest(scene: Scene, specs: Sequence[RunSpec], reference_mode: str, repeat
             "plan": [[s.index, s.integrator, s.options, s.scene_overrides, s.skip] for s in specs]}
 
 
-def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence[Any]] | None = None,
-              steps: Sequence[float] | None = None, tols: Sequence[float] | None = None,
-              jobs: int = 1, executor: str = "process", scheduler: Any = None,
-              options: dict[str, Any] | None = None, name: str | None = None,
-              reference_mode: str = "auto", repeats: int = timing.REPEATS, warmup: bool = True,
-              time_cap: float = timing.TIME_CAP_S, write: bool = True, progress: bool = True,
-              run_cap: float | None = None, resume: bool = False, overwrite: bool = False,
-              force: bool = False, folder: str | Path | None = None) -> pd.DataFrame:
+def run_sweep(scene: Scene, plan: Plan, execution: Execution = Execution(), timing: Timing = Timing(),
+              storage: Storage = Storage()) -> pd.DataFrame:
     """Plan, run and score a sweep; one tidy row per run.
 
     Parameters
     ----------
     scene : Scene
-    integrators : names from the registry (case-insensitive)
-    grid : {key: values}; integrator settings (checked first) or scene keys
-    steps, tols : fixed steps ``h`` or tolerances (adaptive runs); at most one
-    jobs : worker processes (executor 'process') or Dask workers ('local' scheduler)
-    executor, scheduler : 'process' (default), 'inline' or 'dask'; a scheduler address,
-        "local" or a ``dask.distributed.Client`` selects Dask
-    options : fixed integrator settings for every run that has them
-    name : table name under results/bench/ (default: unique, ``<scene>-<time>-<hex>``)
-    reference_mode : 'auto' | 'require' | 'compute' | 'none'
-    repeats, warmup, time_cap : timing: by default a warm-up run (stopped after 1 s) and the
-        minimum of 3 timed runs for runs under a second, one for longer runs
-        (:data:`daebench.harness.timing.REPEATS`, :func:`daebench.harness.timing.time_call`)
-    write : store rows on disk as they finish and write the table (False: memory only)
-    progress : bars on stderr for references and runs
-    run_cap : wall-time cap of one run in seconds (None: no cap)
-    resume : complete the existing sweep ``name`` (same plan), running only missing rows
-    overwrite : replace an existing table ``name``
-    force : run sizes beyond :mod:`daebench.harness.guards`' limits
-    folder : where tables go (default results/bench)
+    plan : what to run and what to score against (:class:`daebench.harness.options.Plan`)
+    execution : worker processes, in-process or Dask, progress bars (``Execution``)
+    timing : warm-up, repeats, caps (``Timing``; by default a warm-up run stopped after 1 s
+        and the minimum of 3 timed runs for runs under a second, one for longer runs:
+        :data:`daebench.harness.timing.REPEATS`)
+    storage : table name and folder (default results/bench/<scene>-<time>-<hex>), resume,
+        overwrite, or memory only (``Storage``)
 
     Returns
     -------
     pandas.DataFrame
         Its ``attrs['path']`` is the table written (results/bench/<name>.parquet, with
-        .csv and a .json provenance sidecar), when ``write``.
+        .csv and a .json provenance sidecar), when ``storage.write``.
 
     Raises
     ------
@@ -362,27 +336,29 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
     SweepInterrupted
         On Ctrl-C: the partial table is written and carried by the exception.
     """
-    specs = plan_sweep(scene, integrators, grid, steps, tols, options, force=force)
+    specs = plan_sweep(scene, plan.integrators, plan.grid, plan.steps, plan.tols, plan.options, force=plan.force)
     from daebench.harness.progress import run_progress_factory
 
-    if executor not in ("process", "inline", "dask"):
-        raise SweepError(f"unknown executor '{executor}' (process, inline or dask)")
+    if execution.executor not in ("process", "inline", "dask"):
+        raise SweepError(f"unknown executor '{execution.executor}' (process, inline or dask)")
     client, release = (None, lambda: None)
-    if executor == "dask" or scheduler is not None:  # an unreachable scheduler fails before any reference
-        client, release = executors.connect_dask(scheduler, _int_at_least_1(jobs, "jobs", MAX_JOBS))
-        scheduler = client
+    if execution.executor == "dask" or execution.scheduler is not None:  # unreachable: fails before any reference
+        client, release = executors.connect_dask(execution.scheduler,
+                                                 _int_at_least_1(execution.jobs, "jobs", MAX_JOBS))
+        execution = replace(execution, scheduler=client)
     store = None
     try:
-        if write:
-            folder = Path(folder) if folder is not None else results_dir() / "bench"
-            name = name if name is not None else sweepstore.unique_name(scene.name)
-            store = SweepStore.open(folder, name, manifest(scene, specs, reference_mode, repeats), resume, overwrite)
-        elif resume or overwrite:
+        if storage.write:
+            folder = Path(storage.folder) if storage.folder is not None else results_dir() / "bench"
+            name = storage.name if storage.name is not None else sweepstore.unique_name(scene.name)
+            store = SweepStore.open(folder, name, manifest(scene, specs, plan.reference, timing.repeats),
+                                    storage.resume, storage.overwrite)
+        elif storage.resume or storage.overwrite:
             raise SweepError("resume and overwrite need a stored sweep (write=True)")
-        prepare_references(specs, scene, reference_mode, run_progress_factory(progress))
+        prepare_references(specs, scene, plan.reference, run_progress_factory(execution.progress))
         try:
-            df = run_specs(specs, scene, jobs, executor, scheduler, reference_mode, repeats, warmup, time_cap,
-                           progress, description=scene.name, run_cap=run_cap, store=store)
+            df = run_specs(specs, scene, execution, timing, plan.reference, store, storage.history_dir,
+                           description=scene.name)
         except SweepInterrupted as exc:
             if store is not None:
                 exc.path = write_table(exc.table, store.name, [scene], store.folder, complete=False)
@@ -394,5 +370,3 @@ def run_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequence
         if store is not None:
             store.close()
         release()
-
-

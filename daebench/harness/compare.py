@@ -26,13 +26,13 @@ checked against a shipped fingerprint (:mod:`daebench.harness.fingerprints`) whe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import pandas as pd
 
-from daebench.harness import bench, guards, provenance, timing
+from daebench.harness import bench, guards, provenance, scoring, timing
 from daebench.integrators import base
 from daebench.core.params import ParamError
 from daebench.harness.runner import results_dir
@@ -52,11 +52,17 @@ class Entry:
 
 @dataclass(frozen=True)
 class Protocol:
-    """What `daebench compare` runs on a case and which error measures it plots."""
+    """What `daebench compare` runs on a case and which error measures it plots; in a
+    measure ``{obs}`` stands for the case's headline observable
+    (:func:`daebench.harness.scoring.headline`: what the model declares first)."""
 
     entries: tuple[Entry, ...]
-    measures: tuple[str, ...] = ("err_theta_max",)
+    measures: tuple[str, ...] = ("err_{obs}_max",)
     why: str = ""
+
+    def resolved(self, obs: str) -> "Protocol":
+        """This protocol with ``{obs}`` replaced by the score name ``obs``."""
+        return replace(self, measures=tuple(m.format(obs=obs) for m in self.measures))
 
 
 # beam-impact (docs/sources.md §G.2): the paper's h = 1e-4 s outside contact, 1e-6 s in contact, and
@@ -68,7 +74,7 @@ _BEAM = Protocol(
              Entry("hht", _STEPS, options=_PAPER), Entry("newmark", _STEPS, options=_PAPER),
              Entry("genalpha", _STEPS, options=_PAPER), Entry("baumgarte", _STEPS, options=_PAPER),
              Entry("moreau", _STEPS), Entry("nsgenalpha", _STEPS)),
-    measures=("err_theta_max", "err_pre_theta_max", "err_impact1_t"),
+    measures=("err_{obs}_max", "err_pre_{obs}_max", "err_impact1_t"),
     why="the paper's steps (h = 1e-4 s, 1e-6 s in contact) and two halvings; the whole-run θ error "
         "beside the error before the first impact and the first impact's time error")
 PROTOCOLS: dict[str, Protocol] = {"beam-impact": _BEAM, "beam-impact-hub": _BEAM}
@@ -76,7 +82,7 @@ PROTOCOLS: dict[str, Protocol] = {"beam-impact": _BEAM, "beam-impact-hub": _BEAM
 
 def default_protocol(scene: Scene) -> Protocol:
     """Every registered integrator, one run at its default settings."""
-    return Protocol(tuple(Entry(n) for n in sorted(base.registry())), ("err_theta_max",),
+    return Protocol(tuple(Entry(n) for n in sorted(base.registry())), ("err_{obs}_max",),
                     "no protocol declared for this case: every integrator once, at its default settings")
 
 
@@ -94,13 +100,15 @@ def protocol_for(scene: Scene) -> Protocol:
 
 @dataclass
 class CompareResult:
-    """The scored table, the integrators not applicable (name → why), written files."""
+    """The scored table, the integrators not applicable (name → why), written files, the
+    protocol (measures resolved) and the headline observable's declaration."""
 
     table: pd.DataFrame
     not_applicable: dict[str, str]
     files: list[Path]
     protocol: Protocol
     reference: Any = None
+    headline: Any = None
 
 
 def plan(scene: Scene, protocol: Protocol) -> tuple[list[bench.RunSpec], dict[str, str]]:
@@ -154,7 +162,8 @@ def run_compare(scene: Scene, jobs: int = 2, out: str | Path | None = None, prog
     from daebench.harness import fingerprints
     from daebench.harness.progress import run_progress_factory
 
-    proto = protocol or protocol_for(scene)
+    head = scoring.headline(scene)
+    proto = (protocol or protocol_for(scene)).resolved(head.score_name)
     specs, refused = plan(scene, proto)
     if not specs:
         raise ParamError(f"no integrator applies to scene '{scene.name}': "
@@ -167,15 +176,15 @@ def run_compare(scene: Scene, jobs: int = 2, out: str | Path | None = None, prog
             fingerprints.check(scene, ref)
         except bench.ReferenceMissing:
             ref = None
-    df = bench.run_specs(specs, scene, jobs=jobs, reference_mode="require" if ref is not None else "none",
-                         progress=progress, description=f"compare {scene.name}", run_cap=run_cap)
+    df = bench.run_specs(specs, scene, bench.Execution(jobs=jobs, progress=progress), bench.Timing(run_cap=run_cap),
+                         "require" if ref is not None else "none", description=f"compare {scene.name}")
     gone = df.apply(_refused_at_start, axis=1) if len(df) else pd.Series([], dtype=bool)
     for _, r in df[gone].iterrows():
         refused.setdefault(r["integrator"], str(r["message"]))
     df = df[~gone].reset_index(drop=True)
     folder = Path(out) if out is not None else results_dir() / "compare" / f"{scene.name}-{scene.hash[:8]}"
     files = write(df, scene, proto, folder, refused, ref)
-    return CompareResult(df, refused, files, proto, ref)
+    return CompareResult(df, refused, files, proto, ref, head)
 
 
 def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
@@ -215,16 +224,19 @@ def _setting(r: pd.Series) -> str:
     return f"h={h:g}" if isinstance(h, float) and math.isfinite(h) else ""
 
 
-def table_rows(df: pd.DataFrame) -> tuple[list[str], list[list[Any]]]:
+def table_rows(df: pd.DataFrame, head: Any) -> tuple[list[str], list[list[Any]]]:
     """The printed table: one row per run — run, verdict, minimum wall time of its timed
-    repeats, steps, the error measures (whole-run θ, θ before the first impact, first
-    impact time), impacts of the run / of the reference, max energy-balance residual."""
-    cols = ["run", "status", "wall[s]", "steps", "θ err[°]", "θ pre[°]", "t1 err[s]", "impacts", "E res[J]"]
+    repeats, steps, the error measures of the headline observable ``head`` (whole run,
+    before the first impact), the first impact time's error, impacts of the run / of the
+    reference, max energy-balance residual."""
+    what, unit, obs = head.label or head.score_name, f"[{head.unit}]" if head.unit else "", head.score_name
+    cols = ["run", "status", "wall[s]", "steps", f"{what} err{unit}", f"{what} pre{unit}", "t1 err[s]", "impacts",
+            "E res[J]"]
     rows = []
     for _, r in df.iterrows():
         imp = f"{_int(r.get('impacts'))}/{_int(r.get('impacts_ref'))}"
         rows.append([f"{r['integrator']} {_setting(r)}".strip(), r["status"], r.get("wall_s"), _int(r.get("steps")),
-                     r.get("err_theta_max"), r.get("err_pre_theta_max"), r.get("err_impact1_t"), imp,
+                     r.get(f"err_{obs}_max"), r.get(f"err_pre_{obs}_max"), r.get("err_impact1_t"), imp,
                      r.get("energy_resid_max")])
     return cols, rows
 
@@ -237,7 +249,8 @@ def summary_lines(res: CompareResult) -> list[str]:
     """What the table does not say: scoring coverage, integrators not applicable."""
     df = res.table
     lines = []
-    scored = df["err_theta_max"].notna().sum() if "err_theta_max" in df else 0
+    first = f"err_{res.headline.score_name}_max" if res.headline is not None else ""
+    scored = df[first].notna().sum() if first in df else 0
     verdicts = df["status"].value_counts().to_dict() if len(df) else {}
     lines.append(f"{len(df)} runs: " + ", ".join(f"{v} {k}" for k, v in verdicts.items())
                  + f"; {scored} scored against the reference (a run that did not complete has no error)")

@@ -3,10 +3,12 @@ correctly computed reference reproduces, so that a cached reference (computed on
 machine, never committed: it is megabytes) is checked against what the project measured.
 
 A fingerprint (``cases/reference-fingerprints.json``, keyed by scene hash) holds the
-impact times and θ and the tip height at ten times. :func:`check` compares a reference
-with it to :data:`IMPACT_TOL` and :data:`THETA_TOL` — 10× and 50× the agreement between the
-reference (IDA rtol 1e-11) and its 10× looser check run on beam-impact (8.3e-10 s,
-1.8e-6°) — and refuses a reference that disagrees, with the command that recomputes it.
+impact times and, at ten times, every observable the model declares with a
+``fingerprint_tol`` (:mod:`daebench.core.observables`). :func:`check` compares a
+reference with it to :data:`IMPACT_TOL` — 10× the agreement between the reference (IDA
+rtol 1e-11) and its 10× looser check run on beam-impact (8.3e-10 s) — and to each
+observable's declared tolerance, and refuses a reference that disagrees, with the
+command that recomputes it.
 """
 
 from __future__ import annotations
@@ -18,13 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from daebench.harness import scoring
 from daebench.harness.references import Reference, ReferenceDamaged
 from daebench.core.scene import Scene, cases_dir
 
 IMPACT_TOL = 1e-8     # s
-THETA_TOL = 1e-4      # deg
-TIP_TOL = 1e-6        # m
-SAMPLES = 10          # θ and tip height at t_end·k/SAMPLES, k = 1 … SAMPLES
+SAMPLES = 10          # each fingerprinted observable at t_end·k/SAMPLES, k = 1 … SAMPLES
 
 
 def path() -> Path:
@@ -47,10 +48,10 @@ def _sample(ref: Reference, column: str, t_end: float) -> list[float]:
 
 
 def make(scene: Scene, ref: Reference) -> dict[str, Any]:
-    """The fingerprint of ``ref``: impact times, θ and tip_y at the sample times (the
-    output rows nearest to them)."""
+    """The fingerprint of ``ref``: impact times and the model's fingerprinted observables
+    at the sample times (the output rows nearest to them)."""
     return {"scene": scene.name, "rtol": ref.rtol, "impacts": list(ref.impacts),
-            "theta_deg": _sample(ref, "theta_deg", scene.t_end), "tip_y": _sample(ref, "tip_y", scene.t_end)}
+            **{o.name: _sample(ref, o.name, scene.t_end) for o in scoring.declared(scene.model).fingerprinted()}}
 
 
 def record(scene: Scene, ref: Reference) -> Path:
@@ -75,12 +76,12 @@ def differences(scene: Scene, ref: Reference) -> list[str]:
         d = max((abs(a - b) for a, b in zip(got["impacts"], fp["impacts"])), default=0.0)
         if not d <= IMPACT_TOL:
             out.append(f"impact times differ by up to {d:.2e} s (tolerance {IMPACT_TOL:g} s)")
-    for col, tol, unit in (("theta_deg", THETA_TOL, "°"), ("tip_y", TIP_TOL, " m")):
-        a, b = got[col], fp.get(col, [])
+    for o in scoring.declared(scene.model).fingerprinted():
+        a, b, tol, unit = got[o.name], fp.get(o.name, []), o.fingerprint_tol, f" {o.unit}" if o.unit else ""
         if a and b and len(a) == len(b):
             d = max(abs(x - y) for x, y in zip(a, b))
             if not (math.isfinite(d) and d <= tol):
-                out.append(f"{col} differs by up to {d:.2e}{unit} (tolerance {tol:g}{unit})")
+                out.append(f"{o.name} differs by up to {d:.2e}{unit} (tolerance {tol:g}{unit})")
     return out
 
 

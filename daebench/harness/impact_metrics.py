@@ -6,8 +6,10 @@ the impact-time error and the sequence of contact episodes as much as the integr
 a run whose impact comes 1 µs early carries the velocity jump 1 µs early, and every
 later window inherits the phase. The measures here separate the parts:
 
-* **before the first impact** (:func:`pre_impact_errors`): θ and the tip over
-  [0, t₁_ref), the smooth part of the run — its error falls with the method's order;
+* **before the first impact** (:func:`pre_impact_errors`): the observables and
+  positions the model declares with ``impact_windows``
+  (:mod:`daebench.core.observables`) over [0, t₁_ref), the smooth part of the run —
+  its error falls with the method's order;
 * **the first impact time** (``err_impact1_t``, :func:`daebench.harness.metrics.impact_time_errors`);
 * **each window after re-synchronising at its impact** (:func:`window_errors`): the
   run's window [t_k, t_k+1) is shifted onto the reference's matching window, so that the
@@ -19,7 +21,7 @@ later window inherits the phase. The measures here separate the parts:
 Sampling (as DiffEqDevTools' ``errors``: the solution's saved points against the
 reference's dense interpolation): a run is compared at its own output times, the
 reference is interpolated there — by cubic Hermite where the history holds the
-derivative of the column (θ with ω, :data:`daebench.harness.metrics.DERIVATIVES`), linearly otherwise, and only
+derivative the model declares for the column, linearly otherwise, and only
 from reference rows inside the same smooth segment (never across an impact, where the
 velocity jumps). References are stored oversampled (:data:`daebench.harness.references.
 REF_OVERSAMPLE`) so that the interpolation error is far below the errors scored.
@@ -34,53 +36,54 @@ from typing import Any, Sequence
 import numpy as np
 import pandas as pd
 
-from daebench.harness.metrics import POSITION_PAIRS, dense, error_norms, score_name, smooth_rows
+from daebench.core.observables import NONE, Observable, Observables, Position
+from daebench.harness.metrics import dense, error_norms, smooth_rows
 
-#: observables scored before the first impact and per window (when the history has them)
-IMPACT_OBSERVABLES = ("theta_deg",)
-IMPACT_PAIRS = ("tip",)
 #: an impact of the run is matched to the reference's k-th when it lies closer than this
 #: fraction of the distance from the reference's k-th impact to its nearest neighbour
 MATCH_FRACTION = 0.5
 
 
 # -- sampling ---------------------------------------------------------------------------
-def _columns(run: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str], pairs: Sequence[str]
-             ) -> tuple[list[str], list[str]]:
-    cols = [c for c in observables if c in run.columns and c in ref.columns]
-    prs = [p for p in pairs if all(c in run.columns and c in ref.columns for c in POSITION_PAIRS[p])]
-    return cols, prs
+def _columns(run: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[Observable | str],
+             pairs: Sequence[Position]) -> tuple[list[Observable], list[Position]]:
+    both = set(run.columns) & set(ref.columns)
+    cols = [o if isinstance(o, Observable) else Observable(o) for o in observables]
+    return [o for o in cols if o.name in both], [p for p in pairs if p.x in both and p.y in both]
 
 
-def segment_errors(run_seg: pd.DataFrame, ref_seg: pd.DataFrame, shift: float, cols: Sequence[str],
-                   pairs: Sequence[str]) -> dict[str, np.ndarray]:
+def segment_errors(run_seg: pd.DataFrame, ref_seg: pd.DataFrame, shift: float, cols: Sequence[Observable],
+                   pairs: Sequence[Position]) -> dict[str, np.ndarray]:
     """Error samples of one smooth segment: the run at its own output times t, the
     reference at t − ``shift``; samples the reference segment does not cover are dropped
-    (consistently for every column)."""
+    (consistently for every column). Keys: the score names."""
     t = run_seg["t"].to_numpy(float)
     tr = t - shift
-    ref_i = {c: dense(ref_seg, c, tr) for c in cols}
+    ref_i = {o.name: dense(ref_seg, o.name, tr, (o.derivative, float(o.derivative_factor)) if o.derivative else None)
+             for o in cols}
     for p in pairs:
-        for c in POSITION_PAIRS[p]:
+        for c in (p.x, p.y):
             ref_i.setdefault(c, dense(ref_seg, c, tr))
     ok = np.ones(t.size, bool)
     for v in ref_i.values():
         ok &= np.isfinite(v)
-    out = {score_name(c): (run_seg[c].to_numpy(float) - ref_i[c])[ok] for c in cols}
+    out = {o.score_name: (run_seg[o.name].to_numpy(float) - ref_i[o.name])[ok] for o in cols}
     for p in pairs:
-        cx, cy = POSITION_PAIRS[p]
-        out[p] = np.hypot(run_seg[cx].to_numpy(float) - ref_i[cx], run_seg[cy].to_numpy(float) - ref_i[cy])[ok]
+        out[p.score_name] = np.hypot(run_seg[p.x].to_numpy(float) - ref_i[p.x],
+                                     run_seg[p.y].to_numpy(float) - ref_i[p.y])[ok]
     return out
 
 
 # -- before the first impact ---------------------------------------------------------------
 def pre_impact_errors(run: pd.DataFrame, ref: pd.DataFrame, t_first_ref: float,
-                      observables: Sequence[str] = IMPACT_OBSERVABLES, pairs: Sequence[str] = IMPACT_PAIRS
+                      observables: Sequence[Observable | str] = (), pairs: Sequence[Position] = ()
                       ) -> dict[str, float]:
     """Final, max and L2 error over [0, t₁_ref) (``err_pre_<obs>_{final,max,l2}``): the
     run at its output times before the reference's first impact (a run that strikes
     earlier carries its jump into the last samples: that is its error), the reference
-    from its rows before t₁_ref. Without reference impacts the span is the whole run."""
+    from its rows before t₁_ref. Without reference impacts the span is the whole run.
+    ``observables`` (declarations, or plain column names) and ``pairs`` are those the
+    model scores around impacts (:meth:`daebench.core.observables.Observables.windowed`)."""
     t1 = t_first_ref if math.isfinite(t_first_ref) else math.inf
     cols, prs = _columns(run, ref, observables, pairs)
     e = segment_errors(smooth_rows(run, -math.inf, t1), smooth_rows(ref, -math.inf, t1), 0.0, cols, prs)
@@ -110,7 +113,7 @@ def match_impacts(times: Sequence[float], ref_times: Sequence[float], fraction: 
 
 
 def window_errors(run: pd.DataFrame, impacts: Sequence[float], ref: pd.DataFrame, ref_impacts: Sequence[float],
-                  observables: Sequence[str] = IMPACT_OBSERVABLES, pairs: Sequence[str] = IMPACT_PAIRS
+                  observables: Sequence[Observable | str] = (), pairs: Sequence[Position] = ()
                   ) -> dict[str, Any]:
     """Errors of the windows that follow each matched impact, re-synchronised.
 
@@ -119,7 +122,8 @@ def window_errors(run: pd.DataFrame, impacts: Sequence[float], ref: pd.DataFrame
     contact episode and the flight to the next impact. The run's window is shifted by
     Δ_k = t_k − t_k_ref onto the reference's and compared over the shorter of the two
     lengths. Impacts are matched by :func:`match_impacts`; windows after the first
-    unmatched impact are not scored.
+    unmatched impact are not scored. ``observables`` and ``pairs`` as for
+    :func:`pre_impact_errors`.
 
     Returns
     -------
@@ -134,7 +138,7 @@ def window_errors(run: pd.DataFrame, impacts: Sequence[float], ref: pd.DataFrame
     t_run, t_ref = list(map(float, impacts)), list(map(float, ref_impacts))
     k_match = match_impacts(t_run, t_ref)
     cols, prs = _columns(run, ref, observables, pairs)
-    names = [score_name(c) for c in cols] + list(prs)
+    names = [o.score_name for o in cols] + [p.score_name for p in prs]
     end_run = float(run["t"].iloc[-1]) if len(run) else math.nan
     end_ref = float(ref["t"].iloc[-1])
     samples: dict[str, list[np.ndarray]] = {n: [] for n in names}
@@ -206,7 +210,7 @@ def impact_energy_scores(system: Any, impacts: Sequence[Any], restitution: float
 
     ``impacts`` are the run's Impact records (:class:`daebench.core.contact.Impact`). For each
     record with a configuration and pre-impact velocities, the exact loss is
-    :func:`exact_impact_loss` at that state with the scene's e; the run's loss is the
+    :func:`exact_impact_loss` at that state with the contact law's e; the run's loss is the
     record's ``energy_loss`` (what the driver's impact map removed, or what a contact
     law dissipated over the episode). Returns ``impact_loss_dev_max`` [J] and
     ``impact_loss_dev_rel`` (÷ the largest exact loss; NaN where no record can be
@@ -233,12 +237,14 @@ def impact_energy_scores(system: Any, impacts: Sequence[Any], restitution: float
 
 
 def impact_scores(run: pd.DataFrame, impacts: Sequence[Any], ref: pd.DataFrame, ref_impacts: Sequence[float],
-                  system: Any = None, restitution: float = math.nan) -> dict[str, Any]:
-    """Every impact-aware score of one run (the union of the functions above)."""
+                  system: Any = None, restitution: float = math.nan, declared: Observables = NONE) -> dict[str, Any]:
+    """Every impact-aware score of one run (the union of the functions above), for the
+    observables and positions ``declared`` with ``impact_windows``."""
     t_run = [float(i.t) for i in impacts]
+    obs, pairs = declared.windowed([c for c in run.columns if c in ref.columns])
     out: dict[str, Any] = {}
-    out.update(pre_impact_errors(run, ref, ref_impacts[0] if len(ref_impacts) else math.nan))
-    out.update(window_errors(run, t_run, ref, ref_impacts))
+    out.update(pre_impact_errors(run, ref, ref_impacts[0] if len(ref_impacts) else math.nan, obs, pairs))
+    out.update(window_errors(run, t_run, ref, ref_impacts, obs, pairs))
     if system is not None and math.isfinite(restitution):
         out.update(impact_energy_scores(system, impacts, restitution, reference_impact_losses(ref, ref_impacts)))
     return out

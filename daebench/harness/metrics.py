@@ -18,15 +18,15 @@ impact, per re-synchronised window, energy per impact) are in
 from __future__ import annotations
 
 import math
-from typing import Any, Iterable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
 
+from daebench.core.observables import NONE, Observables
+
 GRID_POINTS = 2001             # default size of the uniform comparison grid
 ENERGY_RTOL = 1e-6             # energy residual beyond this × energy scale is flagged
-#: Pairs of columns that form a point position; scored as one Euclidean error.
-POSITION_PAIRS: dict[str, tuple[str, str]] = {"tip": ("tip_x", "tip_y"), "pos": ("x", "y")}
 #: History columns that are bookkeeping, not observables.
 _BOOKKEEPING_PREFIXES = ("E_", "W_", "lambda_")
 _BOOKKEEPING = {"t", "E", "D_impacts", "energy_residual", "n_active", "C", "Cdot", "Cddot"}
@@ -61,11 +61,6 @@ def observable_columns(hist: pd.DataFrame) -> list[str]:
             and pd.api.types.is_numeric_dtype(hist[c])]
 
 
-def score_name(column: str) -> str:
-    """Short name used in error columns: ``theta_deg`` → ``theta`` (degrees)."""
-    return "theta" if column == "theta_deg" else column
-
-
 # -- accuracy ------------------------------------------------------------------------
 def error_norms(err: np.ndarray, prefix: str) -> dict[str, float]:
     """Final, max and L2 (RMS over a uniform grid) of an error sample."""
@@ -77,13 +72,16 @@ def error_norms(err: np.ndarray, prefix: str) -> dict[str, float]:
 
 
 def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] | None = None,
-             n_grid: int | None = None, ref_impacts: Sequence[float] = ()) -> dict[str, float]:
+             n_grid: int | None = None, ref_impacts: Sequence[float] = (), declared: Observables = NONE
+             ) -> dict[str, float]:
     """Errors of ``hist`` against ``ref`` for every observable both hold.
 
     By default (as DiffEqDevTools' ``errors``) the run is compared at its own output
     times over the reference's span, the reference interpolated there by :func:`dense`
     within each smooth segment between its ``ref_impacts`` (never across a velocity
-    jump). With ``n_grid`` both are instead linearly interpolated onto one uniform grid
+    jump). ``declared`` (the model's :class:`daebench.core.observables.Observables`)
+    names the error columns, gives each column's derivative for the interpolation and
+    the positions scored as one Euclidean error. With ``n_grid`` both are instead linearly interpolated onto one uniform grid
     of that many points. A history that stops before the reference ends (a diverged or
     failed run) gets NaN errors: a partial trajectory has no comparable error.
 
@@ -96,10 +94,10 @@ def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] |
     Returns
     -------
     dict
-        ``err_<obs>_{final,max,l2}`` per observable (``theta_deg`` is named
-        ``theta``, in degrees) and ``err_<point>_{final,max,l2}`` for the Euclidean
-        error of a position pair (``tip``: tip_x/tip_y; ``pos``: x/y). L2 is the RMS
-        over the samples (uniform output times: √(∫e² dt / T)).
+        ``err_<short>_{final,max,l2}`` per observable (its declared short name) and
+        ``err_<point>_{final,max,l2}`` for the Euclidean error of each declared
+        position whose two columns the reference holds. L2 is the RMS over the samples
+        (uniform output times: √(∫e² dt / T)).
     """
     if observables:
         absent = [c for c in observables if c not in ref.columns]
@@ -108,27 +106,27 @@ def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] |
     cols = list(observables) if observables else observable_columns(ref)
     t0, t1 = float(ref["t"].iloc[0]), float(ref["t"].iloc[-1])
     reaches = len(hist) > 0 and float(hist["t"].iloc[-1]) >= t1 - 1e-9 * max(1.0, abs(t1))
-    pair_cols = [c for cx_cy in POSITION_PAIRS.values() for c in cx_cy if c in ref.columns]
-    need = list(dict.fromkeys(cols + pair_cols))
+    points = [p for p in declared.positions if p.x in ref.columns and p.y in ref.columns]
+    need = list(dict.fromkeys(cols + [c for p in points for c in (p.x, p.y)]))
     if n_grid is not None:
         grid = uniform_grid(t0, t1, n_grid)
         ref_i = {c: interpolate(ref, c, grid) for c in need}
         run_i = {c: interpolate(hist, c, grid) if (reaches and c in hist.columns) else np.full_like(grid, np.nan)
                  for c in need}
     else:
-        run_i, ref_i = _at_run_times(hist, ref, need, ref_impacts, reaches, t0, t1)
+        run_i, ref_i = _at_run_times(hist, ref, need, ref_impacts, reaches, t0, t1, declared)
     out: dict[str, float] = {}
     for c in cols:
-        out.update(error_norms(run_i[c] - ref_i[c], f"err_{score_name(c)}"))
-    for name, (cx, cy) in POSITION_PAIRS.items():
-        if cx in ref_i and cy in ref_i:
-            e = np.hypot(run_i[cx] - ref_i[cx], run_i[cy] - ref_i[cy])
-            out.update(error_norms(e, f"err_{name}"))
+        out.update(error_norms(run_i[c] - ref_i[c], f"err_{declared.get(c).score_name}"))
+    for p in points:
+        e = np.hypot(run_i[p.x] - ref_i[p.x], run_i[p.y] - ref_i[p.y])
+        out.update(error_norms(e, f"err_{p.score_name}"))
     return out
 
 
 def _at_run_times(hist: pd.DataFrame, ref: pd.DataFrame, cols: Sequence[str], ref_impacts: Sequence[float],
-                  reaches: bool, t0: float, t1: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+                  reaches: bool, t0: float, t1: float, declared: Observables
+                  ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """The run's samples at its output times in [t0, t1] and the reference there, segment by segment."""
     if not reaches:
         nan = np.full(1, np.nan)
@@ -143,15 +141,11 @@ def _at_run_times(hist: pd.DataFrame, ref: pd.DataFrame, cols: Sequence[str], re
         seg = smooth_rows(ref, a, b)
         k = (t > a) & (t < b)
         for c in cols:
-            ref_i[c][k] = dense(seg, c, t[k])
+            ref_i[c][k] = dense(seg, c, t[k], declared.derivative(c))
     # samples the reference cannot give (between its last row and an impact) are dropped
     ok = np.all([np.isfinite(v) for v in ref_i.values()], axis=0) if cols else np.ones(t.size, bool)
     run_i = {c: run[c].to_numpy(float)[ok] if c in run.columns else np.full(int(ok.sum()), np.nan) for c in cols}
     return run_i, {c: v[ok] for c, v in ref_i.items()}
-
-
-#: column → (column of its time derivative, factor): θ [deg] has dθ/dt = ω [rad/s]·180/π
-DERIVATIVES: dict[str, tuple[str, float]] = {"theta_deg": ("omega", 180.0 / math.pi)}
 
 
 def smooth_rows(hist: pd.DataFrame, lo: float, hi: float) -> pd.DataFrame:
@@ -163,11 +157,14 @@ def smooth_rows(hist: pd.DataFrame, lo: float, hi: float) -> pd.DataFrame:
     return seg[~seg["t"].duplicated(keep="last")]
 
 
-def dense(seg: pd.DataFrame, column: str, times: np.ndarray) -> np.ndarray:
-    """``seg[column]`` at ``times``: cubic Hermite with the derivative column of
-    :data:`DERIVATIVES` when ``seg`` holds it (error ≈ (ωΔt)⁴/384 of a tone's amplitude
-    at output spacing Δt, against (ωΔt)²/8 linearly), else linear; NaN outside
-    ``seg``'s span. ``seg`` must be one smooth segment (no velocity jump between rows)."""
+def dense(seg: pd.DataFrame, column: str, times: np.ndarray, derivative: tuple[str, float] | None = None
+          ) -> np.ndarray:
+    """``seg[column]`` at ``times``: cubic Hermite when ``derivative`` = (column of
+    d(column)/dt, factor) is given and ``seg`` holds that column (error ≈ (ωΔt)⁴/384 of
+    a tone's amplitude at output spacing Δt, against (ωΔt)²/8 linearly), else linear;
+    NaN outside ``seg``'s span. ``seg`` must be one smooth segment (no velocity jump
+    between rows). The model declares the derivative
+    (:meth:`daebench.core.observables.Observables.derivative`)."""
     times = np.asarray(times, float)
     out = np.full(times.shape, np.nan)
     if len(seg) < 2 or column not in seg.columns:
@@ -180,11 +177,10 @@ def dense(seg: pd.DataFrame, column: str, times: np.ndarray) -> np.ndarray:
     if not inside.any():
         return out
     x = np.clip(times[inside], t[0], t[-1])
-    deriv = DERIVATIVES.get(column)
-    if deriv is None or deriv[0] not in seg.columns:
+    if derivative is None or derivative[0] not in seg.columns:
         out[inside] = np.interp(x, t, y)
         return out
-    d = seg[deriv[0]].to_numpy(float) * deriv[1]
+    d = seg[derivative[0]].to_numpy(float) * derivative[1]
     k = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
     h = t[k + 1] - t[k]
     s = (x - t[k]) / h
@@ -211,14 +207,12 @@ def impact_time_errors(times: Sequence[float], ref_times: Sequence[float]) -> di
     return out
 
 
-def rebound_apex(hist: pd.DataFrame, impact_times: Sequence[float], column: str | None = None
-                 ) -> tuple[float, float]:
+def rebound_apex(hist: pd.DataFrame, impact_times: Sequence[float], column: str | None) -> tuple[float, float]:
     """(time, height) of the highest point of ``column`` between the first and the
-    second impact (or the end), from the history. NaN if there is no rebound.
-
-    ``column`` defaults to ``gap`` (height above the plane), else ``tip_y``, else ``y``.
+    second impact (or the end), from the history. NaN if there is no rebound or no
+    ``column`` (a model's height column: :meth:`daebench.core.observables.Observables.height_column`).
     """
-    col = column or next((c for c in ("gap", "tip_y", "y") if c in hist.columns), None)
+    col = column if column in hist.columns else None
     times = list(impact_times)
     if col is None or not times or len(hist) == 0:
         return math.nan, math.nan
@@ -237,11 +231,12 @@ def rebound_apex(hist: pd.DataFrame, impact_times: Sequence[float], column: str 
 
 
 def event_errors(hist: pd.DataFrame, impacts: Sequence[float], ref: pd.DataFrame,
-                 ref_impacts: Sequence[float]) -> dict[str, float]:
-    """Impact-time errors plus rebound-apex time and height errors against the reference."""
+                 ref_impacts: Sequence[float], declared: Observables = NONE) -> dict[str, float]:
+    """Impact-time errors plus rebound-apex time and height errors against the reference
+    (the height: the first of ``declared``'s heights the history holds)."""
     out = impact_time_errors(impacts, ref_impacts)
-    ta, ya = rebound_apex(hist, impacts)
-    tr, yr = rebound_apex(ref, ref_impacts)
+    ta, ya = rebound_apex(hist, impacts, declared.height_column(list(hist.columns)))
+    tr, yr = rebound_apex(ref, ref_impacts, declared.height_column(list(ref.columns)))
     out.update({"apex_t": ta, "apex_height": ya,
                 "err_apex_t": abs(ta - tr), "err_apex_height": abs(ya - yr)})
     return out
@@ -282,41 +277,12 @@ def energy_balance(hist: pd.DataFrame, rtol: float = ENERGY_RTOL) -> dict[str, A
             "energy_ok": bool(rmax <= rtol * scale)}
 
 
-def energy_between(hist: pd.DataFrame, t0: float, t1: float) -> float:
-    """Change of the total energy E over [t0, t1] (linear interpolation)."""
-    t = hist["t"].to_numpy(float)
-    E = hist["E"].to_numpy(float)
-    return float(np.interp(t1, t, E) - np.interp(t0, t, E))
-
-
-# -- constraints ---------------------------------------------------------------------------
-def constraint_residuals(hist: pd.DataFrame) -> dict[str, float]:
-    """max |C|, |Ċ|, |C̈| over the output times while a contact/joint is closed
-    (rows where the columns are not NaN); 0 when nothing was ever closed."""
-    out = {}
-    for c in ("C", "Cdot", "Cddot"):
-        if c in hist.columns:
-            a = np.abs(hist[c].to_numpy(float))
-            a = a[np.isfinite(a)]
-            out[f"{c}_max"] = float(a.max()) if a.size else 0.0
-        else:
-            out[f"{c}_max"] = 0.0
-    return out
-
-
 # -- verdict ------------------------------------------------------------------------------
 def stability_verdict(status: str, message: str, t_final: float, t_end: float) -> dict[str, Any]:
     """One word (completed, diverged, failed), the time it stopped and why."""
     reason = message or ("reached t_end" if status == "completed" else "")
     return {"verdict": status, "verdict_t": float(t_final) if t_final == t_final else math.nan,
             "verdict_reason": reason, "t_reached": float(t_final) / float(t_end) if t_end else math.nan}
-
-
-def summarize(values: Iterable[float]) -> float:
-    """max |x| over finite values (NaN if none)."""
-    a = np.abs(np.asarray(list(values), float))
-    a = a[np.isfinite(a)]
-    return float(a.max()) if a.size else math.nan
 
 
 # -- oscillation content -----------------------------------------------------------

@@ -17,6 +17,7 @@ from matplotlib import ticker  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from daebench.core.observables import Observable  # noqa: E402
 from daebench.harness import provenance  # noqa: E402
 from daebench.core.params import ParamError  # noqa: E402
 
@@ -26,15 +27,13 @@ RESIDUALS = {"C": ("|C|", "m"), "Cdot": ("|Ċ|", "m/s"), "Cddot": ("|C̈|", "m/s
 
 LABELS = {"wall_s": "wall time [s]", "cpu_s": "CPU time [s]", "steps": "steps",
           "residual_evals": "residual evaluations", "lu_factorizations": "LU factorizations",
-          "newton_iterations": "Newton iterations", "theta_deg": "θ [deg]",
+          "newton_iterations": "Newton iterations",
           "energy_residual": "energy residual [J]", "E": "total energy [J]"}
 
 
-#: what the error columns measure (err_<what>_<norm>), with units
-_ERR_WHAT = {"theta": "θ [deg]", "tip": "tip position [m]", "pre_theta": "θ before the 1st impact [deg]",
-             "pre_tip": "tip before the 1st impact [m]", "win_theta": "θ per re-synchronised window [deg]",
-             "win_tip": "tip per re-synchronised window [m]", "winm_theta": "θ per matched window [deg]",
-             "winm_tip": "tip per matched window [m]"}
+#: where an error column measures (err_<where><observable>_<norm>)
+_ERR_WHERE = (("winm_", " per matched window"), ("win_", " per re-synchronised window"),
+              ("pre_", " before the 1st impact"), ("", ""))
 _OTHER = {"err_impact1_t": "error of the 1st impact time [s]", "err_impact2_t": "error of the 2nd impact time [s]",
           "err_impact_t_max": "max error of matched impact times [s]",
           "err_impact1_loss": "error of the energy lost at the 1st impact [J]",
@@ -43,17 +42,33 @@ _OTHER = {"err_impact1_t": "error of the 1st impact time [s]", "err_impact2_t": 
           "energy_resid_max": "max |energy-balance residual| [J]", "energy_resid_rel": "max energy residual / energy scale"}
 
 
+def _declared(key: str, name: str) -> Any:
+    """The one declaration (:mod:`daebench.core.observables`) whose ``key`` ('name' or
+    'score_name') is ``name`` across the registered models (None: none, or two that differ)."""
+    from daebench.harness import scoring
+
+    found = {d for d in scoring.every_declared() if getattr(d, key) == name}
+    return found.pop() if len({d.text for d in found}) == 1 else None
+
+
 def label_of(col: str) -> str:
-    """Axis label for a column name (err_theta_max → 'max error of θ [deg]')."""
+    """Axis label for a column name (err_<obs>_max → 'max error of <label> [<unit>]', with
+    the label and unit the models declare)."""
     if col in LABELS:
         return LABELS[col]
     if col in _OTHER:
         return _OTHER[col]
     m = re.fullmatch(r"err_(.+)_(final|max|l2)", col)
     if m:
-        what = _ERR_WHAT.get(m.group(1), m.group(1))
+        what = m.group(1)
+        for prefix, where in _ERR_WHERE:
+            d = _declared("score_name", what[len(prefix):]) if what.startswith(prefix) else None
+            if d is not None:
+                what = f"{d.label or d.score_name}{where}" + (f" [{d.unit}]" if d.unit else "")
+                break
         return f"{ {'final': 'final', 'max': 'max', 'l2': 'L2'}[m.group(2)]} error of {what}"
-    return col
+    d = _declared("name", col)
+    return d.text if d is not None else col
 
 
 def save(fig: Any, stem: str | Path, prov: dict[str, Any] | None = None) -> list[Path]:
@@ -102,6 +117,8 @@ def _log_panels(df: pd.DataFrame, x: str, y: str | Sequence[str], group: str, wi
     """The shared start of the log–log sweep figures: the y columns (checked), one panel
     each, x as numbers and the group key of every row."""
     ys_cols = [y] if isinstance(y, str) else list(y)
+    if not ys_cols:
+        raise ParamError("no error column to plot: give y (e.g. err_<observable>_max, a column of the table)")
     for c in (x, *ys_cols):
         if c not in df.columns:
             raise KeyError(f"column '{c}' is not in the table; columns: {', '.join(map(str, df.columns))}")
@@ -111,7 +128,7 @@ def _log_panels(df: pd.DataFrame, x: str, y: str | Sequence[str], group: str, wi
     return fig, axes, ys_cols, xs, keys
 
 
-def convergence(df: pd.DataFrame, x: str = "h", y: str | Sequence[str] = "err_pre_theta_max", group: str = "label",
+def convergence(df: pd.DataFrame, x: str = "h", y: str | Sequence[str] = (), group: str = "label",
                 stem: str | Path | None = None, prov: dict[str, Any] | None = None,
                 title: str = "") -> tuple[Any, list[Path]]:
     """Error against step size (or tolerance), log–log, one panel per ``y`` column, one
@@ -141,7 +158,7 @@ def convergence(df: pd.DataFrame, x: str = "h", y: str | Sequence[str] = "err_pr
     return fig, (save(fig, stem, prov) if stem is not None else [])
 
 
-def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] = "err_theta_max",
+def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] = (),
                    group: str = "label", stem: str | Path | None = None, prov: dict[str, Any] | None = None,
                    title: str = "") -> tuple[Any, list[Path]]:
     """Error (y) against cost (x), log–log, one line per ``group``, the Pareto front
@@ -182,10 +199,15 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
 
 def history(hists: Mapping[str, pd.DataFrame], stem: str | Path | None = None,
             prov: dict[str, Any] | None = None, title: str = "") -> tuple[Any, list[Path]]:
-    """θ(t), the energy-balance residual(t) and each constraint residual |C|, |Ċ|, |C̈|
-    (while a contact is closed) on its own axis with its unit; one colour per history,
-    labelled in the legend of the first panel."""
-    panels = [("theta_deg", label_of("theta_deg"), False), ("energy_residual", label_of("energy_residual"), False)]
+    """The headline observable(t) (the first a model declares to be scored around impacts),
+    the energy-balance residual(t) and each constraint residual |C|, |Ċ|, |C̈| (while a
+    contact is closed) on its own axis with its unit; one colour per history, labelled in
+    the legend of the first panel."""
+    from daebench.harness import scoring
+
+    heads = [d.name for d in scoring.every_declared() if isinstance(d, Observable)
+             and d.impact_windows and any(d.name in h.columns for h in hists.values())]
+    panels = [(c, label_of(c), False) for c in heads[:1]] + [("energy_residual", label_of("energy_residual"), False)]
     panels += [(c, f"{sym} [{unit}]", True) for c, (sym, unit) in RESIDUALS.items()
                if any(c in h.columns and h[c].notna().any() for h in hists.values())]
     fig, axes = plt.subplots(len(panels), 1, figsize=(7.5, 2.3 * len(panels) + 0.8), sharex=True, squeeze=False)

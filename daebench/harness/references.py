@@ -24,6 +24,7 @@ from typing import Any, Callable
 import pandas as pd
 
 from daebench.harness import guards, metrics, provenance
+from daebench.harness.scoring import declared
 from daebench.core.params import ParamError
 from daebench.harness import accuracy
 from daebench.harness.runner import make_integrator, results_dir, run_scene
@@ -243,7 +244,7 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
         agreement = {"check": f"{REF_INTEGRATOR} rtol={r * CHECK_FACTOR:g} atol={a * CHECK_FACTOR:g}",
                      "status": chk.status}
         if chk.status == "completed":
-            acc = metrics.accuracy(chk.history, res.history, ref_impacts=impacts)
+            acc = metrics.accuracy(chk.history, res.history, ref_impacts=impacts, declared=declared(scene.model))
             agreement.update({k: v for k, v in acc.items() if k.endswith("_max")})
             agreement.update(metrics.impact_time_errors([i.t for i in chk.impacts], impacts))
         loose, f = chk, CHECK_FACTOR

@@ -10,11 +10,13 @@ import traceback
 from pathlib import Path
 from typing import Any
 
-from daebench.harness import impact_metrics, metrics, timing
+from daebench.harness import metrics, scoring
+from daebench.harness.options import Timing
+from daebench.harness.timing import WARMUP_CAP_S, time_call
 from daebench.harness.guards import RunTimeout
 from daebench.integrators import base
 from daebench.models import build_system
-from daebench.harness.references import ReferenceMissing, load_reference
+from daebench.harness.references import Reference, ReferenceMissing, load_reference
 from daebench.harness.runner import run_scene
 from daebench.core.scene import Scene
 
@@ -25,10 +27,17 @@ def _nan_errors(row: dict[str, Any]) -> None:
             row[k] = math.nan
 
 
-def _restitution(scene: Scene) -> float:
-    """The scene's coefficient of restitution (NaN for a scene without one)."""
-    e = scene.get("contact.restitution")
-    return float(e) if isinstance(e, (int, float)) else math.nan
+def _reference(scene: Scene, reference_mode: str) -> Reference | None:
+    """The cached reference under ``reference_mode`` ('none': None; 'auto': None when
+    missing; 'require'/'compute': :class:`ReferenceMissing` when missing)."""
+    if reference_mode == "none":
+        return None
+    try:
+        return load_reference(scene, mode="auto" if reference_mode == "auto" else "require")
+    except ReferenceMissing:
+        if reference_mode != "auto":
+            raise
+        return None
 
 
 def base_row(spec: Any, scene: Scene) -> dict[str, Any]:
@@ -48,22 +57,24 @@ def outcome_row(spec: Any, scene: Scene, status: str, message: str) -> dict[str,
 _WARMED: set[tuple] = set()   # (integrator, model, code-selecting settings) warmed in this process
 
 
-def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int = timing.REPEATS,
-            warmup: bool = True, time_cap: float = timing.TIME_CAP_S, history_dir: str | Path | None = None,
-            run_cap: float | None = None) -> dict[str, Any]:
-    """Run one spec and score it; never raises for a failure of the run — an exception is
-    an 'error' row, a run over ``run_cap`` seconds a 'timeout' row.
+def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timing = Timing(),
+            history_dir: str | Path | None = None) -> dict[str, Any]:
+    """Run one spec and score it (:func:`daebench.harness.scoring.score`: against the
+    model's exact solution where it has one, else the reference); never raises for a
+    failure of the run — an exception is an 'error' row, a run over ``timing.run_cap``
+    seconds a 'timeout' row.
 
     Timing follows :data:`daebench.harness.timing.REPEATS`' rule (a warm-up stopped after
-    WARMUP_CAP_S — once per integrator, model and process —, then up to ``repeats`` timed
-    runs while a run is shorter than SHORT_RUN_S; ``warmup=False, repeats=1`` times one
-    cold run).
+    WARMUP_CAP_S — once per integrator, model and process —, then up to ``timing.repeats``
+    timed runs while a run is shorter than SHORT_RUN_S; ``Timing(repeats=1, warmup=False)``
+    times one cold run).
     ``reference_mode``: 'auto' (score if a valid cached reference exists), 'require' or
     'compute' (the caller made sure it exists: :func:`prepare_references`), 'none'. With
     ``history_dir`` the history is kept as ``<history_dir>/<run>-<integrator>.parquet``
     and its path is the row's ``history``.
     """
     row = base_row(spec, scene)
+    run_cap = timing.run_cap
     try:
         sc = scene.with_overrides(spec.scene_overrides) if spec.scene_overrides else scene
         row["scene_hash"] = sc.hash
@@ -77,7 +88,7 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
 
         def warm_up() -> None:  # loads what the run uses; stopped after WARMUP_CAP_S (daebench.harness.timing's rule)
             try:
-                one_run(min(timing.WARMUP_CAP_S, run_cap or math.inf))
+                one_run(min(WARMUP_CAP_S, run_cap or math.inf))
             except RunTimeout:
                 pass
 
@@ -85,9 +96,9 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
         # the same integrator on the same model (bool/str settings can select other code)
         path = (spec.integrator, sc.model, tuple(sorted((k, v) for k, v in spec.options.items()
                                                          if isinstance(v, (bool, str)))))
-        warm = warmup and path not in _WARMED
-        tm = timing.time_call(one_run, repeats=repeats, warmup=warm, time_cap=time_cap, warmup_fn=warm_up)
-        if warmup:
+        warm = timing.warmup and path not in _WARMED
+        tm = time_call(one_run, repeats=timing.repeats, warmup=warm, time_cap=timing.time_cap, warmup_fn=warm_up)
+        if timing.warmup:
             _WARMED.add(path)
         rec, res = tm.result
         row.update(status=res.status, message=res.message, wall_s=tm.wall_s, cpu_s=tm.cpu_s,
@@ -105,25 +116,8 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", repeats: int 
         if len(hist):
             row.update(metrics.energy_balance(hist))
         row.update({f"{k}_max": float(v) for k, v in res.constraint_max.items()})
-        ref = None
-        if reference_mode != "none":
-            try:
-                ref = load_reference(sc, mode="auto" if reference_mode == "auto" else "require")
-            except ReferenceMissing:
-                if reference_mode != "auto":
-                    raise
-        if ref is not None and len(hist):
-            row["ref_rtol"] = ref.rtol
-            wanted = list(sc.get("output.observables") or [])
-            scored = [o for o in wanted if o in hist.columns]  # the others: an effect of this scene is off
-            if len(scored) < len(wanted):
-                row["unscored_observables"] = ",".join(o for o in wanted if o not in scored)
-            row.update(metrics.accuracy(hist, ref.history, scored or None, ref_impacts=ref.impacts))
-            row.update(metrics.event_errors(hist, impacts, ref.history, ref.impacts))
-            row.update(impact_metrics.impact_scores(hist, res.impacts, ref.history, ref.impacts,
-                                                    build_system(sc), _restitution(sc)))
-        else:
-            row.update(metrics.impact_time_errors(impacts, []))
+        run = scoring.Run(sc, build_system(sc), hist, res.impacts, scoring.declared(sc.model))
+        row.update(scoring.score(run, scoring.truth(run, lambda: _reference(sc, reference_mode))))
         if res.status != "completed":
             _nan_errors(row)
     except RunTimeout as exc:

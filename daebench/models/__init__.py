@@ -5,6 +5,10 @@ register in its pyproject.toml, a plugin package in its own. Each model module d
 * ``DESCRIPTION`` — one line for `daebench list`;
 * ``SCHEMA`` — ``dict[str, Param]`` of the scene keys it understands (dotted names);
 * ``build(scene) -> MechanicalSystem`` — assemble only the effects the scene turns on;
+* optionally ``OBSERVABLES`` — its history columns' meaning for the scorer (units, short
+  names, derivatives, points; :mod:`daebench.core.observables`), and on the system an
+  ``exact_observables(t)`` method when the model has an exact solution (runs are then
+  scored against it: :mod:`daebench.harness.scoring`);
 * optionally ``check_scene(scene)`` — cross-key validation raising ``SceneError``.
 
 Its system gives its physics as compiled kernels (:mod:`daebench.core.kernels`, subclass

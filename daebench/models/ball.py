@@ -29,11 +29,19 @@ from numba import njit
 
 from daebench.core import kernels
 from daebench.core.contact import contact_schema, make_contact_law
+from daebench.core.observables import Observable
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 from daebench.core.system import KernelSystem
 
 DESCRIPTION = "point mass striking a wall: bouncing ball (restitution e) or spring–wall oscillator; exact solutions"
+
+#: the history's columns as the scorer reads them (daebench.core.observables)
+OBSERVABLES = (
+    Observable("x", "m", "position", summary=True),
+    Observable("v", "m/s", "velocity"),
+    Observable("gap", "m", "gap", height=True),
+)
 
 CONTACT = contact_schema(("constraint", "complementarity"), restitution=0.8)
 

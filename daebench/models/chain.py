@@ -42,11 +42,15 @@ from typing import Iterable
 import numpy as np
 
 from daebench.core.contact import contact_schema, make_contact_law
+from daebench.core.observables import Observable
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 from daebench.core.system import MechanicalSystem
 
 DESCRIPTION = "two spring-mass chains (3 + 3 masses) striking each other: Hertz/penalty/constraint/LCP contact"
+
+#: the history's columns as the scorer reads them (daebench.core.observables)
+OBSERVABLES = (Observable("gap", "m", "gap between the chains", height=True),)
 
 CONTACT = contact_schema(("hertz", "penalty", "constraint", "complementarity"), exponent=True, law="hertz",
                          restitution=0.8, hertz_stiffness=140e6)

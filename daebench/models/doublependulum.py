@@ -38,10 +38,19 @@ import pandas as pd
 
 from daebench.core.contact import contact_schema
 from daebench.models.corotational import Frame
+from daebench.core.observables import Observable, Position
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 
 DESCRIPTION = "flexible double pendulum (co-rotational beams) falling onto a smooth rigid foundation"
+
+#: the history's columns as the scorer reads them (daebench.core.observables)
+OBSERVABLES = (
+    Observable("gap", "m", "tip gap", height=True),
+    Observable("tip_x", "m", "tip x"),
+    Observable("tip_y", "m", "tip y", height=True, summary=True),
+    Position("tip", "tip_x", "tip_y", label="tip position", impact_windows=True),
+)
 
 POISSON = 0.3  # for the default Hertz stiffness only
 CONTACT = contact_schema(("constraint", "hertz", "penalty", "complementarity"),

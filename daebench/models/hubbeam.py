@@ -68,6 +68,7 @@ from daebench.models.meshfree import (MAX_INFLUENCE, MAX_NODES, MESHFREE_CELL_GA
                                        MIN_INFLUENCE, meshfree_basis)
 from daebench.models.shapes import (FEM_POINTS_PER_ELEMENT, MAX_ELEMENTS, MAX_MODES, MODE_PANELS,
                                      MODE_POINTS_PER_PANEL, ShapeTables, fem_basis, modal_basis, tabulate)
+from daebench.core.observables import Observable, Position
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 from daebench.core.system import KernelSystem
@@ -78,6 +79,20 @@ BUILDERS = {"modes": modal_basis, "fem": fem_basis, "meshfree": meshfree_basis}
 BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {"meshfree": ("influence", "cell_gauss")}
 
 DESCRIPTION = "flexible beam on a turning hub (modes or FEM), gravity, torque, damping, contact with a plane"
+
+#: the history's columns as the scorer reads them (daebench.core.observables); the
+#: fingerprint tolerances are 50× (θ) the agreement between the reference (IDA rtol 1e-11)
+#: and its 10× looser check run on beam-impact (1.8e-6°)
+OBSERVABLES = (
+    Observable("theta_deg", "deg", "θ", short="theta", derivative="omega", derivative_factor=180.0 / math.pi,
+               fingerprint_tol=1e-4, impact_windows=True, summary=True),
+    Observable("omega", "rad/s", "ω"),
+    Observable("tip_w2", "m", "tip deflection", summary=True),
+    Observable("gap", "m", "gap", height=True),
+    Observable("tip_x", "m", "tip x"),
+    Observable("tip_y", "m", "tip y", fingerprint_tol=1e-6, height=True, summary=True),
+    Position("tip", "tip_x", "tip_y", label="tip position", impact_windows=True),
+)
 
 # Dense H tables cost nq·nB² doubles; refuse scenes that would need more than this.
 MAX_TABLE_BYTES = 512 * 2**20

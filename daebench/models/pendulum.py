@@ -26,11 +26,20 @@ from typing import NamedTuple
 from numba import njit
 
 from daebench.core import kernels
+from daebench.core.observables import Observable, Position
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 from daebench.core.system import KernelSystem
 
 DESCRIPTION = "rigid pendulum in Cartesian coordinates (index-3 DAE, exact energy conservation)"
+
+#: the history's columns as the scorer reads them (daebench.core.observables)
+OBSERVABLES = (
+    Observable("theta_deg", "deg", "θ", short="theta", impact_windows=True, summary=True),
+    Observable("x", "m", "bob x", summary=True),
+    Observable("y", "m", "bob y", height=True, summary=True),
+    Position("pos", "x", "y", label="bob position"),
+)
 
 SCHEMA: dict[str, Param] = {
     p.name: p
@@ -124,6 +133,12 @@ class Pendulum(KernelSystem):
         """Exact (x, y) at t (shape (2,) or (2, len(t)))."""
         th = self.exact_theta(t)
         return np.array([self.l * np.sin(th), -self.l * np.cos(th)])
+
+    def exact_observables(self, t: np.ndarray) -> dict[str, np.ndarray]:
+        """The observables' exact values at times ``t``: what runs are scored against
+        (:mod:`daebench.harness.scoring`). Raises ValueError for a revolving pendulum."""
+        th = self.exact_theta(t)
+        return {"theta_deg": np.rad2deg(th), "x": self.l * np.sin(th), "y": -self.l * np.cos(th)}
 
 
 def exact_theta(t: np.ndarray | float, theta0: float, omega0: float = 0.0,

@@ -154,8 +154,8 @@ def run_paper(quick: bool = False, jobs: int = 1, out: str | Path | None = None,
     folder.mkdir(parents=True, exist_ok=True)
     scene = base_scene(p)
     specs = plan(p)
-    df = bench.run_specs(specs, scene, jobs=jobs, reference_mode="auto", progress=progress,
-                         description="paper", history_dir=folder / "runs", run_cap=run_cap)
+    df = bench.run_specs(specs, scene, bench.Execution(jobs=jobs, progress=progress), bench.Timing(run_cap=run_cap),
+                         "auto", history_dir=folder / "runs", description="paper")
     return report(df, p, folder, scene)
 
 

@@ -116,7 +116,7 @@ def claim1(df, hists, p, stem, prov):
                 h = hists.get(int(r["run"]))
                 imps = _impacts(r)
                 if h is not None:
-                    apex[r["setting"]] = metrics.rebound_apex(h, imps)[1]
+                    apex[r["setting"]] = metrics.rebound_apex(h, imps, "gap")[1]
                     imp2[r["setting"]] = imps[1] if len(imps) > 1 else math.nan
 
             def rng(d, pre):

@@ -74,7 +74,8 @@ def table1(s: PerfSettings) -> dict[str, Any]:
     p = paper.Protocol(t_end=s.table_t_end)
     specs = [x for x in paper.plan(p) if x.varied["set"] == "table"]
     scene = paper.base_scene(p)
-    df, wall = _timed(lambda: bench.run_specs(specs, scene, jobs=s.jobs, reference_mode="none", progress=False))
+    df, wall = _timed(lambda: bench.run_specs(specs, scene, bench.Execution(jobs=s.jobs, progress=False),
+                                              reference_mode="none"))
     runs = [{"N": int(r["N"]), "setting": r["setting"], "status": r["status"], "wall_s": float(r["wall_s"]),
              "steps": int(r.get("steps", 0) or 0), "t_final": float(r.get("t_final", math.nan))}
             for _, r in df.iterrows()]
