@@ -145,3 +145,17 @@ def test_pairing_is_a_maximum_matching(run, ref):
     absorbed = sum(len(v) for v in c.absorbed.values())
     assert len(c.matched) + absorbed + len(c.missed) == len(ref)
     assert len(c.matched) + len(c.spurious) == len(run)
+
+
+def test_pipeline_measure():
+    """The measure of the scoring pipeline: the horizon's windows (1 ms, 10 ms at t_end = 1 s),
+    the run's records against the truth's impact times, penetration from the gap column."""
+    from types import SimpleNamespace
+
+    import pandas as pd
+    run = SimpleNamespace(scene=SimpleNamespace(t_end=1.0), impacts=[Impact(0.3702, 0, -1.0, 0.0, 0.1)],
+                          history=pd.DataFrame({"t": [0.0, 0.5, 1.0], "gap": [0.1, -3e-6, 0.0]}))
+    s = es.measure(run, SimpleNamespace(impacts=(0.3700, 0.6)))
+    assert (s["impact_tol"], s["chatter_window"]) == (1e-3, 1e-2)
+    assert (s["impacts_matched"], s["impacts_missed"], s["impacts_spurious"]) == (1, 1, 0)
+    assert s["max_penetration"] == pytest.approx(3e-6)

@@ -124,3 +124,19 @@ def test_ball_graph_distance_first_order(integrator):
           f"  pointwise max |v error| {['%.2f' % e for e in pointwise]} m/s")
     assert 0.7 <= pq <= 1.6 and 0.7 <= pv <= 1.6
     assert all(e < 10.0 * h / T_END for e, h in zip(eq + ev, SWEEP + SWEEP))
+
+
+def test_pipeline_measure():
+    """The measure of the scoring pipeline splits the ball's scored observables into x
+    (position level) and v (velocity level) and scales time by the truth's horizon."""
+    from types import SimpleNamespace
+    sc = load_scene("ball", {"t_end": 1.0})
+    system = build_system(sc)
+    t = np.linspace(0.0, 1.0, 1001)
+    truth = SimpleNamespace(history=pd.DataFrame({"t": t, "x": 1.0 - t, "v": -np.ones_like(t)}))
+    run = SimpleNamespace(scene=sc, system=system,
+                          history=pd.DataFrame({"t": t, "x": 1.0 - t + 0.01, "v": -np.ones_like(t) - 0.5}))
+    out = gd.measure(run, truth)
+    assert out["graph_q_worst"] == "x" and out["graph_v_worst"] == "v" and out["graph_time_scale"] == 1.0
+    assert out["err_graph_q"] == pytest.approx(0.01, rel=1e-3)   # at the start: (0, 1.01) to the end point (0, 1)
+    assert out["err_graph_v"] == pytest.approx(0.5, rel=1e-9)                        # constant: Y = max|v| = 1

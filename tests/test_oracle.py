@@ -120,3 +120,14 @@ def test_moreau_jump_exact_impulse_carries_the_step_weight(h):
     assert s["oracle_impacts"] == 2
     assert s["err_impact_dv_max"] < 1e-12
     assert s["err_impulse_max"] == pytest.approx(1.0 * 9.81 * h, rel=1e-9)
+
+
+def test_pipeline_measure():
+    """The measure of the scoring pipeline reads the system's restitution (contact_restitution)."""
+    from types import SimpleNamespace
+    sys_ = ball_system()
+    rec = Impact(0.45, 0, -4.0, 2.0, 0.0, impulse=6.0, q=np.zeros(1), v_minus=np.array([-4.0]),
+                 v_plus=np.array([2.0]))                                    # e = 0.5 where the scene says 0.8
+    s = oracle.measure(SimpleNamespace(system=sys_, impacts=[rec]), None)
+    assert s["err_impact_dv_max"] == pytest.approx(1.2 / 7.2, rel=1e-12)
+    assert s["err_impulse_max"] == pytest.approx(1.2, rel=1e-12)

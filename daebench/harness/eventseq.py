@@ -241,3 +241,12 @@ def sequence_scores(run: Iterable[Any], ref: Iterable[Any], tol: float, window: 
             "max_penetration": max_penetration(rv, gap),
             "err_impact_t_matched_max": max(dts) if dts else math.nan,
             "impact_tol": float(tol), "chatter_window": float(window)}
+
+
+def measure(run: Any, truth: Any) -> dict[str, Any]:
+    """The scoring pipeline's measure (:data:`daebench.harness.scoring.MEASURES`): a run
+    (its Impact records, the scene's horizon, a ``gap`` column if the history holds one)
+    against its truth's impact times, with :func:`default_windows` of the horizon."""
+    tol, window = default_windows(float(run.scene.t_end))
+    gap = run.history["gap"].to_numpy(float) if "gap" in run.history.columns else None
+    return sequence_scores(run.impacts, truth.impacts, tol, window, gap)

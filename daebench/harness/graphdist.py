@@ -186,3 +186,13 @@ def graph_errors(run: pd.DataFrame, ref: pd.DataFrame, q_columns: Sequence[str],
         out[f"err_graph_{level}"], out[f"graph_{level}_worst"] = worst, name
     out["graph_resolution"] = res_used if res_used > 0.0 else math.nan
     return out
+
+
+def measure(run: Any, truth: Any) -> dict[str, Any]:
+    """The scoring pipeline's measure (:data:`daebench.harness.scoring.MEASURES`): the
+    scene's scored observables that the truth holds, split into position and velocity
+    level by :func:`velocity_columns`, against the truth's history."""
+    cols = [c for c in run.scene.get("output.observables") or []
+            if c in run.history.columns and c in truth.history.columns]
+    vel = velocity_columns(run.system, cols)
+    return graph_errors(run.history, truth.history, [c for c in cols if c not in vel], [c for c in cols if c in vel])

@@ -137,3 +137,10 @@ def oracle_scores(system: Any, impacts: Iterable[Any], restitution: float) -> di
             "err_impulse_rel_max": float(np.nanmax(rel)) if np.isfinite(rel).any() else math.nan,
             "err_impact1_dv": every[0].dv_rel if every[0] is not None else math.nan,
             "oracle_impacts": len(checks), "oracle_skipped": len(recs) - len(checks)}
+
+
+def measure(run: Any, truth: Any) -> dict[str, Any]:
+    """The scoring pipeline's measure (:data:`daebench.harness.scoring.MEASURES`): the run's
+    impact records against the exact law with the system's restitution
+    (``contact_restitution``: the scene's, whatever the law); needs no truth."""
+    return oracle_scores(run.system, run.impacts, float(getattr(run.system, "contact_restitution", math.nan)))
