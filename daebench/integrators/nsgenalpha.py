@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
+from daebench.core.kernels import friction_coefficients
 from daebench.stepping import nsgenalpha as _ns
 from daebench.integrators.base import Capabilities, Setting
 from daebench.integrators.capturing import CAPTURE_STEP_SETTINGS, CapturingIntegrator
@@ -51,7 +52,8 @@ class NonsmoothGeneralizedAlpha(CapturingIntegrator):
     References
     ----------
     G. Capobianco, J. Harsch, S. R. Eugster, R. I. Leine, Int. J. Numer. Meth. Eng. 122 (2021)
-    6497–6526, doi 10.1002/nme.6801 (the scheme; friction left out here).
+    6497–6526, doi 10.1002/nme.6801 (the scheme; planar Coulomb friction as its §5,
+    :mod:`daebench.stepping.nsga_friction`, at contacts with μ > 0).
     Chung & Hulbert (1993), J. Appl. Mech. 60, 371–375; Arnold & Brüls (2007), Multibody
     Syst. Dyn. 18, 185–202.
     cardillo (github.com/cardilloproject/cardillo), solver/nonsmooth_generalized_alpha.py:
@@ -62,7 +64,7 @@ class NonsmoothGeneralizedAlpha(CapturingIntegrator):
     description: ClassVar[str] = ("nonsmooth generalized-α (Capobianco et al. 2021): contact at position, "
                                   "velocity and acceleration level, no penetration; resolves contacts itself")
     capabilities: ClassVar[Capabilities] = Capabilities(order=1, fixed_step=True, adaptive=False, constraints=False,
-                                                        contacts=True)
+                                                        contacts=True, friction=True)
     settings_spec: ClassVar[tuple[Setting, ...]] = (
         *CAPTURE_STEP_SETTINGS,
         Setting("rho_inf", float, 0.9, "spectral radius at h ω → ∞ (1: no dissipation, 0: most)", low=0.0,
@@ -79,8 +81,11 @@ class NonsmoothGeneralizedAlpha(CapturingIntegrator):
     def method(self) -> _ns.NsgaMethod:
         s = self.settings
         c = chung_hulbert(float(s["rho_inf"]))
+        p, st = self.problem, self.state
+        mu = friction_coefficients(p.kernel.model, p.n_contacts, st.q, st.v)
         return _ns.NsgaMethod(float(c.alpha_m), float(c.alpha_f), float(c.beta), float(c.gamma), self.restitution(),
-                              float(s["newton_tol"]), int(s["newton_maxiter"]), bool(s["reuse_jacobian"]))
+                              float(s["newton_tol"]), int(s["newton_maxiter"]), bool(s["reuse_jacobian"]),
+                              bool((mu > 0.0).any()))
 
     def capture_workspace(self, n: int, m: int, nc: int, steps_per_call: int) -> _ns.NsgaWork:
-        return _ns.workspace(n, nc, steps_per_call)
+        return _ns.workspace(n, nc, steps_per_call, self._meth.friction)

@@ -59,6 +59,7 @@ from daebench.core import kernels, phase
 from daebench.stepping import episodes as _ep
 from daebench.core.linalg import factor_flagged, lu_solve
 from daebench.stepping import methods
+from daebench.stepping import nsga_friction as _nf
 from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES
 
 NEWTON_RATE_REFRESH = 0.1   # contraction rate above which a reused Jacobian is rebuilt
@@ -81,6 +82,7 @@ class NsgaMethod(NamedTuple):
     tol: float
     maxiter: int
     reuse: bool
+    friction: bool        # μ > 0 at some contact: the friction unknowns of stepping.nsga_friction
 
 
 class NsgaWork(NamedTuple):
@@ -123,11 +125,12 @@ class NsgaWork(NamedTuple):
     sets_prev: np.ndarray
     sets_lu: np.ndarray
     ep: _ep.Episodes
+    fr: _nf.NsgaFriction
 
 
-def workspace(n: int, nc: int, steps_per_call: int) -> NsgaWork:
+def workspace(n: int, nc: int, steps_per_call: int, friction: bool = False) -> NsgaWork:
     k = max(nc, 1)
-    nx = 3 * n + 3 * k
+    nx = 3 * n + 3 * k + (2 * k if friction else 0)
     z = np.zeros
     per_n = ("abar", "abar_new", "qhat", "uhat", "q1", "u1", "f", "gq", "a_old")
     per_k = ("lam", "lbar", "lam_new", "lbar_new", "g0", "gdm", "gn", "gdn", "lam_old", "phat", "khat", "rprox",
@@ -135,7 +138,7 @@ def workspace(n: int, nc: int, steps_per_call: int) -> NsgaWork:
     return NsgaWork(st=z(5), J=z((nx, nx)), piv=z(nx, np.int64), x=z(nx), dx=z(nx), r=z(nx),
                     M=z((n, n)), Kq=z((n, n)), Kv=z((n, n)), KM=z((n, n)), W=z((k, n)),
                     sets=z(k, np.int64), sets_prev=z(k, np.int64), sets_lu=z(k, np.int64),
-                    ep=_ep.episodes(n, nc, steps_per_call), **{f: z(n) for f in per_n}, **{f: z(k) for f in per_k})
+                    ep=_ep.episodes(n, nc, steps_per_call), fr=_nf.friction_work(n, nc), **{f: z(n) for f in per_n}, **{f: z(k) for f in per_k})
 
 
 @njit(cache=True)
@@ -144,6 +147,7 @@ def _start(meth, ws, ph, t, cur, cnt):
     ws.abar[:] = cur.a
     ws.lam[:] = 0.0
     ws.lbar[:] = 0.0
+    _nf.restart(ws.fr)
     _ep.reset(ws.ep)
     return 0
 
@@ -152,7 +156,7 @@ def _start(meth, ws, ph, t, cur, cnt):
 def _jacobian(meth, ws, ph, n, nc, t1, h, cnt):
     """The Jacobian of the residual for the current index sets, factorized; a status."""
     J = ws.J
-    nx = 3 * n + 3 * nc
+    nx = 3 * n + 3 * nc + (2 * nc if meth.friction else 0)
     c = (1.0 - meth.alpha_f) / (1.0 - meth.alpha_m)
     cq = meth.beta * h * h * c
     cu = meth.gamma * h * c
@@ -195,6 +199,8 @@ def _jacobian(meth, ws, ph, n, nc, t1, h, cnt):
         else:
             J[il + k, il + k] = 1.0
         ws.sets_lu[k] = s
+    if meth.friction:
+        _nf.jacobian(ws.fr, J, n, nc, h, cu)
     for i in range(nx):
         for j in range(nx):
             if not math.isfinite(J[i, j]):
@@ -263,7 +269,9 @@ def _residual(meth, ws, ph, n, nc, t1, h, first, cnt):
         ws.r[i] = r1
         ws.r[iU + i] = r2
         ws.r[iQ + i] = r3
-    for i in range(3 * n + 3 * nc):
+    if meth.friction:
+        _nf.residual(ph.model, ws.fr, x, ws.r, ws.M, ws.q1, ws.u1, ws.sets, ws.P, n, nc, h, cu, first)
+    for i in range(ws.x.shape[0]):
         if not math.isfinite(ws.r[i]):
             return ST_NOT_FINITE
     return 0
@@ -273,7 +281,7 @@ def _residual(meth, ws, ph, n, nc, t1, h, first, cnt):
 def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     n = cur.q.shape[0]
     nc = ph.engaged.shape[0]
-    nx = 3 * n + 3 * nc
+    nx = 3 * n + 3 * nc + (2 * nc if meth.friction else 0)
     am, af, be, ga = meth.alpha_m, meth.alpha_f, meth.beta, meth.gamma
     t1 = t + h
     x = ws.x
@@ -300,6 +308,9 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     for k in range(nc):
         x[3 * n + 2 * nc + k] = max(0.0, ws.lam[k] + rh * (ws.lam[k] - ws.lam_old[k]))
         ws.sets_prev[k] = -1
+    if meth.friction:
+        _nf.prepare(ws.fr, nc, h, am, af, ga)
+        _nf.predict(ws.fr, x, n, nc, rh)
     if ws.st[W_LU] != 0.0 and (not meth.reuse or ws.st[W_LUH] != h):
         ws.st[W_LU] = 0.0
     d_prev = 0.0
@@ -317,6 +328,13 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
             if ws.sets[k] != ws.sets_lu[k]:
                 same_lu = False
             ws.sets_prev[k] = ws.sets[k]
+            if meth.friction:
+                fr = ws.fr
+                if fr.fsets[k] != fr.fsets_prev[k]:
+                    stable = False
+                if fr.fsets[k] != fr.fsets_lu[k]:
+                    same_lu = False
+                fr.fsets_prev[k] = fr.fsets[k]
         if ws.st[W_LU] == 0.0 or not same_lu:
             st = _jacobian(meth, ws, ph, n, nc, t1, h, cnt)
             if st:
@@ -374,6 +392,8 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
         work += 0.5 * P * u
         touching = ws.sets[k] >= 1 and (P > 0.0 or kh > 0.0)
         _ep.propose(ws.ep, k, t, touching, P, ws.g0[k], ws.gn[k], ws.gdm[k])
+    if meth.friction:
+        work += _nf.finish(ws.fr, x, n, nc, am, af, cu, cur.v, new.v)
     _ep.propose_work(ws.ep, work)
     return 0, 0.0
 
@@ -385,6 +405,8 @@ def _accept(meth, ws, h, prev, cur):
     ws.abar[:] = ws.abar_new
     ws.lam[:] = ws.lam_new
     ws.lbar[:] = ws.lbar_new
+    if meth.friction:
+        _nf.accept(ws.fr)
     _ep.commit(ws.ep, ws.ep.step.shape[0], prev, cur)
     ws.g0[:] = ws.gn
     ws.gdm[:] = ws.gdn
