@@ -102,3 +102,16 @@ def test_reference_matches_the_published_solution_to_nine_digits(case, tmp_path,
     assert min(true.values()) >= 9.0
     for k, d in true.items():
         assert est[k] >= d - 1.0 or est[k] >= 9.0
+
+
+def test_errors_on_the_trusted_span_stop_at_trust_t():
+    """A run off by 1e-3 up to t = 5 and by 1 after it: on [0, trust_t = 5] its max error is
+    1e-3, over the whole run 1."""
+    tr = np.linspace(0.0, 10.0, 2001)
+    t = np.linspace(0.0, 10.0, 101)
+    ref = pd.DataFrame({"t": tr, "y": np.sin(tr)})
+    run = pd.DataFrame({"t": t, "y": np.sin(t) + np.where(t <= 5.0, 1e-3, 1.0)})
+    on = accuracy.trusted_errors(run, ref, [], 5.0, ["y"])
+    assert on["err_y_max"] == pytest.approx(1e-3, rel=1e-6) and on["err_y_final"] == pytest.approx(1e-3, rel=1e-6)
+    stopped = accuracy.trusted_errors(run[run.t <= 3.0], ref, [], 5.0, ["y"])
+    assert math.isnan(stopped["err_y_max"])

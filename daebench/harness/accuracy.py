@@ -228,3 +228,23 @@ def summary_lines(meta: dict[str, Any], impacts: Sequence[float], t_end: float) 
         fin = acc.get("digits_final", {})
         lines.append("  at t_end (relative) " + " ".join(f"{fin.get(c, math.nan):10.1f}" for c in cols))
     return lines
+
+
+def trusted_errors(hist: pd.DataFrame, ref: pd.DataFrame, ref_impacts: Sequence[float], trust_t: float,
+                   columns: Sequence[str] | None = None, **kwargs: Any) -> dict[str, float]:
+    """The run's errors on the trusted span: :func:`daebench.harness.metrics.accuracy` on
+    the run's rows at t ≤ trust_t against the reference cut at the last of them (the same
+    keys, ``err_<obs>_{final,max,l2}``; NaN when the run stopped before trust_t).
+    ``kwargs`` go to metrics.accuracy (e.g. ``declared``)."""
+    from daebench.harness import metrics
+
+    tol = 1e-12 * max(1.0, abs(float(trust_t)))
+    h = hist[hist["t"] <= trust_t + tol]
+    if not len(h) or float(hist["t"].iloc[-1]) < trust_t - tol:
+        h = hist.iloc[:0]
+    t_cut = float(h["t"].iloc[-1]) if len(h) else float(trust_t)
+    r = ref[ref["t"] <= t_cut + tol]
+    if len(r) < 2:  # a span shorter than two reference rows has no comparable error
+        r = ref[ref["t"] <= float(ref["t"].iloc[1]) + tol]
+    return metrics.accuracy(h if len(h) else hist.iloc[:0], r, columns,
+                            ref_impacts=[x for x in ref_impacts if x <= t_cut], **kwargs)
