@@ -320,7 +320,7 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
         sys.stderr.write(f"interrupted: {done} of {len(exc.table)} runs finished; their rows are in {exc.path}\n"
                          f"continue with: {again}\n")
         raise typer.Exit(130)
-    _bench_report(df, sc.name)
+    _bench_report(df, sc)
     bad = df[df["status"].isin(B.HARNESS_FAILURES)]
     if len(bad):
         sys.stderr.write(f"{len(bad)} run(s) gave no verdict ({', '.join(sorted(set(bad['status'])))}); "
@@ -328,10 +328,17 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
         raise typer.Exit(1)
 
 
-def _bench_report(df: Any, scene_name: str) -> None:
-    cols = [c for c in ("label", "h", "tol", "status", "wall_s", "steps", "err_theta_max", "err_tip_max",
-                        "energy_resid_max", "Cdot_max") if c in df.columns]
-    print_table(cols, [[r[c] for c in cols] for _, r in df.iterrows()], f"{scene_name}: {len(df)} runs")
+def _bench_report(df: Any, sc: Any) -> None:
+    """The sweep's table on stdout: the max error of each observable and point the model
+    declares to be scored around impacts (else of its headline observable), energy and
+    constraint residuals."""
+    from daebench.harness import scoring
+
+    obs, pos = scoring.declared(sc.model).windowed(list(sc.get("output.observables") or []))
+    errs = [f"err_{d.score_name}_max" for d in (*obs, *pos)] or [f"err_{scoring.headline(sc).score_name}_max"]
+    cols = [c for c in ("label", "h", "tol", "status", "wall_s", "steps", *errs, "energy_resid_max", "Cdot_max")
+            if c in df.columns]
+    print_table(cols, [[r[c] for c in cols] for _, r in df.iterrows()], f"{sc.name}: {len(df)} runs")
     if "path" in df.attrs:
         out(f"table: {df.attrs['path']}")
 
