@@ -25,9 +25,13 @@ def load_scene_or_exit(scene: str, sets: list[str]):
     from daebench.models.scenes import load_scene
 
     try:
-        return load_scene(scene, sets)
+        sc = load_scene(scene, sets)
     except ParamError as exc:
         fail(str(exc))
+    for effect, keys in sc.idle_keys().items():  # accepted, but never silently
+        sys.stderr.write(f"note: effects.{effect} = false, so {', '.join(keys)} "
+                         f"{'has' if len(keys) == 1 else 'have'} no effect in this run\n")
+    return sc
 
 
 def print_table(columns: list[str], rows: list[list[Any]], title: str = "") -> None:

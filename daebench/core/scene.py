@@ -222,6 +222,19 @@ class Scene:
             return {}
         return {k: v for k, v in self.values.items() if self.base.get(k) != v}
 
+    def idle_keys(self) -> dict[str, list[str]]:
+        """{effect: keys} of the keys set away from their default under an effect that is off
+        (``effects.contact = false`` with ``contact.restitution = 0.3``): they change nothing,
+        which the command line says in a note."""
+        off = [k.split(".", 1)[1] for k, v in self.values.items() if k.startswith("effects.") and v is False]
+        out: dict[str, list[str]] = {}
+        changed = self.changes()
+        for k, v in self.values.items():
+            head = k.split(".", 1)[0]
+            if head in off and "." in k and k in self.schema and (v != self.schema[k].default or k in changed):
+                out.setdefault(head, []).append(k)
+        return out
+
     def effects(self) -> dict[str, bool]:
         return {k.split(".", 1)[1]: bool(v) for k, v in self.values.items() if k.startswith("effects.")}
 

@@ -208,6 +208,7 @@ def check_observables(scene: Any, system: Any) -> list[str]:
     A name the model never computes, whatever its effects, is refused (a typo); a name it
     computes only with an effect this scene turns off (``gap`` without contact) is left
     out of scoring and returned out of the list — callers report it, never silently."""
+    check_start(scene, system)
     wanted = list(scene.get("output.observables") or [])
     if not wanted:
         return []
@@ -222,6 +223,36 @@ def check_observables(scene: Any, system: Any) -> list[str]:
                 f"scene key 'output.observables': '{typos[0]}' is not an observable of model '{scene.model}'"
                 f"{did_you_mean(typos[0], vocabulary)} Observables: {', '.join(sorted(vocabulary))}.")
     return [o for o in wanted if o in have]
+
+
+START_GAP_TOL = 1e-9   # m: a start this far inside a rigid (impact-law) contact is refused
+
+
+def check_start(scene: Any, system: Any) -> None:
+    """Refuse a start with a body through a surface whose contact is an impact law
+    (constraint, complementarity): such a run would begin with the contact violated and
+    blow up (beam-impact at θ = -30°: gap -0.5 m, 9e5 J). Continuous laws (Hertz,
+    penalty) accept a penetrating start: their force is defined there.
+
+    Raises
+    ------
+    GuardError
+        Naming the contact, its gap and the fix.
+    """
+    if not getattr(system, "n_contacts", 0) or not scene.get("effects.contact", True):
+        return
+    law = getattr(system, "contact_law", None)
+    if law is not None and law.continuous:
+        return
+    q, _ = system.initial_state()
+    gap = [float(g) for g in system.gap(q)]
+    inside = [(i, g) for i, g in enumerate(gap) if g < -START_GAP_TOL]
+    if inside:
+        i, g = min(inside, key=lambda x: x[1])
+        raise GuardError(
+            f"scene '{scene.name}' starts with contact {i} {-g:.3g} m through its surface (gap {g:.3g} m at t = 0); "
+            f"a rigid contact cannot start violated. Start outside it (gap ≥ 0: change the start.* keys, "
+            f"`daebench show {scene.name} --keys`), or use a continuous law (--set contact.law=hertz)")
 
 
 def _all_effects_observables(scene: Any) -> set[str]:
