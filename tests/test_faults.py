@@ -92,6 +92,7 @@ def test_sigkill_of_the_sweep_leaves_no_worker(tmp_path):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.slow
 def test_sigterm_keeps_the_rows_writes_the_table_and_says_how_to_resume(tmp_path):
     """SIGTERM printed nothing and wrote no table; now it stops the sweep as Ctrl-C does:
     the finished row is in the table as stored, the unfinished one 'interrupted', the
@@ -207,6 +208,7 @@ def test_run_on_a_full_disk_says_so_plainly(tiny_fs, tmp_path):
     assert not (tmp_path / "results").exists()
 
 
+@pytest.mark.slow
 def test_bench_on_a_full_disk_keeps_its_rows_and_resumes(tiny_fs, tmp_path):
     """`bench` tracebacked (sqlite3.OperationalError, OSError). Now: the rows that fit are
     stored, the message says where and gives the resume command, no .tmp is left; with space
@@ -234,12 +236,13 @@ def test_bench_on_a_full_disk_keeps_its_rows_and_resumes(tiny_fs, tmp_path):
         assert df.loc[run, "wall_s"] == row["wall_s"]
 
 
+@pytest.mark.slow
 def test_reference_force_on_a_full_disk(tiny_fs, tmp_path):
     (tiny_fs / "filler").write_bytes(b"\0" * (200 * 1024 - 8 * 1024))
     p = cli(["reference", "pendulum", "--set", "t_end=1", "--force"], tiny_fs)
     out, err = p.communicate(timeout=900)
     assert p.returncode != 0, err  # PENDING-EXIT1
-    assert "Traceback" not in err and "the disk is full" in err and "the reference was computed" in err, err
+    assert "Traceback" not in err and "the disk is full" in err and "reference was computed" in err, err
     assert _tmp_files(tiny_fs) == []
 
 
