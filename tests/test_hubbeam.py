@@ -238,7 +238,7 @@ def test_scenes_load_with_published_parameters():
     h = system("hub-beam")
     assert h.n == 1 + 9 + 18 and h.n_contacts == 0 and h.contact_law is None
     assert h.power(1.0, *h.initial_state()) == {"torque": 0.0}
-    M, Q = h.mass_and_force(0.5, *h.initial_state())
+    M, Q = h.mass_force(0.5, *h.initial_state())
     assert Q[0] == pytest.approx(7.0) and M[0, 0] == pytest.approx(
         0.3 + 2.7667e3 * 2.5e-4 * ((0.05 + 1.8) ** 3 - 0.05**3) / 3)
 
@@ -282,7 +282,7 @@ def test_kernels_callable_from_compiled_code():
     M = np.empty((s.n, s.n))
     Q = np.empty(s.n)
     call(s.kernel_data(), 0.4, q, v, M, Q)
-    M_ref, Q_ref = s.mass_and_force(0.4, q, v)
+    M_ref, Q_ref = s.mass_force(0.4, q, v)
     assert np.array_equal(M, M_ref) and np.array_equal(Q, Q_ref)
     assert np.allclose(M, M.T, rtol=0, atol=1e-15 * np.abs(M).max())
 

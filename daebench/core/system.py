@@ -182,17 +182,18 @@ class KernelSystem(MechanicalSystem):
     def kernel_data(self) -> Any:
         return self.data
 
-    def mass_and_force(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def mass_force(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(M(q), Q(t, q, v)) in one kernel call (the name :class:`daebench.core.problem.Problem` uses)."""
         M = np.empty((self.n, self.n))
         Q = np.empty(self.n)
         kernels.mass_force(self.data, float(t), _f(q), _f(v), M, Q)
         return M, Q
 
     def mass(self, q: np.ndarray) -> np.ndarray:
-        return self.mass_and_force(0.0, q, np.zeros(self.n))[0]
+        return self.mass_force(0.0, q, np.zeros(self.n))[0]
 
     def applied_force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return self.mass_and_force(t, q, v)[1]
+        return self.mass_force(t, q, v)[1]
 
     def force_jacobian(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         Kq = np.empty((self.n, self.n))

@@ -19,7 +19,7 @@ import numpy as np
 
 def consistent_multipliers(system, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """λ of the bilateral constraints consistent with (t, q, v) (see the module docstring)."""
-    M, Q = system.mass_and_force(t, q, v)
+    M, Q = system.mass_force(t, q, v)
     _, Cq, _, gam = system._constraint_rows(t, q, v)
     m = Cq.shape[0]
     A = np.zeros((M.shape[0] + m, M.shape[0] + m))
