@@ -65,6 +65,16 @@ tolerances, 87.6e3 steps): 17.5 s → 9.5 s (compiled residual, cheaper driver c
 5.9 s (advance); SUNDIALS' own step is now about half of the time; advance() takes exactly
 the steps of the one-step loop (tests/test_ida.py).
 
+Backends
+--------
+``backend = "native"`` (default) calls the SUNDIALS libraries of scikit-sundae's wheel
+directly (:mod:`daebench.stepping.ida_native`): the residual and the Jacobian are
+compiled C callbacks and :meth:`IDA.advance` runs its quiet steps in one compiled loop;
+``backend = "sksundae"`` goes through scikit-sundae's Python interface (Python callbacks,
+one Python call per step). Both make the same SUNDIALS calls with the same residual and
+Jacobian entries, so their histories agree to the last digit (tests/test_ida_native.py);
+the run record names the backend among the settings.
+
 Dense output
 ------------
 :meth:`IDA.dense` calls IDA in ``normal`` mode with t inside the last internal
@@ -103,10 +113,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from sksundae.ida import IDA as _SundaeIDA
 
-from daebench.core import phase
 from daebench.integrators.base import (
     STEP_SETTINGS,
     Advance,
@@ -117,6 +125,8 @@ from daebench.integrators.base import (
     StepFailure,
     hermite_state,
 )
+from daebench.stepping import ida_native as _native
+from daebench.stepping.ida_native import ggl_residual
 from daebench.stepping import watch as _watch
 from daebench.stepping.methods import StateArrays
 from daebench.core.system import State
@@ -125,34 +135,6 @@ MAX_NUM_STEPS = 500  # IDA's limit per call; one call = one internal step here
 ALG_ATOL_DEFAULT = 1e10  # absolute tolerance of λ, μ: takes them out of the error test
 DENSE_EDGE = 1e-10  # relative distance to the step end below which dense() returns the end state
 MAX_STEPS_PER_CALL = 2000  # advance(): keeps the driver responsive
-
-
-@njit(cache=True)
-def ggl_residual(ph, m, t, y, yp, res, M, Q, C, Cq, Ct, gam):
-    """F(t, y, ẏ) of the GGL form, y = (q, v, λ, μ) (module docstring), into ``res``."""
-    n = M.shape[0]
-    q = y[:n]
-    v = y[n:2 * n]
-    phase.mass_force(ph, t, q, v, M, Q)
-    for i in range(n):
-        acc = 0.0
-        for j in range(n):
-            acc += M[i, j] * yp[n + j]
-        res[i] = yp[i] - v[i]
-        res[n + i] = acc - Q[i]
-    if m == 0:
-        return
-    phase.constraints(ph, t, q, v, C, Cq, Ct, gam)
-    for r in range(m):
-        lam = y[2 * n + r]
-        mu = y[2 * n + m + r]
-        cv = 0.0
-        for i in range(n):
-            res[i] += Cq[r, i] * mu
-            res[n + i] += Cq[r, i] * lam
-            cv += Cq[r, i] * v[i]
-        res[2 * n + r] = C[r]
-        res[2 * n + m + r] = cv + Ct[r]
 
 
 class IDA(Integrator):
@@ -206,12 +188,16 @@ class IDA(Integrator):
         Setting("max_order", int, 5, "highest BDF order", low=1, high=5),
         Setting("jacobian", str, "analytic", "iteration matrix: assembled or IDA's finite differences",
                 choices=("analytic", "fd")),
+        Setting("backend", str, "native",
+                "native: SUNDIALS called directly with compiled callbacks and a compiled step loop; "
+                "sksundae: through scikit-sundae's Python interface (same numbers, slower)",
+                choices=("native", "sksundae")),
     )
 
     def __init__(self, **settings) -> None:
         super().__init__(**settings)
-        self._solvers: dict[tuple[int, int], _SundaeIDA] = {}
-        self._solver: _SundaeIDA | None = None
+        self._solvers: dict[tuple[int, int], _SundaeIDA | _native.NativeIDA] = {}
+        self._solver: _SundaeIDA | _native.NativeIDA | None = None
         self._n = self._m = 0
         self._nfev = self._njev = 0
         self._ida_t = 0.0
@@ -244,14 +230,18 @@ class IDA(Integrator):
         solver = self._solver_for(n, m)
         y0 = np.concatenate([st.q, st.v, lam, np.zeros(m)]) if m else np.concatenate([st.q, st.v])
         yp0 = np.concatenate([st.v, a, np.zeros(2 * m)])
-        res = solver.init_step(float(st.t), y0, yp0)
+        if isinstance(solver, _native.NativeIDA):
+            solver.counters = p.counters
+            res = solver.init_step(float(st.t), y0, yp0, p.kernel)
+        else:
+            res = solver.init_step(float(st.t), y0, yp0)
         if not res.success:
             raise StepFailure(f"IDA could not start at t = {st.t:g}: {res.message}")
         self._solver = solver
         self._nfev, self._njev = int(res.nfev), int(res.njev)
         self._ida_t = float(st.t)  # IDA's internal time (may lag self.state.t, see _step_impl)
 
-    def _solver_for(self, n: int, m: int) -> _SundaeIDA:
+    def _solver_for(self, n: int, m: int) -> _SundaeIDA | _native.NativeIDA:
         """One scikit-sundae solver per system size, reused across phases (IDAReInit)."""
         cache = self._solvers
         key = (n, m)
@@ -265,6 +255,10 @@ class IDA(Integrator):
                 max_order=s["max_order"], max_num_steps=MAX_NUM_STEPS, linsolver="dense",
                 algebraic_idx=list(range(2 * n, N)) if m else None,
             )
+            if s["backend"] == "native":
+                del opts["linsolver"]
+                cache[key] = _native.NativeIDA(N, n, m, analytic_jacobian=s["jacobian"] == "analytic", **opts)
+                return cache[key]
             if s["jacobian"] == "analytic":
                 opts["jacfn"] = self._jac
             cache[key] = _SundaeIDA(self._res, **opts)
@@ -355,6 +349,8 @@ class IDA(Integrator):
         w = _watch.Watch(watch.inactive, watch.lam_rows, watch.armed.copy(), watch.track, watch.cmax.copy(),
                          watch.t_out_next, watch.t_end)
         C, Cq, Ct, gam = np.empty(m), np.empty((m, n)), np.empty(m), np.empty(m)
+        if isinstance(self._solver, _native.NativeIDA):
+            return self._advance_native(float(t_stop), w, C, Cq, Ct, gam)
         t_end_tol = 1e-15 * max(1.0, float(t_stop))
         prev = self.state
         for k in range(1, MAX_STEPS_PER_CALL + 1):
@@ -364,6 +360,45 @@ class IDA(Integrator):
                     self.problem.kernel, w, float(new.t), StateArrays(new.q, new.v, new.a, new.lam), C, Cq, Ct, gam):
                 break
         return Advance(prev, self.state, k, w.armed, w.cmax, self._take_events())
+
+    def _advance_native(self, t_stop: float, w: _watch.Watch, C, Cq, Ct, gam,
+                        budget: int = MAX_STEPS_PER_CALL) -> Advance:
+        """:meth:`advance` with the step loop compiled (:func:`daebench.stepping.ida_native.advance_loop`):
+        the same IDA calls and checks as :meth:`_step_impl` and :func:`daebench.stepping.watch.quiet`."""
+        if t_stop <= self.state.t:
+            raise ValueError(f"t_stop = {t_stop} is not after t = {self.state.t}")
+        N = 2 * self._n + 2 * self._m
+        start = self.state
+        k, code, flag, ida_t, prev, cur, nfev, njev = self._solver.advance(
+            float(start.t), self._ida_t, t_stop, budget, w, C, Cq, Ct, gam)
+        self.counters.newton_iterations += nfev - self._nfev
+        self.counters.lu_factorizations += njev - self._njev
+        self._nfev, self._njev = nfev, njev
+        if k:
+            self._ida_t = ida_t
+            self.prev = start if k == 1 else self._unpack(prev[0], prev[1:1 + N], prev[1 + N:])
+            self.state = self._unpack(cur[0], cur[1:1 + N], cur[1 + N:])
+            self.counters.steps += k
+        t_now = self.state.t
+        if code == _native.ADV_FAIL:
+            raise StepFailure(f"IDA at t = {t_now:.9g}: {_native.message(flag)} (status {flag})")
+        if code == _native.ADV_STUCK:
+            raise StepFailure(f"IDA made no progress from t = {t_now:.9g} (step size below roundoff; "
+                              f"last status: {_native.message(flag)})")
+        if code == _native.ADV_NONFINITE:
+            raise StepFailure(f"IDA produced non-finite values after t = {t_now:.9g}")
+        prev_state = self.prev if k else start
+        if code == _native.ADV_PYTHON:  # the Taylor step of _step_impl, then the loop's own check
+            prev_state = self.state
+            new = self.step(t_stop)
+            k += 1
+            t_end_tol = 1e-15 * max(1.0, t_stop)
+            if new.t < t_stop - t_end_tol and _watch.quiet(
+                    self.problem.kernel, w, float(new.t), StateArrays(new.q, new.v, new.a, new.lam), C, Cq, Ct,
+                    gam) and k < budget:
+                more = self._advance_native(t_stop, w, C, Cq, Ct, gam, budget - k)
+                return Advance(more.prev, more.new, k + more.steps, more.armed, more.cmax, more.events)
+        return Advance(prev_state, self.state, k, w.armed, w.cmax, self._take_events())
 
     def dense(self, t: float) -> State:
         """State at t within the last step from IDA's own interpolating polynomial
