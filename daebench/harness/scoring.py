@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from daebench.core.observables import Observable, Observables, Position
-from daebench.harness import impact_metrics, metrics
+from daebench.harness import eventseq, graphdist, impact_metrics, metrics, oracle
 from daebench.core.params import ParamError
 from daebench.models import MODELS, get_model
 
@@ -164,7 +164,9 @@ def impacts(run: Run, tr: Truth) -> dict[str, Any]:
 
 
 #: every measure of a run against its truth, in column order (see the module docstring)
-MEASURES: tuple[Callable[[Run, Truth], dict[str, Any]], ...] = (accuracy, events, impacts)
+#: (event sequence classified, the exact impact oracle, the graph distance: issue 22 items 4-6)
+MEASURES: tuple[Callable[[Run, Truth], dict[str, Any]], ...] = (accuracy, events, impacts, eventseq.measure,
+                                                                oracle.measure, graphdist.measure)
 
 
 def score(run: Run, tr: Truth | None,
