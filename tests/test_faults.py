@@ -378,3 +378,69 @@ def test_the_claim1_difference_panel_spans_the_base_run(tmp_path):
         plt.Figure.savefig = real
     assert shown["HHT α=-0.15"] == pytest.approx(1.0, abs=1e-3)
     assert shown["Baumgarte (0,0)"] == pytest.approx(0.006, abs=1e-3)
+
+
+# ---- items 13, 14: damaged references, and the command that makes one -------------------------------
+@pytest.fixture()
+def cached_reference(tmp_path, monkeypatch):
+    from daebench.harness import references
+    from daebench.models.scenes import load_scene
+
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path / "results"))
+    sc = load_scene("pendulum", ["t_end=0.2"])
+    return sc, references.compute_reference(sc, rtol=1e-9, atol=1e-11, check=False)
+
+
+def _folder(path: Path) -> None:
+    path.unlink()
+    path.mkdir()
+    (path / "part-0.parquet").write_bytes(b"x")
+
+
+def _impacts_x(path: Path) -> None:
+    side = path.with_suffix(".json")
+    meta = json.loads(side.read_text())
+    meta["impacts"] = "x"
+    side.write_text(json.dumps(meta))
+
+
+@pytest.mark.parametrize("damage, why", [(_folder, "is a folder"),
+                                         (_impacts_x, "sidecar field 'impacts' has the wrong type")])
+def test_a_damaged_reference_is_reported_as_damaged(cached_reference, damage, why):
+    """The parquet replaced by a folder (IsADirectoryError traceback) and a sidecar with
+    "impacts": "x" (ValueError traceback): both are ReferenceDamaged naming what failed and
+    the exact command that fixes it; `why_no_reference` (what `run` and `.error` say) says
+    'damaged', not 'no cached reference'."""
+    from daebench.harness import references
+
+    sc, ref = cached_reference
+    damage(ref.path)
+    with pytest.raises(references.ReferenceDamaged, match=why) as exc:
+        references.load_reference(sc, mode="require")
+    assert "`daebench reference pendulum --force --set t_end=0.2`" in str(exc.value)
+    reason = references.why_no_reference(sc)
+    assert "is damaged" in reason and why in reason and "no cached reference" not in reason
+
+
+def test_a_folder_in_place_of_a_reference_is_not_overwritten(cached_reference):
+    from daebench.harness import references
+
+    sc, ref = cached_reference
+    _folder(ref.path)
+    with pytest.raises(references.ReferenceDamaged, match=r"is a folder, not a file; remove it \(`rm -r"):
+        references.load_reference(sc, mode="compute", rtol=1e-9, atol=1e-11, check=False)
+    assert (ref.path / "part-0.parquet").exists()          # nothing of the user's deleted
+
+
+def test_the_reference_command_carries_the_runs_overrides():
+    """Item 14: a run with --set contact.law=hertz suggested `daebench reference beam-impact`,
+    the command of another scene (another hash)."""
+    from daebench.harness import references
+    from daebench.models.scenes import load_scene
+
+    sc = load_scene("beam-impact", ["contact.law=hertz", "t_end=0.5"])
+    cmd = references.reference_command(sc)
+    assert cmd.startswith("daebench reference beam-impact --set ")
+    assert "--set contact.law=hertz" in cmd and "--set t_end=0.5" in cmd
+    again = load_scene("beam-impact", [w for w in cmd.split() if "=" in w])
+    assert again.hash == sc.hash

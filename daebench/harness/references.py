@@ -85,9 +85,43 @@ def reference_path(scene: Scene) -> Path:
     return results_dir() / "references" / f"{scene.name}-{scene.hash}.parquet"
 
 
+def reference_command(scene: Scene, force: bool = False) -> str:
+    """The command that makes the reference of *this* scene: its case name (or its file)
+    and every --set override in effect (a command without them makes another scene's)."""
+    import shlex
+
+    from daebench.core.scene import cases_dir
+
+    src = Path(scene.source) if scene.source else None
+    try:
+        case = src is not None and src.parent.resolve() == cases_dir().resolve()
+    except (OSError, ParamError):
+        case = False
+    target = src.stem if case else (str(src) if src is not None else scene.name)
+    words = ["daebench", "reference", target] + (["--force"] if force else [])
+    for k, v in scene.changes().items():
+        text = ",".join(map(str, v)) if isinstance(v, list) else (str(v).lower() if isinstance(v, bool) else repr(v)
+                                                                    if isinstance(v, float) else str(v))
+        words += ["--set", f"{k}={text}"]
+    return shlex.join(words)
+
+
 def _fix(scene: Scene) -> str:
-    return (f"`daebench reference {scene.name} --force` with the same --set overrides "
-            f"(or --reference compute / auto in `daebench bench`)")
+    return f"`{reference_command(scene, force=True)}` (or --reference compute / auto in `daebench bench`)"
+
+
+def why_no_reference(scene: Scene) -> str:
+    """Why ``scene`` has no usable cached reference ('' when it has one): missing, with the
+    command that makes it, or damaged, with what failed and the fix."""
+    path = reference_path(scene)
+    if not (path.exists() and path.with_suffix(".json").exists()):
+        return (f"no cached reference for scene '{scene.name}' (hash {scene.hash}); "
+                f"`{reference_command(scene)}` makes one")
+    try:
+        validate(scene, path)
+    except ReferenceDamaged as exc:
+        return str(exc)
+    return ""
 
 
 def sha256(path: Path) -> str:
@@ -173,7 +207,7 @@ def load_reference(scene: Scene, compute: bool = False, mode: str | None = None,
             return compute_reference(scene, **kwargs)
         raise ReferenceMissing(
             f"no reference for scene '{scene.name}' (hash {scene.hash}) at {path}. "
-            f"Make it with `daebench reference {scene.name}` plus the same --set overrides "
+            f"Make it with `{reference_command(scene)}` "
             f"(or pass --reference compute / --reference none to `daebench bench`).")
     try:
         return validate(scene, path)
