@@ -47,7 +47,7 @@ def names(value: Any, what: str = "integrators", example: str = '["hht", "newmar
         out = list(value)
     else:
         out = None
-    if not out or not all(isinstance(x, str) and x.strip() for x in out):
+    if out is None or not all(isinstance(x, str) and x.strip() for x in out):  # [] is the planner's to refuse
         raise ParamError(f"{what} must name at least one integrator, e.g. {example}; got {value!r} "
                          f"(`daebench list` shows them)")
     return out
