@@ -160,6 +160,8 @@ def run_id(scene: Scene, integ: Integrator) -> str:
 
 def history_dir(out_dir: str | Path | None) -> Path:
     """The folder histories go to: ``out_dir`` or results/runs."""
+    if out_dir is not None and not isinstance(out_dir, (str, os.PathLike)):
+        raise guards.GuardError(f"out_dir must be a folder path (a string), e.g. \"results/runs\"; got {out_dir!r}")
     return Path(out_dir) if out_dir is not None else results_dir() / "runs"
 
 
