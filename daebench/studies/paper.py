@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -156,11 +157,12 @@ def run_paper(quick: bool = False, jobs: int = 1, out: str | Path | None = None,
     specs = plan(p)
     df = bench.run_specs(specs, scene, bench.Execution(jobs=jobs, progress=progress), bench.Timing(run_cap=run_cap),
                          "auto", history_dir=folder / "runs", description="paper")
-    return report(df, p, folder, scene)
+    return report(df, p, folder, scene, progress=progress)
 
 
-def report(df: pd.DataFrame, p: Protocol, folder: Path, scene: Scene) -> PaperResult:
-    """Table, figures and verdicts from the run rows (no running)."""
+def report(df: pd.DataFrame, p: Protocol, folder: Path, scene: Scene, progress: bool = False) -> PaperResult:
+    """Table, figures and verdicts from the run rows (no running); ``progress``: a line on
+    stderr per claim (drawing the seven claims' figures takes ~10 s)."""
     scenes = [(scene.name, h) for h in sorted(set(df["scene_hash"].dropna()))]
     prov = provenance.collect(scenes)
     prov["protocol"] = p.__dict__
@@ -174,6 +176,8 @@ def report(df: pd.DataFrame, p: Protocol, folder: Path, scene: Scene) -> PaperRe
 
     verdicts, figs = [], []
     for k, fn in enumerate(CLAIMS, start=1):
+        if progress:
+            print(f"paper: claim {k} of {len(CLAIMS)}: verdict and figure", file=sys.stderr, flush=True)
         try:
             text, fig = fn(df, hists, p, folder / f"claim{k}", prov)
             figs += fig
