@@ -117,7 +117,8 @@ def _first_failure(rows: pd.DataFrame) -> str:
     bad = rows[rows["status"].astype(str) != "completed"] if "status" in rows else rows.iloc[:0]
     if not len(bad):
         return ""
-    r = bad.iloc[0]
+    real = bad[~bad["status"].astype(str).str.startswith("skipped")]   # a failure before a run not made
+    r = (real if len(real) else bad).iloc[0]
     msg = str(r.get("message", "") or "").strip().replace("\n", " ")
     where = _run_setting(r)
     return f"{r['status']}{' at ' + where if where else ''}" + (f": {msg[:160]}" if msg and msg != "nan" else "")
@@ -188,8 +189,8 @@ def reach_table(df: pd.DataFrame, targets: Mapping[str, Sequence[float]],
     pandas.DataFrame
         Columns: ``by``…, ``integrator``, ``measure``, ``target``, ``reach_<cost>`` per
         cost, ``reach_kind`` (of the first cost column), ``reached``, ``runs``,
-        ``completed``, ``best_err`` and ``failure`` (the first run that did not complete,
-        with its reason; '' if none).
+        ``completed``, ``best_err`` and ``failure`` (the first run that failed, diverged or
+        gave no verdict, else the first one skipped, with its reason; '' if none).
 
     Raises
     ------

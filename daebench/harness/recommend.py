@@ -80,12 +80,44 @@ def sentence(r: Mapping[str, Any]) -> str:
     return s + "."
 
 
+_SAME = ("measure", "best", "best_cost", "best_kind", "runner_up", "runner_cost")
+
+
+def _merged(recs: pd.DataFrame) -> list[dict[str, Any]]:
+    """Consecutive targets of one measure with the same answer (same settings and costs:
+    typically bounds) as one record whose ``target`` lists them."""
+    out: list[dict[str, Any]] = []
+    for _, r in recs.iterrows():
+        r = dict(r)
+        if out and all(_eq(out[-1][k], r[k]) for k in _SAME):
+            out[-1]["targets"].append(r["target"])
+        else:
+            r["targets"] = [r["target"]]
+            out.append(r)
+    return out
+
+
+def _eq(a: Any, b: Any) -> bool:
+    return (isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)) or a == b
+
+
 def paragraph(case: str, recs: pd.DataFrame, fails: Sequence[tuple[str, str]] = ()) -> str:
-    """The recommendation for one case: a sentence per target, then the settings that
-    failed or diverged (with the first such run and its reason)."""
-    parts = [f"{case}:"] + [sentence(r) for _, r in recs.iterrows()]
-    if fails:
-        parts.append("Failed or diverged: " + "; ".join(f"{s} — {why}" for s, why in fails) + ".")
+    """The recommendation for one case: a sentence per target (targets with the same
+    answer in one), then the settings that failed or diverged (the first such run and its
+    reason), then how many were not run within the budget."""
+    parts = [f"{case}:"]
+    for r in _merged(recs):
+        s = sentence(r)
+        if len(r["targets"]) > 1:
+            s = s.replace(f"≤ {r['target']:g}", "≤ " + " / ".join(f"{t:g}" for t in r["targets"]), 1)
+        parts.append(s)
+    real = [(s, why) for s, why in fails if not why.startswith("skipped")]
+    skipped = [s for s, why in fails if why.startswith("skipped")]
+    if real:
+        parts.append("Failed or diverged: " + "; ".join(f"{s} — {why}" for s, why in real) + ".")
+    if skipped:
+        parts.append(f"Not run within the budget: the finer steps of {', '.join(skipped)} "
+                     f"(--budget, or --resume with a larger one).")
     return " ".join(parts)
 
 

@@ -293,7 +293,7 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
         gone = df.apply(compare._refused_at_start, axis=1)
         for _, r in df[gone].iterrows():
             refused.setdefault(r["integrator"], str(r["message"]))
-        df = df[~gone].reset_index(drop=True)
+        df = df[~gone & ~df["integrator"].isin(list(refused))].reset_index(drop=True)   # its skipped rows too
     res = CaseResult(scene.name, df, refused, case_measures(df, proto) if len(df) else [],
                      time.perf_counter() - t0, ran, len(groups), note)
     if opts.repeat_check:
