@@ -29,13 +29,14 @@ Scenes: ``cases/block-incline.toml``, ``cases/rocking-block.toml``,
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from daebench.core import kernels
-from daebench.core.contact import make_contact_law
+from daebench.core.contact import contact_schema
+from daebench.core.observables import Observable
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
 from daebench.core.system import KernelSystem
@@ -43,8 +44,19 @@ from daebench.core.system import KernelSystem
 DESCRIPTION = ("planar rigid body (box or rod) on inclined rigid ground with Coulomb friction: block on an "
                "incline, rocking block, falling rod; closed forms")
 
-CONTACT_LAWS = ("constraint", "complementarity")
 SHAPES = ("box", "rod")
+
+CONTACT = contact_schema(("constraint", "complementarity"), friction=True)
+
+OBSERVABLES = (
+    Observable("x", "m", "x", derivative="vx", summary=True),
+    Observable("y", "m", "y", derivative="vy", summary=True),
+    Observable("theta", "rad", "θ", derivative="omega", impact_windows=True, summary=True),
+    Observable("vx", "m/s", "ẋ"),
+    Observable("vy", "m/s", "ẏ"),
+    Observable("omega", "rad/s", "ω", impact_windows=True),
+    Observable("gap", "m", "gap", height=True),
+)
 
 SCHEMA: dict[str, Param] = {
     p.name: p
@@ -65,10 +77,7 @@ SCHEMA: dict[str, Param] = {
         Param("start.vy", float, 0.0, "initial velocity normal to the ground", low=-1e6, high=1e6, unit="m/s"),
         Param("start.omega", float, 0.0, "initial angular velocity", low=-1e6, high=1e6, unit="rad/s"),
         Param("effects.contact", bool, True, "the ground (off: free flight)"),
-        Param("contact.law", str, "constraint", "contact model", choices=CONTACT_LAWS),
-        Param("contact.restitution", float, 0.0, "Newton coefficient of restitution e", low=0.0, high=1.0),
-        Param("contact.friction", float, 0.0, "Coulomb friction coefficient μ at every contact point",
-              low=0.0, high=1e3),
+        *CONTACT.params,   # contact.law, contact.restitution, contact.friction (μ at every contact point)
     )
 }
 
@@ -148,7 +157,7 @@ class Rigid2d(KernelSystem):
     def __init__(self, shape: str = "box", mass: float = 1.0, width: float = 0.2, height: float = 1.0,
                  g: float = 9.81, incline_deg: float = 0.0, x0: float = 0.0, gap0: float = 0.0,
                  theta0_deg: float = 0.0, vx0: float = 0.0, vy0: float = 0.0, omega0: float = 0.0,
-                 contact: bool = True, law: str = "constraint", restitution: float = 0.0,
+                 contact: bool = True, law: Any = None, restitution: float = 0.0,
                  friction: float = 0.0) -> None:
         self.shape = shape
         self.m = float(mass)
@@ -165,8 +174,8 @@ class Rigid2d(KernelSystem):
         self.q0 = np.array([float(x0), float(gap0) - lowest, th])
         self.v0 = np.array([float(vx0), float(vy0), float(omega0)])
         self.n_contacts = len(self.points) if contact else 0
-        self.contact_law = (make_contact_law(law, self.e, self.n_contacts)
-                            if contact and law == "constraint" else None)
+        self.contact_law = law if contact else None   # a ContactLaw (None: complementarity)
+        self.contact_restitution = self.e
         self.data = Rigid2dData(self.m, self.J, -self.g * math.sin(self.phi), -self.g * math.cos(self.phi),
                                 self.mu if contact else 0.0, self.points)
 
@@ -193,11 +202,12 @@ def build(scene: Scene) -> Rigid2d:
     return Rigid2d(shape=s["body.shape"], mass=s["body.mass"], width=s["body.width"], height=s["body.height"],
                    g=s["gravity.g"], incline_deg=s["ground.incline"], x0=s["start.x"], gap0=s["start.gap"],
                    theta0_deg=s["start.theta"], vx0=s["start.vx"], vy0=s["start.vy"], omega0=s["start.omega"],
-                   contact=s["effects.contact"], law=s["contact.law"], restitution=s["contact.restitution"],
-                   friction=s["contact.friction"])
+                   contact=s["effects.contact"], law=CONTACT.law(s, 2 if s["body.shape"] == "rod" else 4),
+                   restitution=s["contact.restitution"], friction=s["contact.friction"])
 
 
 def check_scene(scene: Scene) -> None:
+    CONTACT.check(scene)
     if scene["body.shape"] == "box" and scene["body.width"] <= 0.0:
         raise SceneError(f"scene key 'body.width' = {scene['body.width']}: a box needs a width > 0 "
                          f"(or `--set body.shape=rod`)")
