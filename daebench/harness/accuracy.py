@@ -136,18 +136,23 @@ def assess(ref: pd.DataFrame, ref_impacts: Sequence[float], loose: pd.DataFrame,
             "digits_final": dfinal, "loose_factor": loose_factor, "perturb_factor": PERTURB_FACTOR}
 
 
-def _project(system: Any, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """q onto C(t, q) = 0 (minimum-norm Gauss–Newton), then v onto C_q v + C_t = 0."""
+def _project(system: Any, t: float, q: np.ndarray, v: np.ndarray, sq: np.ndarray,
+             sv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """q onto C(t, q) = 0, then v onto C_q v + C_t = 0, each by the least change in the norm
+    weighted by 1/s (Gauss–Newton with S² C_qᵀ (C_q S² C_qᵀ)⁻¹): a component moves in
+    proportion to its own size, so a small coordinate (an elastic one, 1e-5 m beside a
+    0.45 m slider) is not handed the correction of a large one."""
     if system.n_bilateral == 0:
         return q, v
+    Sq, Sv = sq * sq, sv * sv
     for _ in range(20):
         C = system.constraint(t, q)
         G = system.constraint_jacobian(t, q)
-        q = q - G.T @ np.linalg.solve(G @ G.T, C)
+        q = q - Sq * (G.T @ np.linalg.solve((G * Sq) @ G.T, C))
         if np.max(np.abs(C)) <= 1e-15 * max(1.0, float(np.max(np.abs(q)))):
             break
     G = system.constraint_jacobian(t, q)
-    v = v - G.T @ np.linalg.solve(G @ G.T, G @ v + system.constraint_t(t, q))
+    v = v - Sv * (G.T @ np.linalg.solve((G * Sv) @ G.T, G @ v + system.constraint_t(t, q)))
     return q, v
 
 
@@ -161,7 +166,8 @@ def _sizes(x: np.ndarray, scale: np.ndarray | None) -> np.ndarray:
 def perturbed_start(system: Any, rtol: float, factor: float = PERTURB_FACTOR) -> tuple[np.ndarray, np.ndarray]:
     """The system's start, every q_i and q̇_i moved by ±factor·rtol·|x_i| (alternating
     signs; a zero entry by factor·rtol·1e-3·its scale: the model's ``state_scale()`` if it
-    declares one, else the largest |x_j|), projected back onto the bilateral constraints.
+    declares one, else the largest |x_j|), projected back onto the bilateral constraints
+    with the same sizes as weights (:func:`_project`).
     Contact points that are open at the start stay open: if a gap would close, only the
     velocities are perturbed."""
     q0, v0 = (np.asarray(x, float) for x in system.initial_state())
@@ -173,11 +179,13 @@ def perturbed_start(system: Any, rtol: float, factor: float = PERTURB_FACTOR) ->
     sq, sv = _sizes(q0, qs), _sizes(v0, vs)
     q = q0 + d * sign_q * sq
     v = v0 + d * sign_v * sv
-    qp, vp = _project(system, 0.0, q, v)
+    sq = np.where(sq > 0, sq, 1.0)
+    sv = np.where(sv > 0, sv, 1.0)
+    qp, vp = _project(system, 0.0, q, v, sq, sv)
     if system.n_contacts:
         g0, g1 = system.gap(q0), system.gap(qp)
         if np.any((g0 > 0) & (g1 <= 0)):
-            qp, vp = _project(system, 0.0, q0.copy(), v)
+            qp, vp = _project(system, 0.0, q0.copy(), v, sq, sv)
     return qp, vp
 
 
