@@ -2,8 +2,9 @@
 and their validation (:mod:`.params`), the scene value (:mod:`.scene`), the kernel
 interface and its numba dispatch (:mod:`.kernels`, :mod:`.dispatch`), a smooth phase's
 data and solves (:mod:`.phase`, :mod:`.problem`), mechanical systems (:mod:`.system`),
-contact laws and impact records (:mod:`.contact`), dense linear algebra and the one LCP
-solver (:mod:`.linalg`, :mod:`.lcp`), and the numba cache (:mod:`.numba_cache`).
+contact laws and impact records (:mod:`.contact`), what a model's observables mean to
+the scorer (:mod:`.observables`), dense linear algebra and the one LCP solver
+(:mod:`.linalg`, :mod:`.lcp`), and the numba cache (:mod:`.numba_cache`).
 
 May import: numpy, scipy, numba and the standard library; nothing else of daebench.
 """
