@@ -229,7 +229,8 @@ def table_rows(df: pd.DataFrame, head: Any) -> tuple[list[str], list[list[Any]]]
     repeats, steps, the error measures of the headline observable ``head`` (whole run,
     before the first impact), the first impact time's error, impacts of the run / of the
     reference, max energy-balance residual."""
-    what, unit, obs = head.label or head.score_name, f"[{head.unit}]" if head.unit else "", head.score_name
+    sym = {"deg": "°"}.get(head.unit, head.unit)  # the table's compact unit
+    what, unit, obs = head.label or head.score_name, f"[{sym}]" if sym else "", head.score_name
     cols = ["run", "status", "wall[s]", "steps", f"{what} err{unit}", f"{what} pre{unit}", "t1 err[s]", "impacts",
             "E res[J]"]
     rows = []
