@@ -40,7 +40,7 @@ from typing import Any, Mapping, Sequence
 
 import pandas as pd
 
-from daebench.harness import bench, compare, costs, guards, profiles, provenance, recommend, sweepstore
+from daebench.harness import bench, compare, costs, guards, profiles, provenance, recommend, scoring, sweepstore
 from daebench.harness.compare import Entry, Protocol
 from daebench.harness.runner import results_dir
 from daebench.integrators import base
@@ -156,7 +156,7 @@ def survey_protocol(scene: Scene, quick: bool = False) -> Protocol:
     measures = declared.measures if declared else compare.default_protocol(scene).measures
     why = (declared.why + "; others at defaults and two halvings") if declared else \
         f"every integrator at its defaults and {levels - 1} halving(s)"
-    return Protocol(tuple(entries), tuple(measures), why)
+    return Protocol(tuple(entries), tuple(measures), why).resolved(scoring.headline(scene).score_name)
 
 
 def case_scene(name: str, quick: bool = False) -> Scene:

@@ -13,6 +13,7 @@ from typing import Any
 from daebench.harness import metrics, scoring
 from daebench.harness.options import Timing
 from daebench.harness.timing import WARMUP_CAP_S, time_call
+from daebench.harness.digest import history_digest
 from daebench.harness.guards import RunTimeout
 from daebench.integrators import base
 from daebench.models import build_system
@@ -106,6 +107,7 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
         row.update(res.counters)
         row.update(metrics.stability_verdict(res.status, res.message, res.t_final, sc.t_end))
         hist = res.history
+        row["digest"] = history_digest(hist)   # bitwise: equal for a repeat, under -j N and on Dask
         impacts = [float(i.t) for i in res.impacts]
         row["impact_times"] = json.dumps(impacts)
         if history_dir is not None and len(hist):
