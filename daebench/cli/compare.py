@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import sys
 import time
+from pathlib import Path
 from typing import Optional
 
 import typer
@@ -30,11 +31,15 @@ def register(app: typer.Typer) -> None:
         from daebench.harness import compare as C
         from daebench.cli import textout
         from daebench.cli.common import load_scene_or_exit, fail, out as say
+        from daebench.harness import digest as D, recommend as Rec
+        from daebench.harness.runner import results_dir
 
         sc = load_scene_or_exit(case, set_)
+        folder = Path(out) if out is not None else results_dir() / "compare" / f"{sc.name}-{sc.hash[:8]}"
+        previous = D.previous_table(folder / "table.parquet")   # the last comparison: its digests
         t0 = time.perf_counter()
         try:
-            res = C.run_compare(sc, jobs=jobs, out=out, reference=reference, run_cap=run_cap, progress=True)
+            res = C.run_compare(sc, jobs=jobs, out=folder, reference=reference, run_cap=run_cap, progress=True)
         except ParamError as exc:
             fail(str(exc))
         if json_out:
@@ -45,9 +50,15 @@ def register(app: typer.Typer) -> None:
                 say(line)
             for line in C.summary_lines(res):
                 say(line)
+            for line in Rec.compare_lines(res.table, C.measures_present(res.table, res.protocol.measures)):
+                say(line)
             say(f"written: {', '.join(str(p) for p in res.files if p.suffix in ('.png', '.csv'))}")
             say(f"wall time of the comparison: {time.perf_counter() - t0:.1f} s")
+        changed = D.mismatch_lines(previous, res.table)   # a run whose history differs from its last time
+        for line in changed:
+            sys.stderr.write(line + "\n")
         bad = res.table[res.table["status"].isin(("error", "timeout", "crashed"))]
         if len(bad):
             sys.stderr.write(f"{len(bad)} run(s) gave no verdict; see the 'message' column\n")
+        if len(bad) or changed:
             raise typer.Exit(1)
