@@ -27,8 +27,8 @@ def _hist(t, y):
 
 
 def test_trusted_span_and_digits_of_known_spreads():
-    """ref y = sin t on [0, 20]; the loose run errs by 1e-6 t (estimated 1e-7 t after the
-    tolerance ratio 10), the perturbed one by 1e-8 eᵗ. Range 2: e(t) = 1e-8 eᵗ passes
+    """ref y = sin t on [0, 20]; the loose run errs by 1e-6 t (estimated error 1e-7 t after
+    the tolerance ratio 10), the perturbed one by 1e-8 eᵗ. Range 2: 1e-8 eᵗ passes
     TRUST_REL·2 = 2e-4 at t = ln 2e4 = 9.903; trust_t is the sample before."""
     t = np.linspace(0.0, 20.0, 20001)
     y = np.sin(t)
@@ -42,8 +42,9 @@ def test_trusted_span_and_digits_of_known_spreads():
     # first window [0, 2]: max(1e-7·2, 1e-8·e²) = 2e-7 → −log10(2e-7 / 2) = 7
     assert acc["digits"]["windows"][0] == [0.0, 2.0]
     assert acc["digits"]["y"][0] == pytest.approx(7.0, abs=0.01)
-    # last window [18, 20]: 1e-8 e²⁰ / 2
-    assert acc["digits"]["y"][-1] == pytest.approx(-math.log10(1e-8 * math.exp(20.0) / 2.0), abs=0.01)
+    # last window [18, 20]: the estimate 1e-7·20 / 2; the sensitivity 1e-8 e²⁰ / 2
+    assert acc["digits"]["y"][-1] == pytest.approx(6.0, abs=0.01)
+    assert acc["digits_perturbed"]["y"][-1] == pytest.approx(-math.log10(1e-8 * math.exp(20.0) / 2.0), abs=0.01)
 
 
 def test_runs_that_agree_trust_the_whole_run_and_a_stopped_run_ends_it():
@@ -51,7 +52,8 @@ def test_runs_that_agree_trust_the_whole_run_and_a_stopped_run_ends_it():
     y = t**2
     acc = accuracy.assess(_hist(t, y), [], _hist(t, y), _hist(t, y + 1e-12), ["y"], 1.0)
     assert acc["trust_t"] == 1.0 and acc["trust_impacts"] == 0 and acc["trust_limited_by"] is None
-    assert acc["digits_final"]["y"] == pytest.approx(12.0, abs=0.01)
+    assert acc["digits_final"]["y"] == accuracy.DIGITS_CAP          # the loose run agrees exactly
+    assert acc["digits_perturbed"]["y"][-1] == pytest.approx(12.0, abs=0.01)
     stopped = accuracy.assess(_hist(t, y), [0.2, 0.9], _hist(t, y), _hist(t[:51], y[:51]), ["y"], 1.0)
     assert stopped["trust_t"] == pytest.approx(0.5) and stopped["trust_impacts"] == 1
 
@@ -84,24 +86,46 @@ def test_reference_sidecar_holds_the_accuracy_record(tmp_path, monkeypatch):
 
 
 # -- the IVP test-set references against the published digits -------------------------------------
-def _published_digits(case: str) -> tuple[dict[str, float], dict[str, float]]:
-    ref = references.compute_reference(load_scene(case))
-    return ivptest.reference_digits(case, ref.history), ref.meta["accuracy"]["digits_final"]
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("case", ["andrews", "crank", "caraxis"])
 def test_reference_matches_the_published_solution_to_nine_digits(case, tmp_path, monkeypatch):
-    """`daebench reference CASE` with its defaults: ≥ 9 significant digits in every position
-    component at t_end, and its own digit estimate within one digit of the true one
-    (or above 9 with the truth). Measured (rtol 1e-11): andrews ≥ …, crank ≥ 9.83
-    (q4), caraxis ≥ 11.1 (yr)."""
+    """`daebench reference CASE` with its defaults (DOP853 rtol 1e-11 on the index-1 ODE, its
+    loose and perturbed runs, the IDA check): ≥ 9 significant digits in every position
+    component at t_end against the published solution, and its own digit estimate within
+    one digit of its true digits — measured against the same solver 100× tighter, because
+    the published values are themselves the limit beyond ~10 digits (andrews: DOP853 at
+    rtol 1e-11, 1e-12, 1e-13 all give γ 9.56–9.68 against them, 10.18 against each other).
+    True digits above 12 count as 12 (the tighter run's own accuracy). Measured against the
+    published values: andrews ≥ 9.68 (γ), crank ≥ 9.83 (q4), caraxis ≥ 11.11 (yr); each
+    estimate within 0.6 digit of the truth (2–6 min each on a loaded machine)."""
+    from daebench.harness.runner import run_scene
+    from daebench.integrators.odeint import IndexOneODE
+
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
-    true, est = _published_digits(case)
-    print(f"\n{case}: digits vs published", {k: round(v, 2) for k, v in true.items()}, "estimated", est)
-    assert min(true.values()) >= 9.0
-    for k, d in true.items():
-        assert est[k] >= d - 1.0 or est[k] >= 9.0
+    sc = load_scene(case)
+    ref = references.compute_reference(sc)
+    published = ivptest.reference_digits(case, ref.history)
+    _, tight = run_scene(sc, IndexOneODE(rtol=1e-13), write=False, force=True)
+    a, b = ref.history.iloc[-1], tight.history.iloc[-1]
+    true = {c: float(-np.log10(max(abs(a[c] - b[c]) / abs(b[c]), 1e-17))) for c in published}
+    est = ref.meta["accuracy"]["digits_final"]
+    print(f"\n{case}: published", {k: round(v, 2) for k, v in published.items()},
+          "\n  true", {k: round(v, 2) for k, v in true.items()}, "\n  estimated", est)
+    assert min(published.values()) >= 9.0
+    for c, d in true.items():
+        assert min(d, 12.0) - 1.0 <= est[c] <= d + 1.0, (c, est[c], d)
+
+
+def test_andrews_reference_reaches_nine_digits_fast():
+    """The fast variant: the reference solver (DOP853 on the index-1 ODE, rtol 1e-11, atol
+    rtol × the declared scales) alone, no check runs, over andrews' whole 0.03 s: ≥ 9 digits
+    in all seven angles against the published solution (measured ≥ 9.68)."""
+    from daebench.harness.runner import run_scene
+    from daebench.integrators.odeint import IndexOneODE
+
+    _, res = run_scene(load_scene("andrews"), IndexOneODE(rtol=1e-11), write=False, force=True)
+    assert res.status == "completed"
+    assert min(ivptest.reference_digits("andrews", res.history).values()) >= 9.0
 
 
 def test_errors_on_the_trusted_span_stop_at_trust_t():

@@ -12,13 +12,19 @@ itself makes is amplified by the dynamics — after impacts, by a different even
 Definitions (per scored observable c, reference history y(t), range R_c = max y − min y
 over the run):
 
-* estimated error e_c(t) = max(|y_loose(t) − y(t)| / LOOSE_FACTOR, |y_perturbed(t) − y(t)|)
-  at the reference's output times (the other runs interpolated linearly there): the loose
-  run's difference scaled by the tolerance ratio (a tolerance-proportional error), and the
-  perturbed run's difference as it is (NaN where a run stopped early);
-* estimated correct digits in a time window W: d_c(W) = −log10(max_{t∈W} e_c(t) / R_c),
-  capped at :data:`DIGITS_CAP` (a table of :data:`WINDOWS` equal windows × observables);
-* ``trust_t``: the last output time before the first one at which e_c(t) > :data:`TRUST_REL`
+* estimated error of the reference a_c(t) = |y_loose(t) − y(t)| / LOOSE_FACTOR at its
+  output times (the loose run interpolated linearly there; NaN where it stopped early):
+  the loose run's difference scaled by the tolerance ratio (a tolerance-proportional
+  error). Measured against runs 100× tighter it is right to ±0.6 digit (andrews, caraxis:
+  tests/test_reference_accuracy.py);
+* sensitivity p_c(t) = |y_perturbed(t) − y(t)|: where a start moved by 10 × rtol ends up.
+  It is not an error estimate — on a smooth, neutrally stable run it stays at the size of
+  the perturbation (caraxis: 10.1 digits where the reference has 11.1–13.7) — but after an
+  impact whose sequence the perturbation changes it jumps to the size of the solution;
+* estimated correct digits in a time window W: d_c(W) = −log10(max_{t∈W} a_c(t) / R_c),
+  capped at :data:`DIGITS_CAP` (a table of :data:`WINDOWS` equal windows × observables;
+  the same table of p_c is ``digits_perturbed``);
+* ``trust_t``: the last output time before the first one at which max(a_c, p_c) > :data:`TRUST_REL`
   × R_c for some scored observable c (``t_end`` if there is none). On [0, trust_t] every
   scored observable of the reference is right to TRUST_REL of its range, far below the
   errors the harness scores (fixed-step runs: 1e-3 … 1e-1 of the range); after it the
@@ -105,13 +111,15 @@ def assess(ref: pd.DataFrame, ref_impacts: Sequence[float], loose: pd.DataFrame,
     dict
         ``trust_t`` [s], ``trust_impacts``, ``trust_limited_by`` (the observable whose
         spread first exceeds the threshold, or None), ``trust_rel`` (the threshold),
-        ``ranges`` {c: R_c}, ``digits`` {"windows": [[t0, t1], …], c: [digits per
-        window]}, ``digits_final`` {c: digits of the value at t_end relative to |y(t_end)|
-        (the IVP test set's significant digits)}.
+        ``ranges`` {c: R_c}, ``digits`` {"windows": [[t0, t1], …], c: [d_c per window]},
+        ``digits_perturbed`` (the same for p_c), ``digits_final`` {c: −log10(a_c(t_end) /
+        |y(t_end)|), the IVP test set's significant digits}.
     """
     cols = [c for c in columns if c in ref.columns]
     ranges = observable_ranges(ref, cols)
     t, s = spreads(ref, [loose, perturbed], cols, [1.0 / loose_factor, 1.0])
+    _, acc = spreads(ref, [loose], cols, [1.0 / loose_factor])
+    _, sens = spreads(ref, [perturbed], cols)
     first = len(t)
     limited_by = None
     for c in cols:
@@ -122,18 +130,19 @@ def assess(ref: pd.DataFrame, ref_impacts: Sequence[float], loose: pd.DataFrame,
             first, limited_by = int(bad[0]), c
     trust_t = float(t_end) if first >= len(t) else float(t[max(first - 1, 0)])
     edges = np.linspace(0.0, float(t_end), windows + 1)
-    table: dict[str, Any] = {"windows": [[float(a), float(b)] for a, b in zip(edges[:-1], edges[1:])]}
-    for c in cols:
-        row = []
-        for a, b in zip(edges[:-1], edges[1:]):
-            k = (t >= a) & (t <= b)
-            row.append(round(digits(s[c][k], ranges[c]), 2))
-        table[c] = row
+
+    def table(e: dict[str, np.ndarray]) -> dict[str, Any]:
+        out: dict[str, Any] = {"windows": [[float(a), float(b)] for a, b in zip(edges[:-1], edges[1:])]}
+        for c in cols:
+            out[c] = [round(digits(e[c][(t >= a) & (t <= b)], ranges[c]), 2) for a, b in zip(edges[:-1], edges[1:])]
+        return out
+
     final = _unique(ref).iloc[-1]
-    dfinal = {c: round(digits(s[c][-1:], abs(float(final[c]))), 2) for c in cols}
+    dfinal = {c: round(digits(acc[c][-1:], abs(float(final[c]))), 2) for c in cols}
     return {"trust_t": trust_t, "trust_impacts": int(sum(1 for x in ref_impacts if x <= trust_t)),
-            "trust_limited_by": limited_by, "trust_rel": TRUST_REL, "ranges": ranges, "digits": table,
-            "digits_final": dfinal, "loose_factor": loose_factor, "perturb_factor": PERTURB_FACTOR}
+            "trust_limited_by": limited_by, "trust_rel": TRUST_REL, "ranges": ranges, "digits": table(acc),
+            "digits_perturbed": table(sens), "digits_final": dfinal, "loose_factor": loose_factor,
+            "perturb_factor": PERTURB_FACTOR}
 
 
 def _project(system: Any, t: float, q: np.ndarray, v: np.ndarray, sq: np.ndarray,
@@ -229,12 +238,17 @@ def summary_lines(meta: dict[str, Any], impacts: Sequence[float], t_end: float) 
     table = acc.get("digits", {})
     cols = [c for c in table if c != "windows"]
     if cols:
-        lines.append("estimated correct digits (spread / range) per time window:")
+        lines.append("estimated correct digits (loose run's difference / 10, of the range) per time window:")
         lines.append("  window [s]          " + " ".join(f"{c[:10]:>10s}" for c in cols))
         for k, (a, b) in enumerate(table["windows"]):
             lines.append(f"  {a:8.4g} – {b:<8.4g} " + " ".join(f"{table[c][k]:10.1f}" for c in cols))
         fin = acc.get("digits_final", {})
         lines.append("  at t_end (relative) " + " ".join(f"{fin.get(c, math.nan):10.1f}" for c in cols))
+    sens = acc.get("digits_perturbed", {})
+    if cols and sens:
+        lines.append("sensitivity: the perturbed start's difference in digits of the range, per window:")
+        for k, (a, b) in enumerate(sens["windows"]):
+            lines.append(f"  {a:8.4g} – {b:<8.4g} " + " ".join(f"{sens[c][k]:10.1f}" for c in cols))
     return lines
 
 
