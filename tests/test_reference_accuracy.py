@@ -95,9 +95,10 @@ def test_reference_matches_the_published_solution_to_nine_digits(case, tmp_path,
     one digit of its true digits — measured against the same solver 100× tighter, because
     the published values are themselves the limit beyond ~10 digits (andrews: DOP853 at
     rtol 1e-11, 1e-12, 1e-13 all give γ 9.56–9.68 against them, 10.18 against each other).
-    True digits above 12 count as 12 (the tighter run's own accuracy). Measured against the
-    published values: andrews ≥ 9.68 (γ), crank ≥ 9.83 (q4), caraxis ≥ 11.11 (yr); each
-    estimate within 0.6 digit of the truth (2–6 min each on a loaded machine)."""
+    Beyond 12 true digits the comparison resolves nothing (the tighter run's own accuracy):
+    there the estimate need only be ≥ 11. Measured against the published values: andrews
+    ≥ 9.68 (γ), crank ≥ 9.83 (q4), caraxis ≥ 11.11 (yr); estimate − truth below 12 digits:
+    andrews ≤ +0.55 (γ), crank ≤ +0.11, caraxis ≤ 0.19 (2–6 min each on a loaded machine)."""
     from daebench.harness.runner import run_scene
     from daebench.integrators.odeint import IndexOneODE
 
@@ -113,7 +114,7 @@ def test_reference_matches_the_published_solution_to_nine_digits(case, tmp_path,
           "\n  true", {k: round(v, 2) for k, v in true.items()}, "\n  estimated", est)
     assert min(published.values()) >= 9.0
     for c, d in true.items():
-        assert min(d, 12.0) - 1.0 <= est[c] <= d + 1.0, (c, est[c], d)
+        assert (abs(est[c] - d) <= 1.0) if d < 12.0 else (est[c] >= 11.0), (c, est[c], d)
 
 
 def test_andrews_reference_reaches_nine_digits_fast():
