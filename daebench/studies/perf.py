@@ -47,7 +47,7 @@ import numpy as np
 from daebench.harness import provenance
 from daebench.harness.runner import results_dir, run_scene
 from daebench.models.scenes import load_scene
-from daebench.studies import coldstart, eventcapture
+from daebench.studies import coldstart, eventcapture, friction_perf
 from daebench.studies.perf_bounds import adaptive, resolution_bound
 from daebench.studies.perf_common import PUBLISHED_TABLE1_TOTAL_S, PerfSettings, _timed
 from daebench.studies.perf_peers import compiled_plugin, exudyn_compare
@@ -136,6 +136,8 @@ def run_perf(s: PerfSettings, out: str | Path | None = None) -> dict[str, Any]:
     save()
     if s.capture:
         res["capture"] = eventcapture.step_rates(t_end=s.rates_t_end, repeats=s.capture_repeats).to_dict("records")
+        save()
+        res["friction"] = friction_perf.friction_step_rates(repeats=s.capture_repeats).to_dict("records")
         save()
     if s.coldstart:
         res["coldstart"] = [c.__dict__ for c in coldstart.measure()]

@@ -58,6 +58,11 @@ def markdown(r: dict[str, Any]) -> str:
     if cap:
         L.append("   event-capturing vs event-driven, beam-impact N = 5, h = 1e-4 s: "
                  + ", ".join(f"{x['label']} {_f(x['steps_per_s'], '.0f')} steps/s" for x in cap))
+    fr = r.get("friction")
+    if fr:
+        L.append("   Coulomb friction against the same case with μ = 0, h = 1e-4 s (µs/step, friction/frictionless): "
+                 + "; ".join(f"{x['case']} {x['integrator']} {_f(x['us_per_step'])} ({_f(x['friction_over_frictionless'])}×)"
+                             for x in fr if x["mu"] > 0))
     cold = r.get("coldstart")
     if cold:
         L.append("   first run with an empty kernel cache: "
