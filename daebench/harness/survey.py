@@ -16,7 +16,8 @@ halved step costs about twice as much) fits the budget. The runs of rounds left 
 rows with status ``skipped-budget`` (not stored: ``--resume`` with a larger ``--budget``
 runs them). The time to compute a missing reference is not counted. A single run is
 capped (``timeout`` row) at ``run_cap``, by default the budget but at least
-:data:`MIN_RUN_CAP_S` (a cold numba compile alone takes 30–90 s).
+:data:`MIN_RUN_CAP_S` (a cold numba compile takes 30–90 s, minutes on a loaded machine;
+a worker killed while compiling leaves nothing in the cache, so the next run compiles again).
 
 **Resumable.** Each case's rows go to its own row store
 (``results/survey/<name>/runs/<name>--<case>.rows.sqlite``,
@@ -54,7 +55,7 @@ LEVELS = 3                 # defaults and two halvings
 DEFAULT_BUDGET_S = 300.0   # per case
 QUICK_BUDGET_S = 30.0
 QUICK_REPEATS = 1          # --quick: one timed run after the warm-up (the full survey: the sweep's rule)
-MIN_RUN_CAP_S = 120.0     # default cap of one run: the budget, at least this (a cold compile takes 30-90 s)
+MIN_RUN_CAP_S = 600.0     # default cap of one run: the budget, at least this (a cold compile: 30-90 s, minutes under load)
 ROUND_GROWTH = 2.0         # predicted cost of the next round of halved steps / the last round's
 SKIPPED = "skipped-budget"
 #: measures a case's protocol does not declare are taken from these, in order, when present
