@@ -20,8 +20,9 @@ from typing import Any, Iterable, Mapping, Sequence
 
 from daebench.core.params import Param, ParamError, did_you_mean
 from daebench.harness import timing
+from daebench.integrators.base import DEFAULT_STEP
 
-STEP_PARAM = Param("h", float, 1e-4, "a fixed step size [s] in --steps", low=1e-12, high=1.0)
+STEP_PARAM = Param("h", float, DEFAULT_STEP, "a fixed step size [s] in --steps", low=1e-12, high=1.0)
 TOL_PARAM = Param("tol", float, 1e-6, "a tolerance in --tols", low=1e-14, high=1.0)
 REFERENCE_MODES = ("auto", "require", "compute", "none")
 
