@@ -210,3 +210,11 @@ def test_integrators_without_friction_are_refused_before_the_first_step():
     guards.check_contacts_fit(sc, get_integrator("moreau"))
     assert get_integrator("moreau").capabilities.friction and get_integrator("nsgenalpha").capabilities.friction
     assert not get_integrator("hht").capabilities.friction
+
+
+def test_driver_refuses_friction_for_an_integrator_without_it():
+    """The driver's own capability check (the API path, no harness guard): hht on a case
+    with μ > 0 is refused before the first step."""
+    sc = load_scene("block-incline")
+    with pytest.raises(IntegratorError, match=r"friction.*moreau"):
+        simulate(build_system(sc), get_integrator("hht")(h=1e-3), sc.t_end, sc["output.dt"])

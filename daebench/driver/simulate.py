@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 
 from daebench.core.contact import Impact
+from daebench.core.kernels import friction_coefficients
 from daebench.driver.events import ContactState, apply_event, find_event
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
@@ -99,7 +100,9 @@ class Driver:
                                                                        and system.n_contacts > 0
                                                                        and not integrator.capabilities.contacts),
                            integrator.adaptive, contacts_by_integrator=system.contacts_by_integrator,
-                           contact_law=None if law is None else law.name, n_contacts=system.n_contacts)
+                           contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
+                           friction=bool((friction_coefficients(system.kernel_data(), system.n_contacts,
+                                                                *system.initial_state()) > 0.0).any()))
         # contacts the driver treats (none when the integrator resolves them itself)
         mine = law is not None and system.n_contacts > 0 and not integrator.capabilities.contacts
         self._constraint_contacts = mine and not law.continuous
