@@ -67,4 +67,5 @@ class NewmarkFamily(CompiledIntegrator):
                                  bool(s["reuse_jacobian"]))
 
     def workspace(self, n: int, m: int) -> _nm.NewmarkWork:
-        return _nm.workspace(n, m, bool(self.coefficients().ggl) and m > 0)
+        declared = getattr(self.problem.system, "sparsity", None)  # a model's Sparsity, if it declares one
+        return _nm.workspace(n, m, bool(self.coefficients().ggl) and m > 0, declared() if declared else None)

@@ -32,6 +32,7 @@ from typing import Callable
 import numpy as np
 
 from daebench.core.contact import contact_schema
+from daebench.core.linalg import Sparsity, band_order
 from daebench.models import _planar_imm, _planar_kernels as pk
 from daebench.models._planar_mesh import Mesh2D, assemble
 from daebench.core.params import Param
@@ -164,6 +165,7 @@ class PlanarBodies(KernelSystem):
         self.contact_law = CONTACT.law(scene, self.n_contacts)
         self.imm_radius = float(scene["imm.radius"]) or float(layout.imm_radius)
         self.coordinate_names = tuple(f"{c}{i}" for i in range(N) for c in "xy")
+        self._sparsity: Sparsity | None = None
 
     # -- what integrators may ask ---------------------------------------------------------
     def local_statics_module(self) -> ModuleType:
@@ -176,6 +178,22 @@ class PlanarBodies(KernelSystem):
         """The constant diagonal of M; the mass_force kernel accepts an M with no rows
         (force only) — what :mod:`daebench.integrators.central` relies on."""
         return self.data.mass
+
+    def sparsity(self) -> Sparsity:
+        """The structure of the iteration matrices (:class:`daebench.core.linalg.Sparsity`):
+        the stiffness couples nodes of an element only, so in the mesh's numbering (or its
+        reverse Cuthill–McKee order) the DOFs form a band; the floating frames' DOFs couple
+        with their whole body (θ depends on them) and form the border. M is diagonal and
+        constant."""
+        if self._sparsity is None:
+            K = self.K.tocoo()
+            nr, nc = K.row // 2, K.col // 2          # node blocks: all 2 × 2 components couple
+            rows = np.concatenate([2 * nr + a for a in (0, 1) for _ in (0, 1)])
+            cols = np.concatenate([2 * nc + b for _ in (0, 1) for b in (0, 1)])
+            border = np.array([2 * node + c for node in self.data.frame.ravel() for c in (0, 1)], np.int64)
+            order, bw = band_order(self.n, border, rows, cols)
+            self._sparsity = Sparsity(order, self.n - np.unique(border).size, bw, bw, 0, True)
+        return self._sparsity
 
     def node(self, body: str, i: int) -> int:
         """Global node number of node i of a body."""

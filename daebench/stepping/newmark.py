@@ -78,10 +78,11 @@ import numpy as np
 from numba import njit
 
 from daebench.core import phase
-from daebench.core.linalg import lu_solve
+from daebench.core.linalg import BorderedWork, bordered_solve, bordered_work, lu_solve
 from daebench.stepping import control, methods
 from daebench.stepping.methods import C_NEWTON, C_RES
-from daebench.stepping.newmark_matrix import ST_HOLD, ST_LU, ST_LUH, ST_PREV, factor, uses_hM, weights
+from daebench.stepping.newmark_matrix import (ST_BAND, ST_HOLD, ST_LU, ST_LUH, ST_PREV, factor, mass_row, uses_hM,
+                                             weights)
 
 NEWTON_RATE_REFRESH = 0.1    # contraction rate above which a reused iteration matrix is rebuilt
 NEWTON_RATE_DIVERGE = 2.0    # rate above which a fresh-matrix iteration is declared divergent
@@ -146,16 +147,30 @@ class NewmarkWork(NamedTuple):
     Cq: np.ndarray
     Cq2: np.ndarray
     FDv: np.ndarray
+    bw: BorderedWork    # factors through the model's declared structure (newmark_matrix.factor)
+    sp: np.ndarray      # int64[3]: structure declared, mass half-bandwidth (−1 dense), constant mass
+    M0: np.ndarray      # (0 × n): the mass_force argument "force only" (constant mass)
 
 
-def workspace(n: int, m: int, ggl: bool) -> NewmarkWork:
+def workspace(n: int, m: int, ggl: bool, sparsity=None) -> NewmarkWork:
+    """Scratch and history of one phase; ``sparsity`` (a
+    :class:`daebench.core.linalg.Sparsity` of the model) makes the iteration matrix
+    factorize through its bordered-banded structure and the residual skip M's zeros."""
     nx = n + m + (m if ggl else 0)
     mm = max(m, 1)
     e = np.empty
-    return NewmarkWork(np.zeros(4), e((nx, nx)), np.zeros(nx, np.int64), e(n), e(n), e(n), e(m), np.zeros(n),
+    if sparsity is None:
+        bw = bordered_work(np.zeros(0, np.int64), 0, 0, 0)
+        sp = np.array([0, -1, 0], np.int64)
+    else:
+        nb = int(sparsity.n_banded)
+        order = np.concatenate([np.asarray(sparsity.order, np.int64), np.arange(n, nx, dtype=np.int64)])
+        bw = bordered_work(order, nb, int(sparsity.kl), int(sparsity.ku))
+        sp = np.array([1, int(sparsity.mass_band), int(bool(sparsity.constant_mass))], np.int64)
+    return NewmarkWork(np.zeros(5), e((nx, nx)), np.zeros(nx, np.int64), e(n), e(n), e(n), e(m), np.zeros(n),
                        np.zeros(n), np.zeros(n), np.zeros(n), e(n), e(n), e(n), np.zeros(n), e(n), e(mm), e(mm),
                        e(mm), e(m), e(nx), e(nx), e(nx), e(nx), e((n, n)), e((n, n)), e((n, n)), e((n, n)),
-                       e((n, n)), e((mm, n)), e((mm, n)), e((mm, n)))
+                       e((n, n)), e((mm, n)), e((mm, n)), e((mm, n)), bw, sp, np.zeros((0, n)))
 
 
 @njit(cache=True)
@@ -165,6 +180,8 @@ def _start(meth, ws, ph, t, cur, cnt):
     w1, wm, wf = weights(meth)
     ws.st[:] = 0.0
     ws.acc[:] = cur.a
+    if ws.sp[2]:  # constant M: filled once here, the iterations ask for the force only
+        phase.mass_force(ph, t, cur.q, cur.v, ws.M, ws.Q)
     for i in range(n):
         ws.hM[i] = (wm - wf) * cur.a[i] if meth.accel_avg else wm * cur.a[i]
         ws.hF[i] = 0.0
@@ -242,6 +259,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     maxiter = meth.maxiter
     w1, wm, wf = weights(meth)
     hM_on = uses_hM(meth)
+    mb = ws.sp[1]
     t1 = t + h
     be, ga = meth.beta, meth.gamma
     bh2 = be * h * h
@@ -278,16 +296,17 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
             if m:
                 phase.constraints(ph, t1, x[:n], zeros, C, Cq, Ct, gam)
             _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va)
-            phase.mass_force(ph, t1, qa, va, M, Q)
+            phase.mass_force(ph, t1, qa, va, ws.M0 if ws.sp[2] else M, Q)
             cnt[C_RES] += 1
             finite = True
             for i in range(n):
+                j0, j1 = mass_row(mb, i, n)
                 s = 0.0
-                for j in range(n):
+                for j in range(j0, j1):
                     s += M[i, j] * aa[j]
                 s = s * w1
                 if hM_on:
-                    for j in range(n):
+                    for j in range(j0, j1):
                         s += M[i, j] * ws.hM[j]
                 ri = bh2 * (s - Q[i] + ws.hF[i])
                 for k in range(m):
@@ -314,7 +333,10 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
                 fresh = True
                 since = 0
             dx[:nx] = r[:nx]
-            lu_solve(ws.LU, ws.piv, dx[:nx])
+            if st[ST_BAND] != 0.0:
+                bordered_solve(ws.bw, dx[:nx])
+            else:
+                lu_solve(ws.LU, ws.piv, dx[:nx])
             cnt[C_NEWTON] += 1
             since += 1
             for i in range(nx):
@@ -375,12 +397,13 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     if meth.alpha_f != 0.0 and not meth.accel_avg:
         # F_{n+1} = (C_qᵀλ − Q)_{n+1} from the converged equations of motion (no extra force call)
         for i in range(n):
+            j0, j1 = mass_row(mb, i, n)
             s = 0.0
-            for j in range(n):
+            for j in range(j0, j1):
                 s += M[i, j] * aa[j]
             f = (-wf) * ws.F[i] - w1 * s
             if hM_on:
-                for j in range(n):
+                for j in range(j0, j1):
                     f -= M[i, j] * ws.hM[j]
             ws.F_new[i] = f
     err = 0.0

@@ -8,10 +8,11 @@ import math
 from numba import njit
 
 from daebench.core import phase
-from daebench.core.linalg import lu_factor
+from daebench.core.linalg import bordered_factor, bordered_fits, lu_factor
 from daebench.stepping.methods import C_JAC, C_LU
 
-ST_LU, ST_LUH, ST_PREV, ST_HOLD = range(4)  # ws.st: LU valid, h of the LU, previous step known, its h
+# ws.st: LU valid, h of the LU, previous step known, its h, the factors are bordered-banded (ws.bw)
+ST_LU, ST_LUH, ST_PREV, ST_HOLD, ST_BAND = range(5)
 
 
 @njit(cache=True, inline="always")
@@ -24,6 +25,15 @@ def weights(meth):
 @njit(cache=True, inline="always")
 def uses_hM(meth):
     return meth.alpha_m != 0.0 or meth.accel_avg
+
+
+@njit(cache=True, inline="always")
+def mass_row(mb, i, n):
+    """Columns j0 … j1 − 1 of row i of M that may be nonzero (all for mb < 0). Skipping
+    exact zeros leaves every sum bitwise unchanged."""
+    if mb < 0:
+        return 0, n
+    return max(0, i - mb), min(n, i + mb + 1)
 
 
 @njit(cache=True, no_cpython_wrapper=True)
@@ -85,7 +95,14 @@ def factor(meth, ws, ph, n, m, nx, t1, h, q, v, a, lt, bh2, cnt):
             if not math.isfinite(J[i, j]):
                 ws.st[ST_LU] = 0.0
                 return 4
-    info = lu_factor(J, ws.piv)
+    # through the model's declared structure when J keeps to it (a contact coupling nodes
+    # far apart in the numbering does not: dense LU for that matrix)
+    if ws.sp[0] != 0 and bordered_fits(J, ws.bw):
+        ws.st[ST_BAND] = 1.0
+        info = bordered_factor(J, ws.bw)
+    else:
+        ws.st[ST_BAND] = 0.0
+        info = lu_factor(J, ws.piv)
     if info > 0:
         ws.st[ST_LU] = 0.0
         return 5
