@@ -105,7 +105,9 @@ class RunOutput:
     energy_residual : max |E − E0 − W_nc + D_impacts| over the run [J]
     status, message : completed | diverged | failed, and why
     error : the whole-run errors against the case's exact solution or its cached reference,
-        when one exists ({'against': ..., 'err_<observable>_{final,max,l2}': ...}), else {}
+        when one exists ({'against': ..., 'err_<observable>_{final,max,l2}': ...}), else
+        {'against': None, 'why': ...}: no cached reference (with the command that makes one)
+        or a damaged one (what failed, and the fix)
     """
 
     scene: Scene
@@ -152,7 +154,9 @@ def _error(scene: Scene, hist: pd.DataFrame, impacts: Sequence[Any]) -> dict[str
     run = scoring.Run(scene, build_system(scene), hist, impacts, scoring.declared(scene.model))
     truth = scoring.truth(run, cached) if len(hist) else None
     if truth is None:
-        return {}
+        from daebench.harness.references import why_no_reference
+
+        return {"against": None, "why": why_no_reference(scene) if len(hist) else "the run wrote no output time"}
     scores = scoring.score(run, truth, (scoring.accuracy,))
     return {"against": truth.description, **{k: v for k, v in scores.items() if k.startswith("err_")}}
 
@@ -182,7 +186,9 @@ def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] |
     from daebench.harness.runner import make_integrator, run_scene
 
     sc = load_scene(scene, overrides)
-    integ = make_integrator(integrator, {**(settings or {}), **setting_kw})
+    from daebench.harness.inputs import mapping
+
+    integ = make_integrator(integrator, {**mapping(settings, "settings", '{"h": 1e-3}'), **setting_kw})
     bar = RunProgress(f"{sc.name} with {integ.name}", sc.t_end) if progress is True else None
     cb = bar if bar is not None else (progress if callable(progress) else None)
     if bar is not None:

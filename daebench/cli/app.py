@@ -31,7 +31,11 @@ def list_cmd() -> None:
     from daebench import api
     from daebench.core.scene import list_scenes
 
-    print_table(["case", "description"], [[n, d] for n, d in list_scenes()], "cases")
+    try:
+        cases = list_scenes()
+    except ParamError as exc:  # DAEBENCH_CASES pointing nowhere
+        fail(str(exc))
+    print_table(["case", "description"], [[n, d] for n, d in cases], "cases")
     out()
     rows = []
     for name, info in api.integrator_infos().items():
@@ -75,7 +79,7 @@ def show(name: str = typer.Argument(..., help="an integrator, a case name or a p
     from daebench.integrators.base import IntegratorError
     from daebench.models import build_system
     from daebench.core.params import did_you_mean
-    from daebench.core.scene import SceneError, list_scenes
+    from daebench.core.scene import SceneError, UnknownScene, list_scenes
     from daebench.models.scenes import load_scene
 
     try:
@@ -91,7 +95,7 @@ def show(name: str = typer.Argument(..., help="an integrator, a case name or a p
     try:
         sc = load_scene(name, set_)
     except SceneError as exc:
-        if str(exc).startswith("unknown scene"):
+        if isinstance(exc, UnknownScene):  # not 'unknown scene key' of a --set
             known = list(api.integrator_infos()) + [n for n, _ in list_scenes()]
             fail(f"'{name}' is neither an integrator nor a scene{did_you_mean(name.lower(), known)} "
                  f"Integrators and cases: `daebench list`.")
@@ -142,7 +146,7 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
         pairs.append(("constraints", f"max while closed |C| {c['C']:.2e} m, |Ċ| {c['Cdot']:.2e} m/s, "
                                      f"|C̈| {c['Cddot']:.2e} m/s²"))
     pairs.append(("work", ", ".join(f"{k} {v}" for k, v in r.counters.items())))
-    if r.error:
+    if r.error.get("against"):
         names = [k.removeprefix("err_").removesuffix("_max") for k in r.error
                  if k.startswith("err_") and k.endswith("_max")]
         points = [p for p in declared.positions if p.score_name in names]
@@ -153,8 +157,7 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
         pairs.append((f"error vs {r.error['against']} (max over the run{'; ' + units if units else ''})",
                       ", ".join(errs)))
     else:
-        pairs.append(("error", f"no exact solution or cached reference for this scene "
-                               f"(`daebench reference {r.scene.name}` makes one)"))
+        pairs.append(("error", f"no exact solution, and {r.error.get('why') or 'no cached reference'}"))
     absent = [o for o in r.scene.get("output.observables") or [] if o not in r.observables.columns]
     if absent:
         pairs.append(("not recorded", f"{', '.join(absent)} (scored observables of the scene that an effect "
@@ -190,7 +193,7 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
     # the reporter starts first: loading the modules and kernels of a first run is not silent
     with RunProgress(scene, None) as bar:
         from daebench import api
-        from daebench.harness.guards import RunTimeout, check_run_cap, resolve_integrator
+        from daebench.harness.guards import OutputWriteError, RunTimeout, check_run_cap, resolve_integrator
         from daebench.core.params import parse_pairs
 
         sc = load_scene_or_exit(scene, set_)
@@ -200,6 +203,8 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
             bar.retarget(f"{sc.name} with {resolve_integrator(integrator)}", sc.t_end)
             r = api.run(sc, integrator, settings=settings, write=True, out_dir=out_dir, run_cap=run_cap,
                         force=force, progress=bar)
+        except OutputWriteError as exc:  # the run finished; its file could not be written
+            fail(str(exc), 1)
         except ParamError as exc:
             fail(str(exc))
         except RunTimeout as exc:
@@ -250,10 +255,13 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
               force: bool = typer.Option(False, "--force", help="recompute even if cached")) -> None:
     """Compute (or show) the cached reference of a scene: its trusted span, digits and check run."""
     from daebench import api
+    from daebench.harness.guards import OutputWriteError
 
     sc = load_scene_or_exit(scene, set_)
     try:
         ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True)
+    except OutputWriteError as exc:
+        fail(str(exc), 1)
     except ParamError as exc:
         fail(str(exc))
     except RuntimeError as exc:
@@ -300,6 +308,7 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
     """Sweep integrators × grid × steps/tols on a scene; one scored row per run, stored as it finishes."""
     from daebench import api
     from daebench.harness import bench as B
+    from daebench.harness.guards import OutputWriteError
     from daebench.harness.options import Execution, Plan, Storage, Timing
     from daebench.core.params import parse_pairs
 
@@ -311,6 +320,8 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
         df = api.bench(sc, plan=plan, timing=Timing.for_repeats(repeats, run_cap),
                        storage=Storage(name=name, resume=resume, overwrite=overwrite),
                        execution=Execution(jobs=jobs, scheduler=scheduler, progress=True))
+    except OutputWriteError as exc:  # rows stored so far are kept; the message says how to finish
+        fail(str(exc), 1)
     except ParamError as exc:
         fail(str(exc))
     except B.SweepInterrupted as exc:

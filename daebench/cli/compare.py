@@ -32,6 +32,7 @@ def register(app: typer.Typer) -> None:
         from daebench.cli import textout
         from daebench.cli.common import load_scene_or_exit, fail, out as say
         from daebench.harness import digest as D, recommend as Rec
+        from daebench.harness.guards import OutputWriteError
         from daebench.harness.runner import results_dir
 
         sc = load_scene_or_exit(case, set_)
@@ -40,6 +41,12 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         try:
             res = C.run_compare(sc, jobs=jobs, out=folder, reference=reference, run_cap=run_cap, progress=True)
+        except OutputWriteError as exc:  # the work is done: show it, say what was not saved, exit 1
+            if getattr(exc, "result", None) is not None:
+                cols, rows = C.table_rows(exc.result.table, exc.result.headline)
+                for line in textout.table_lines(cols, rows, title=f"{sc.name}: {exc.result.protocol.why}"):
+                    say(line)
+            fail(str(exc), 1)
         except ParamError as exc:
             fail(str(exc))
         if json_out:

@@ -53,7 +53,8 @@ MAX_JOBS = 512
 
 
 class SweepInterrupted(KeyboardInterrupt):
-    """Ctrl-C during a sweep. ``table`` holds every finished row plus an ``interrupted``
+    """Ctrl-C (or SIGTERM, :func:`daebench.harness.executors.sigterm_as_interrupt`) during a
+    sweep. ``table`` holds every finished row plus an ``interrupted``
     row per unfinished run; ``path`` is the table written (None without a store)."""
 
     def __init__(self, table: pd.DataFrame, path: Path | None, name: str | None) -> None:
@@ -289,7 +290,7 @@ def run_specs(specs: Sequence[RunSpec], scene: Scene, execution: Execution = Exe
             executors.run_processes(todo, fn, jobs, on_row, make_row, on_running, backstop)
     except KeyboardInterrupt:
         df = sweepstore.assemble(list(rows.values()) + sweepstore.interrupted_rows(
-            specs, set(rows), scene, "the sweep was interrupted (Ctrl-C) before this run finished"))
+            specs, set(rows), scene, "the sweep was interrupted (Ctrl-C or SIGTERM) before this run finished"))
         raise SweepInterrupted(df, None, store.name if store is not None else None) from None
     finally:
         if bar is not None:

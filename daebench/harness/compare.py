@@ -164,6 +164,10 @@ def run_compare(scene: Scene, jobs: int = 2, out: str | Path | None = None, prog
 
     head = scoring.headline(scene)
     proto = (protocol or protocol_for(scene)).resolved(head.score_name)
+    folder = Path(out) if out is not None else results_dir() / "compare" / f"{scene.name}-{scene.hash[:8]}"
+    guards.ensure_writable_dir(folder, "compare folder (--out)",  # before any run: /dev/null, too long, read-only
+                               longest_name=f".wp-{scene.name}-{proto.measures[0] if proto.measures else 'e'}"
+                                            f".svg.{'9' * 7}.tmp")
     specs, refused = plan(scene, proto)
     if not specs:
         raise ParamError(f"no integrator applies to scene '{scene.name}': "
@@ -182,8 +186,13 @@ def run_compare(scene: Scene, jobs: int = 2, out: str | Path | None = None, prog
     for _, r in df[gone].iterrows():
         refused.setdefault(r["integrator"], str(r["message"]))
     df = df[~gone].reset_index(drop=True)
-    folder = Path(out) if out is not None else results_dir() / "compare" / f"{scene.name}-{scene.hash[:8]}"
-    files = write(df, scene, proto, folder, refused, ref)
+    try:
+        files = write(df, scene, proto, folder, refused, ref)
+    except OSError as exc:  # a full disk after the work: the table still reaches the caller
+        err = guards.write_error(exc, "the comparison to", folder, "every run finished: the table is printed, "
+                                 "not saved (run again to save it)")
+        err.result = CompareResult(df, refused, [], proto, ref, head)
+        raise err from None
     return CompareResult(df, refused, files, proto, ref, head)
 
 

@@ -63,13 +63,14 @@ class Plan:
     force: bool = False
 
     def __post_init__(self) -> None:
-        names = self.integrators
-        names = [x.strip() for x in names.split(",")] if isinstance(names, str) else list(names)
-        object.__setattr__(self, "integrators", tuple(names))
+        from daebench.harness import inputs  # shapes of Python arguments: ParamError, never TypeError
+
+        object.__setattr__(self, "integrators", tuple(inputs.names(self.integrators)))
         object.__setattr__(self, "steps", _numbers(self.steps, "steps"))
         object.__setattr__(self, "tols", _numbers(self.tols, "tols"))
-        object.__setattr__(self, "grid", dict(self.grid or {}))
-        object.__setattr__(self, "options", dict(self.options or {}))
+        object.__setattr__(self, "grid", inputs.grid(self.grid))
+        object.__setattr__(self, "options", inputs.mapping(self.options, "options", '{"alpha": -0.1}'))
+        inputs.check_grid_against_modes(self.grid, self.steps, self.tols)
         if self.reference not in REFERENCE_MODES:
             raise SweepError(f"unknown reference mode '{self.reference}' ({', '.join(REFERENCE_MODES)})")
 

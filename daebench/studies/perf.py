@@ -47,7 +47,7 @@ import numpy as np
 from daebench.harness import provenance
 from daebench.harness.runner import results_dir, run_scene
 from daebench.models.scenes import load_scene
-from daebench.studies import coldstart, eventcapture, friction_perf
+from daebench.studies import coldstart, eventcapture, friction_perf, perf_structure
 from daebench.studies.perf_bounds import adaptive, resolution_bound
 from daebench.studies.perf_common import PUBLISHED_TABLE1_TOTAL_S, PerfSettings, _timed
 from daebench.studies.perf_peers import compiled_plugin, exudyn_compare
@@ -133,6 +133,10 @@ def run_perf(s: PerfSettings, out: str | Path | None = None) -> dict[str, Any]:
     res["exudyn"] = exudyn_compare(s) if s.exudyn else {"available": False, "note": "skipped"}
     save()
     res["plugin"] = compiled_plugin(s)
+    save()
+    res["fe_banded"] = perf_structure.fe_scaling()   # issue 21: banded vs dense, native vs sksundae IDA
+    save()
+    res["ida_backends"] = perf_structure.ida_backends()
     save()
     if s.capture:
         res["capture"] = eventcapture.step_rates(t_end=s.rates_t_end, repeats=s.capture_repeats).to_dict("records")

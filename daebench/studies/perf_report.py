@@ -6,6 +6,7 @@ import math
 from typing import Any
 
 from daebench.harness import provenance
+from daebench.studies import perf_structure
 
 
 def _f(x, fmt=".3g"):
@@ -125,5 +126,6 @@ def markdown(r: dict[str, Any]) -> str:
             L.append(f"| {x['t0']:.4f}–{x['t1']:.4f} | {x['omega_top']:.0f}, {_f(x['amplitude_top'])} | "
                      f"{x['steps_min']:.0f} | {x['omega_top_100x']:.0f}, {_f(x['amplitude_top_100x'])} | "
                      f"{x['steps_min_100x']:.0f} | {_f(x['amplitude_max'])} |")
+    L += perf_structure.markdown(r.get("fe_banded"), r.get("ida_backends"))
     L.append(provenance.markdown_footer(r["provenance"]))
     return "\n".join(L) + "\n"
