@@ -140,3 +140,23 @@ def test_errors_on_the_trusted_span_stop_at_trust_t():
     assert on["err_y_max"] == pytest.approx(1e-3, rel=1e-6) and on["err_y_final"] == pytest.approx(1e-3, rel=1e-6)
     stopped = accuracy.trusted_errors(run[run.t <= 3.0], ref, [], 5.0, ["y"])
     assert math.isnan(stopped["err_y_max"])
+
+
+def test_every_scored_row_carries_the_trusted_span():
+    """scoring.score against a reference with trust_t = 5 (of 10): the row has trust_t,
+    trust_impacts and the errors on [0, 5] (1e-3) beside the whole-run ones (1)."""
+    from types import SimpleNamespace
+
+    from daebench.harness import scoring
+
+    tr_t = np.linspace(0.0, 10.0, 2001)
+    t = np.linspace(0.0, 10.0, 101)
+    ref = pd.DataFrame({"t": tr_t, "y": np.sin(tr_t)})
+    hist = pd.DataFrame({"t": t, "y": np.sin(t) + np.where(t <= 5.0, 1e-3, 1.0)})
+    scene = SimpleNamespace(get=lambda key, default=None: ["y"] if key == "output.observables" else default)
+    run = scoring.Run(scene, None, hist)
+    truth = scoring.Truth(ref, (), "reference", 1e-11, trust_t=5.0, trust_impacts=0)
+    row = scoring.score(run, truth, (scoring.accuracy, scoring.trusted))
+    assert row["trust_t"] == 5.0 and row["trust_impacts"] == 0
+    assert row["err_y_max_trusted"] == pytest.approx(1e-3, rel=1e-6)
+    assert row["err_y_max"] == pytest.approx(1.0, rel=1e-6)

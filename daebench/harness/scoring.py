@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from daebench.core.observables import Observable, Observables, Position
+from daebench.harness import accuracy as refaccuracy
 from daebench.harness import eventseq, graphdist, impact_metrics, metrics, oracle
 from daebench.core.params import ParamError
 from daebench.models import MODELS, get_model
@@ -81,6 +82,10 @@ class Truth:
     impacts: tuple[float, ...] = ()
     against: str = "reference"
     rtol: float = math.nan        # the reference's IDA rtol (NaN for an exact solution)
+    #: the span [0, trust_t] on which the truth is trusted (daebench.harness.accuracy) and its
+    #: impacts there; an exact solution: its whole span; a reference without an accuracy record: NaN, -1
+    trust_t: float = math.nan
+    trust_impacts: int = -1
 
     @property
     def description(self) -> str:
@@ -126,12 +131,14 @@ def exact_truth(run: Run) -> Truth | None:
     if not set(run.scored_columns()) <= set(cols):
         return None
     return Truth(pd.DataFrame({"t": t, **{k: np.asarray(v, float) for k, v in cols.items()}}),
-                 (), "exact solution")
+                 (), "exact solution", trust_t=float(t[-1]), trust_impacts=0)
 
 
 def reference_truth(ref: Any) -> Truth:
     """A cached reference (:class:`daebench.harness.references.Reference`) as a truth."""
-    return Truth(ref.history, tuple(float(x) for x in ref.impacts), "reference", float(ref.rtol))
+    acc = ref.meta.get("accuracy") or {}
+    return Truth(ref.history, tuple(float(x) for x in ref.impacts), "reference", float(ref.rtol),
+                 float(acc.get("trust_t", math.nan)), int(acc.get("trust_impacts", -1)))
 
 
 def truth(run: Run, reference: Callable[[], Any] | None) -> Truth | None:
@@ -163,10 +170,24 @@ def impacts(run: Run, tr: Truth) -> dict[str, Any]:
                                         restitution(run.system), run.declared)
 
 
+def trusted(run: Run, tr: Truth) -> dict[str, Any]:
+    """``trust_t``, ``trust_impacts`` of the truth and the errors of every scored observable
+    on [0, trust_t] (:func:`daebench.harness.accuracy.trusted_errors`), named
+    ``err_<obs>_{final,max,l2}_trusted`` (none without a trusted span: a reference computed
+    without its accuracy record)."""
+    out: dict[str, Any] = {"trust_t": tr.trust_t, "trust_impacts": tr.trust_impacts}
+    if math.isfinite(tr.trust_t):
+        errs = refaccuracy.trusted_errors(run.history, tr.history, tr.impacts, tr.trust_t,
+                                          run.scored_columns() or None, declared=run.declared)
+        out.update({f"{k}_trusted": v for k, v in errs.items()})
+    return out
+
+
 #: every measure of a run against its truth, in column order (see the module docstring)
 #: (event sequence classified, the exact impact oracle, the graph distance: issue 22 items 4-6)
-MEASURES: tuple[Callable[[Run, Truth], dict[str, Any]], ...] = (accuracy, events, impacts, eventseq.measure,
-                                                                oracle.measure, graphdist.measure)
+MEASURES: tuple[Callable[[Run, Truth], dict[str, Any]], ...] = (accuracy, trusted, events, impacts,
+                                                                eventseq.measure, oracle.measure,
+                                                                graphdist.measure)
 
 
 def score(run: Run, tr: Truth | None,
