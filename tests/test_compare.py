@@ -50,7 +50,7 @@ def test_compare_scores_every_row_and_writes_table_and_figure(tmp_path, monkeypa
         assert r["err_pos_max"] == pytest.approx(run.error["err_pos_max"], rel=1e-12)
     assert (tmp_path / "cmp" / "table.csv").exists() and (tmp_path / "cmp" / "wp-pendulum.png").exists()
     cols, rows = C.table_rows(df, res.headline)
-    assert len(rows) == 2 and cols[0] == "run" and cols[4] == "θ err[°]"
+    assert len(rows) == 2 and cols[0] == "run" and cols[4] == "θ trusted[°]"
 
 
 def test_fingerprint_refuses_a_reference_that_disagrees(monkeypatch):

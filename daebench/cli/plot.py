@@ -22,8 +22,9 @@ def _fail(msg: str) -> None:
 @plot_app.command("wp")
 def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv)"),
             x: str = typer.Option("wall_s", "--x", help="cost column (wall_s, cpu_s, steps, ...)"),
-            y: str = typer.Option("err_theta_max", "--y",
-                                  help="error column(s), comma-separated for one panel each: err_theta_max (whole "
+            y: str = typer.Option("err_theta_max_trusted", "--y",
+                                  help="error column(s), comma-separated for one panel each: err_theta_max_trusted "
+                                       "(over the reference's trusted span [0, trust_t]), err_theta_max (whole "
                                        "run), err_pre_theta_max (before the 1st impact), err_impact1_t, "
                                        "err_win_theta_max (re-synchronised windows), impact_loss_dev_max, "
                                        "energy_resid_max, …"),
