@@ -187,3 +187,188 @@ def test_baumgarte_energy_blow_up_is_diverged():
     sc = load_scene("beam-impact", ["t_end=0.45", "discretization.n=5"])
     rec, res = run_scene(sc, "baumgarte", {"h": 5e-5}, write=False)
     assert rec.status == "diverged", (rec.status, rec.energy_residual)
+
+
+# ---- issue 24: names, numbers, files, environment, the Python API ------------------------------
+def _scene_file(folder, name_line: str) -> str:
+    p = folder / "x.toml"
+    p.write_text(f'model = "pendulum"\n{name_line}\nt_end = 0.05\n')
+    return str(p)
+
+
+@pytest.mark.parametrize("name, fragment", [
+    ("/etc/passwd", "contains a path"),
+    ("../../escape", "contains a path"),
+    ("a/b", "contains a path"),
+    ("-rf", "starts with '.' or '-'"),
+    (".hidden", "starts with '.' or '-'"),
+    ("x" * 300, "300 characters long, more than 100"),
+])
+def test_a_scene_name_is_a_file_name_stem(tmp_path, name, fragment):
+    """Item 1: `name` went unsanitised into file paths (`/etc/passwd-hht-….csv` was
+    written). Refused from the file and from --set, before anything runs; nothing is written
+    anywhere (the output folder stays empty, and no file appears outside it)."""
+    out = tmp_path / "out"
+    before = set(tmp_path.parent.iterdir())
+    refused(["run", _scene_file(tmp_path, f'name = "{name}"'), "-i", "hht", "--opt", "h=1e-2", "--out", str(out)],
+            fragment)
+    refused(P + ["--opt", "h=1e-2", "--set", f"name={name}", "--out", str(out)], fragment)
+    assert "a scene name is a plain file-name stem" in runner.invoke(app, P + ["--set", f"name={name}"]).output
+    assert not out.exists() or not any(out.iterdir())
+    assert set(tmp_path.parent.iterdir()) == before
+    assert not (tmp_path.parent.parent / "escape-hht").exists()
+
+
+def test_set_name_renames_the_history(tmp_path):
+    """`--set name=…` was accepted and ignored; it now names the history file."""
+    r = runner.invoke(app, P + ["--opt", "h=1e-2", "--set", "t_end=0.05", "--set", "name=renamed", "--out",
+                                str(tmp_path / "out")])
+    assert r.exit_code == 0, r.output
+    files = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert len(files) == 2 and all(f.startswith("renamed-hht-") for f in files), files
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (P + ["--opt", "h=1_0e-3"], "no '_' in numbers"),
+    (P + ["--set", "t_end=1_0"], "no '_' in numbers"),
+    (["run", "pendulum", "-i", "ida", "--opt", "h=1e-3"], "setting 'h' = 0.001 would be ignored"),
+    (["run", "pendulum", "-i", "ida", "--opt", "h_contact=1e-6"], "would be ignored"),
+    (["run", "/dev/zero"], "not a regular file"),
+    (["show", "beam-impact", "--keys", "--set", "bogus=1"], "unknown scene key 'bogus'"),
+])
+def test_issue24_inputs_refused(args, fragment):
+    """Items 9, 12, 15: '1_0e-3' was read as 0.01; `h` was accepted and shown for IDA, which
+    ignores it; `run /dev/zero` read until memory ran out; `show SCENE --set bogus=1` said
+    the scene was neither an integrator nor a scene."""
+    refused(args, fragment)
+
+
+def test_show_set_typo_names_the_key_not_the_scene():
+    r = runner.invoke(app, ["show", "beam-impact", "--keys", "--set", "bogus=1"])
+    assert "neither an integrator nor a scene" not in r.output
+
+
+def test_a_utf8_bom_is_accepted(tmp_path):
+    p = tmp_path / "bom.toml"
+    p.write_bytes(b"\xef\xbb\xbf" + b'model = "pendulum"\nt_end = 0.05\n')
+    r = runner.invoke(app, ["run", str(p), "-i", "hht", "--opt", "h=1e-2", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "bom with integrator hht" in r.output
+
+
+def test_cases_folder_that_does_not_exist_is_an_error(monkeypatch, tmp_path):
+    """`DAEBENCH_CASES=/nonexistent daebench list` showed no cases and exited 0."""
+    monkeypatch.setenv("DAEBENCH_CASES", str(tmp_path / "nonexistent"))
+    refused(["list"], "is not a folder")
+    refused(["run", "pendulum"], "is not a folder")
+
+
+def test_an_oversized_scene_file_is_refused_without_reading_it(tmp_path):
+    p = tmp_path / "big.toml"
+    with open(p, "wb") as fh:
+        fh.truncate(50 << 20)            # sparse: 50 MB of zeros
+    refused(["run", str(p)], "larger than a scene file can be")
+
+
+API_BAD = [
+    ("run", (None,), {}), ("run", (123,), {}), ("run", ({"model": "pendulum"},), {}),
+    ("run", ("pendulum", "hht"), {"overrides": {1: 2}}), ("run", ("pendulum", "hht"), {"settings": "h=1e-3"}),
+    ("run", ("pendulum", "hht"), {"out_dir": 123, "write": True, "h": 1e-2}),
+    ("bench", ("pendulum", None), {"steps": [1e-2], "write": False}),
+    ("bench", ("pendulum", ["hht"]), {"grid": {"alpha": 0.0}, "write": False}),
+    ("bench", ("pendulum", ["hht"]), {"options": "alpha=0", "write": False}),
+    ("reference", (None,), {}),
+    ("load_scene", (None,), {}), ("load_scene", ({"model": "pendulum"},), {}), ("load_scene", (b"",), {}),
+    ("load_scene", (42,), {}), ("load_scene", ("pendulum", 42), {}),
+]
+
+
+@pytest.mark.parametrize("fn, args, kw", API_BAD)
+def test_the_python_api_raises_param_error(fn, args, kw):
+    """Item 12: the README promises ParamError (a message with the fix) for bad input; these
+    raised plain TypeError/ValueError."""
+    import daebench
+    from daebench.core.params import ParamError
+
+    with pytest.raises(ParamError) as exc:
+        getattr(daebench, fn)(*args, **kw)
+    msg = str(exc.value)
+    assert any(w in msg for w in ("must", "e.g.", "Valid keys")), msg   # what is wrong and how to fix it
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["capture", "page", "-e", "nan"], "must be a finite number"),
+    (["capture", "page", "-e", "1.5"], "out of range [0, 1]"),
+    (["capture", "page", "--h", "inf"], "must be a finite number"),
+    (["capture", "page", "--steps", "1e-4,nan"], "must be a finite number"),
+    (["capture", "page", "--tols", "1_0e-6"], "no '_' in numbers"),
+    (["seed003", "chain", "--windows", "1e-3,nan"], "must be a finite number"),
+])
+def test_study_commands_refuse_bad_numbers(args, fragment):
+    """Item 15: `capture page -e nan` said 'should be ≤ 1' (NaN passed typer's range)."""
+    refused(args, fragment)
+
+
+def test_capture_page_shows_progress_and_can_run_again(monkeypatch, tmp_path):
+    """Item 16: the page ran 258 s with no output and could not be run twice (its table
+    existed). It now asks for progress bars and passes --resume/--overwrite to its sweeps."""
+    from daebench.core.params import ParamError
+    from daebench.studies import eventcapture
+
+    seen = {}
+
+    def fake(*args, **kw):
+        seen.update(kw)
+        raise ParamError("stop here")
+
+    monkeypatch.setattr(eventcapture, "compare", fake)
+    refused(["capture", "page", "--overwrite", "--out", str(tmp_path / "cap")], "stop here")
+    assert seen["progress"] is True and seen["overwrite"] is True and seen["resume"] is False
+    refused(["capture", "page", "--resume", "--out", str(tmp_path / "cap")], "stop here")
+    assert seen["resume"] is True
+
+
+def test_a_start_through_the_plane_is_refused(tmp_path):
+    """Item 9: beam-impact from θ = -30° starts 0.5 m through the plane; it ran and diverged
+    (9e5 J). Refused before the run, naming the gap and the fix; nothing written."""
+    refused(["run", "beam-impact", "-i", "hht", "--set", "start.theta_deg=-30", "--out", str(tmp_path / "o")],
+            "0.5 m through its surface")
+    refused(["bench", "beam-impact", "-i", "hht", "--steps", "1e-4", "--set", "start.theta_deg=-30",
+             "--reference", "none"], "a rigid contact cannot start violated")
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_contact_keys_with_contact_off_are_noted(tmp_path):
+    """Item 9: `effects.contact=false` with a contact law and restitution set was accepted
+    silently; the run goes ahead and a note says those keys change nothing."""
+    r = runner.invoke(app, ["run", "beam-impact", "-i", "hht", "--opt", "h=1e-3", "--set", "effects.contact=false",
+                            "--set", "contact.law=hertz", "--set", "contact.restitution=0.5", "--set", "t_end=0.01",
+                            "--set", "discretization.n=3", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert ("note: effects.contact = false, so contact.law, contact.restitution have no effect in this run"
+            in r.output), r.output
+
+
+@pytest.mark.parametrize("extra, fragment", [
+    (["--grid", "h=1e-3,2e-3"], "grid key 'h' is also set by --steps"),
+])
+def test_a_grid_key_that_steps_also_sets_is_refused(extra, fragment):
+    """Item 8: `--steps 1e-2 --grid h=1e-3,2e-3` made two runs, both at h = 0.01."""
+    refused(B + extra, fragment)
+    refused(["bench", "pendulum", "-i", "hht", "--tols", "1e-4", "--grid", "rtol=1e-3,1e-5", "--reference", "none"],
+            "grid key 'rtol' is also set by --tols")
+
+
+def test_the_run_summary_says_why_there_is_no_error_and_how_to_get_one(tmp_path):
+    """Items 13, 14: no reference → the exact command that makes one for *this* scene (with
+    the run's --set); the API's .error says why it has no errors."""
+    import daebench
+
+    r = runner.invoke(app, ["run", "beam-impact", "-i", "hht", "--opt", "h=1e-3", "--set", "t_end=0.002",
+                            "--set", "discretization.n=3", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    flat = " ".join(r.output.split())
+    assert ("`daebench reference beam-impact --set t_end=0.002 --set discretization.n=3` makes one" in flat
+            or "`daebench reference beam-impact --set discretization.n=3 --set t_end=0.002` makes one" in flat), flat
+    out = daebench.run("beam-impact", "hht", h=1e-3, overrides={"t_end": 0.002, "discretization.n": 3})
+    assert out.error["against"] is None and "no cached reference" in out.error["why"]
