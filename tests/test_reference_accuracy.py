@@ -79,7 +79,7 @@ def test_reference_sidecar_holds_the_accuracy_record(tmp_path, monkeypatch):
     acc = meta["accuracy"]
     assert acc["trust_t"] == pytest.approx(0.005) and acc["trust_impacts"] == 0
     assert ref.trust_span == (acc["trust_t"], 0)
-    assert accuracy.trust_span(sc) == ref.trust_span
+    assert references.trust_span(sc) == ref.trust_span
     assert set(acc["digits"]) == {"windows", *sc["output.observables"]}
     assert min(min(v) for k, v in acc["digits"].items() if k != "windows") >= 8.0
     assert meta["integrator"] == "ode-index1" and meta["agreement"]["status"] == "completed"

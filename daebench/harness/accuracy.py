@@ -41,7 +41,6 @@ from typing import Any, Sequence
 import numpy as np
 import pandas as pd
 
-from daebench.core.scene import Scene
 
 LOOSE_FACTOR = 10.0     # the loose run's tolerance / the reference's
 PERTURB_FACTOR = 10.0   # relative perturbation of the start / the reference's rtol
@@ -202,20 +201,6 @@ def with_start(system: Any, q: np.ndarray, v: np.ndarray) -> Any:
     """``system`` starting from (q, v) instead of its own start (this instance only)."""
     system.initial_state = lambda: (q.copy(), v.copy())
     return system
-
-
-def trust_span(scene: Scene) -> tuple[float, int]:
-    """(trust_t, trust_impacts) of the cached reference of ``scene`` (module docstring).
-
-    Raises
-    ------
-    daebench.harness.references.ReferenceMissing, ReferenceDamaged
-        No cached reference, or one without an accuracy record (computed by an older
-        daebench: recompute it with ``daebench reference NAME --force``).
-    """
-    from daebench.harness.references import load_reference
-
-    return load_reference(scene, mode="require").trust_span
 
 
 def summary_lines(meta: dict[str, Any], impacts: Sequence[float], t_end: float) -> list[str]:

@@ -315,3 +315,15 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
                         lambda p: provenance.write_sidecar(p, provenance.collect([scene]), **meta),
                         "the reference's sidecar", kept)
     return Reference(hist, impacts, meta, path)
+
+
+def trust_span(scene: Scene) -> tuple[float, int]:
+    """(trust_t, trust_impacts) of the cached reference of ``scene`` (module docstring).
+
+    Raises
+    ------
+    ReferenceMissing, ReferenceDamaged
+        No cached reference, or one without an accuracy record (computed by an older
+        daebench: recompute it with ``daebench reference NAME --force``).
+    """
+    return load_reference(scene, mode="require").trust_span
