@@ -80,3 +80,70 @@ def test_the_check_catches_an_upward_import(tmp_path):
 def test_each_layer_says_what_lives_there(pkg):
     doc = ast.get_docstring(ast.parse((PKG / pkg / "__init__.py").read_text()))
     assert doc and "import" in doc, f"daebench/{pkg}/__init__.py should say what lives there and what it may import"
+
+
+def module_graph(root: Path = PKG) -> dict[str, set[str]]:
+    """module → the daebench modules it imports (``from pkg import mod`` counts as ``pkg.mod``)."""
+    names = {".".join(p.relative_to(root.parent).with_suffix("").parts).removesuffix(".__init__")
+             for p in root.rglob("*.py")}
+    graph: dict[str, set[str]] = {}
+    for path in root.rglob("*.py"):
+        here = ".".join(path.relative_to(root.parent).with_suffix("").parts).removesuffix(".__init__")
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            mods = []
+            if isinstance(node, ast.Import):
+                mods = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
+                mods = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            for m in mods:
+                while m and m not in names:
+                    m = m.rpartition(".")[0]
+                if m and m != here and not here.startswith(m + ".") and m.count(".") > 0:
+                    edges.add(m)
+        graph[here] = {e for e in edges if not e.endswith("daebench")}
+    return graph
+
+
+def import_cycles(root: Path = PKG) -> list[list[str]]:
+    """The strongly connected groups of more than one module (Tarjan)."""
+    graph, index, low, stack, on, out = module_graph(root), {}, {}, [], set(), []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                out.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_circle_between_modules():
+    assert import_cycles() == []
+
+
+def test_the_circle_check_catches_a_circle(tmp_path):
+    fake = tmp_path / "daebench" / "harness"
+    fake.mkdir(parents=True)
+    (fake / "a.py").write_text("from daebench.harness import b\n")
+    (fake / "b.py").write_text("def f():\n    from daebench.harness.a import x\n")
+    (fake / "c.py").write_text("from daebench.harness import a\n")
+    assert import_cycles(tmp_path / "daebench") == [["daebench.harness.a", "daebench.harness.b"]]
