@@ -130,3 +130,17 @@ def test_recommendation_names_cheapest_runner_up_and_failures():
     assert "broken — diverged at h=0.01: step size underflow" in para
     # default targets: decades inside the pooled errors' quartiles
     assert recommend.default_targets(df, ["err_x_max"]) == {"err_x_max": [1e-4]}
+
+
+def test_steps_read_at_the_wall_time_point():
+    """Wall times out of step order (a loaded machine): the envelope is the wall time's,
+    and the steps come from the same two runs at the same point — not from an envelope of
+    their own."""
+    err = [1e-2, 1e-3, 1e-4]
+    wall = [2.0, 1.0, 4.0]           # the middle run timed fastest: the first run is dominated
+    steps = [100.0, 200.0, 400.0]
+    vals, kind = costs.reach_costs(err, [wall, steps], 10 ** -3.5)   # half way between runs 2 and 3
+    assert kind == "interpolated"
+    assert vals[0] == pytest.approx(2.0, rel=1e-12) and vals[1] == pytest.approx(math.sqrt(200 * 400), rel=1e-12)
+    vals, kind = costs.reach_costs(err, [wall, steps], 5e-3)          # the cheapest (by wall) run reaches it
+    assert kind == "bound" and vals == [1.0, 200.0]

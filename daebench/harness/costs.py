@@ -23,8 +23,10 @@ the steps at which its error on a chosen measure falls to a target τ.
 
 :func:`reach_table` applies the rule to every (case, setting, measure, target) of a
 scored sweep table and returns one row each: the column set ``reach_<cost>`` (e.g.
-``reach_wall_s``, ``reach_steps``), ``reach_kind``, ``reached`` and the setting's run
-summary (runs, completed, best error, the first failure's reason).
+``reach_wall_s``, ``reach_steps``: the envelope is that of the first cost column, and the
+others are read between the same two runs at the same point, :func:`reach_costs`),
+``reach_kind``, ``reached`` and the setting's run summary (runs, completed, best error,
+the first failure's reason).
 """
 
 from __future__ import annotations
@@ -48,23 +50,28 @@ def _positive_finite(x: np.ndarray) -> np.ndarray:
     return np.isfinite(x) & (x > 0.0)
 
 
-def envelope(err: Sequence[float], cost: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-    """The points of rule 1–2: finite positive (error, cost) pairs, sorted by cost, each
-    strictly more accurate than every cheaper one (ties in cost: the smaller error)."""
+def envelope_index(err: Sequence[float], cost: Sequence[float]) -> np.ndarray:
+    """Indices (into the runs given) of the points of rule 1–2: finite positive (error,
+    cost) pairs, sorted by cost, each strictly more accurate than every cheaper one (ties
+    in cost: the smaller error)."""
     e = np.asarray(err, float)
     c = np.asarray(cost, float)
     if e.shape != c.shape:
         raise ParamError(f"errors and costs must have one value per run; got {e.size} errors and {c.size} costs")
-    ok = _positive_finite(e) & _positive_finite(c)
-    e, c = e[ok], c[ok]
-    order = np.lexsort((e, c))
-    e, c = e[order], c[order]
+    idx = np.nonzero(_positive_finite(e) & _positive_finite(c))[0]
+    idx = idx[np.lexsort((e[idx], c[idx]))]
     keep, best = [], math.inf
-    for i in range(e.size):
+    for i in idx:
         if e[i] < best:
-            keep.append(i)
+            keep.append(int(i))
             best = e[i]
-    return e[keep], c[keep]
+    return np.asarray(keep, int)
+
+
+def envelope(err: Sequence[float], cost: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """The (error, cost) points of rule 1–2 (:func:`envelope_index`)."""
+    k = envelope_index(err, cost)
+    return np.asarray(err, float)[k], np.asarray(cost, float)[k]
 
 
 def _check_target(target: float) -> float:
@@ -111,6 +118,30 @@ def cost_to_reach(err: Sequence[float], cost: Sequence[float], target: float) ->
     le0, le1 = math.log(e[j - 1]), math.log(e[j])
     s = (math.log(tau) - le0) / (le1 - le0)          # in (0, 1): strictly between the two runs
     return float(math.exp((1.0 - s) * math.log(c[j - 1]) + s * math.log(c[j]))), "interpolated"
+
+
+def reach_costs(err: Sequence[float], costs: Sequence[Sequence[float]], target: float) -> tuple[list[float], str]:
+    """:func:`cost_to_reach` on the first cost column, and every other column read at the
+    same point: between the same two runs, at the same fraction of the log error (so that
+    the wall time and the steps of one answer come from the same runs)."""
+    tau = _check_target(target)
+    e = np.asarray(err, float)
+    cols = [np.asarray(c, float) for c in costs]
+    k = envelope_index(e, cols[0])
+    if k.size == 0:
+        return [math.nan] * len(cols), "no points"
+    hit = np.nonzero(e[k] <= tau)[0]
+    if hit.size == 0:
+        return [math.nan] * len(cols), "not reached"
+    j = int(hit[0])
+    if j == 0 or e[k[j]] == tau:
+        kind = "at a run" if e[k[j]] == tau else "bound"
+        return [float(c[k[j]]) for c in cols], kind
+    a, b = k[j - 1], k[j]
+    s = (math.log(tau) - math.log(e[a])) / (math.log(e[b]) - math.log(e[a]))
+    out = [float(math.exp((1.0 - s) * math.log(c[a]) + s * math.log(c[b])))
+           if c[a] > 0 and c[b] > 0 and math.isfinite(c[a]) and math.isfinite(c[b]) else math.nan for c in cols]
+    return out, "interpolated"
 
 
 def _first_failure(rows: pd.DataFrame) -> str:
@@ -212,12 +243,10 @@ def reach_table(df: pd.DataFrame, targets: Mapping[str, Sequence[float]],
             best = float(np.nanmin(err)) if err.size and np.isfinite(err).any() else math.nan
             for t in ts:
                 row = {**base, "measure": m, "target": _check_target(t), "best_err": best}
-                for i, c in enumerate(costs):
-                    cost = pd.to_numeric(done[c], errors="coerce").to_numpy(float)
-                    v, kind = cost_to_reach(err, cost, t) if err.size else (math.nan, "no points")
-                    row[f"reach_{c}"] = v
-                    if i == 0:
-                        row["reach_kind"] = kind
+                cols = [pd.to_numeric(done[c], errors="coerce").to_numpy(float) for c in costs]
+                vals, row["reach_kind"] = reach_costs(err, cols, t) if err.size else \
+                    ([math.nan] * len(costs), "no points")
+                row.update({f"reach_{c}": v for c, v in zip(costs, vals)})
                 row["reached"] = math.isfinite(row[f"reach_{costs[0]}"])
                 rows.append(row)
     cols = list(by) + ["integrator", "measure", "target"] + [f"reach_{c}" for c in costs] + \
