@@ -251,7 +251,7 @@ def trusted_errors(hist: pd.DataFrame, ref: pd.DataFrame, ref_impacts: Sequence[
         h = hist.iloc[:0]
     t_cut = float(h["t"].iloc[-1]) if len(h) else float(trust_t)
     r = ref[ref["t"] <= t_cut + tol]
-    if len(r) < 2:  # a span shorter than two reference rows has no comparable error
+    if len(r) < 2 and len(ref) >= 2:  # a span shorter than two reference rows has no comparable error
         r = ref[ref["t"] <= float(ref["t"].iloc[1]) + tol]
     return metrics.accuracy(h if len(h) else hist.iloc[:0], r, columns,
                             ref_impacts=[x for x in ref_impacts if x <= t_cut], **kwargs)
