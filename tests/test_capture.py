@@ -20,28 +20,17 @@ from daebench.integrators.base import get_integrator
 from daebench.models import build_system
 from daebench.models.ball import ball_impacts, exact_motion
 from daebench.models.scenes import load_scene
+from _driver_runs import cached_run, slope  # noqa: E402
 from daebench.driver.simulate import simulate
 
 STEPS = (1e-3, 5e-4, 2.5e-4, 1.25e-4)
 SWEEP = tuple(2e-3 * 1.5 ** -np.arange(8))   # 2e-3 … 1.2e-4: ratios that sample the impact phase
 H0, E_BALL, G = 1.0, 0.8, 9.81
-_RUNS: dict = {}
 
 
 def run(integrator: str, scene: str, overrides: dict | None = None, **settings):
     """Run through the driver (cached: several tests read the same runs)."""
-    key = (integrator, scene, tuple(sorted((overrides or {}).items())), tuple(sorted(settings.items())))
-    if key not in _RUNS:
-        sc = load_scene(scene, overrides or {})
-        system = build_system(sc)
-        res = simulate(system, get_integrator(integrator)(**settings), sc.t_end, sc["output.dt"])
-        assert res.status == "completed", res.message
-        _RUNS[key] = (res, system)
-    return _RUNS[key]
-
-
-def slope(h, err) -> float:
-    return float(np.polyfit(np.log(h), np.log(err), 1)[0])
+    return cached_run(integrator, scene, overrides, **settings)
 
 
 # -- the LCP solver -------------------------------------------------------------------------------
@@ -204,4 +193,4 @@ def test_capture_cli_registers_its_commands():
     r = CliRunner().invoke(app, ["capture", "--help"])
     assert r.exit_code == 0 and "page" in r.output and "rates" in r.output
     r = CliRunner().invoke(app, ["capture", "page", "beam-impact", "--steps", "1e-4,abc"])
-    assert r.exit_code == 2 and "comma-separated numbers" in r.output
+    assert r.exit_code == 2 and "'steps' must be a number, got 'abc'" in r.output

@@ -27,26 +27,15 @@ from daebench.models import build_system
 from daebench.models.rigid2d_exact import (housner_ratio, incline_motion, incline_stop, rocking_impact_omegas,
                                            rod_impact)
 from daebench.models.scenes import load_scene
+from _driver_runs import cached_run, slope  # noqa: E402
 
 STEPS = (1e-3, 5e-4, 2.5e-4)
 EXACT = {"moreau": 1e-12, "nsgenalpha": 1e-8}   # constant deceleration: exact up to round-off / Newton tolerance
 G = 9.81
-_RUNS: dict = {}
 
 
 def run(scene: str, overrides: dict | None = None, integrator: str = "moreau", **settings):
-    key = (scene, tuple(sorted((overrides or {}).items())), integrator, tuple(sorted(settings.items())))
-    if key not in _RUNS:
-        sc = load_scene(scene, overrides or {})
-        system = build_system(sc)
-        res = simulate(system, get_integrator(integrator)(**settings), sc.t_end, sc["output.dt"])
-        assert res.status == "completed", res.message
-        _RUNS[key] = (res, system)
-    return _RUNS[key]
-
-
-def slope(h, err) -> float:
-    return float(np.polyfit(np.log(h), np.log(err), 1)[0])
+    return cached_run(integrator, scene, overrides, **settings)
 
 
 # -- the LCP solver of the friction cone ------------------------------------------------------------
