@@ -140,3 +140,16 @@ def test_pipeline_measure():
     assert out["graph_q_worst"] == "x" and out["graph_v_worst"] == "v" and out["graph_time_scale"] == 1.0
     assert out["err_graph_q"] == pytest.approx(0.01, rel=1e-3)   # at the start: (0, 1.01) to the end point (0, 1)
     assert out["err_graph_v"] == pytest.approx(0.5, rel=1e-9)                        # constant: Y = max|v| = 1
+
+
+def test_reference_sampled_at_the_run_times():
+    """A tone the run's output rate does not resolve (1.8 kHz at 1 ms rows): the run equal to
+    the reference at its own times is 0 from the reference sampled at its times (the
+    comparison a sweep row makes), whatever the reference does between them."""
+    tf = np.linspace(0.0, 0.1, 2001)                       # 50 µs rows
+    ref = pd.DataFrame({"t": tf, "y": np.sin(2 * np.pi * 1800 * tf)})
+    run = ref.iloc[::20].reset_index(drop=True)            # 1 ms rows
+    assert gd.graph_errors(run, ref, ["y"], at_run_times=True)["err_graph_q"] < 1e-12
+    late = run.assign(y=np.sin(2 * np.pi * 1800 * (run["t"] - 1e-5)))
+    d = gd.graph_errors(late, ref, ["y"], at_run_times=True)["err_graph_q"]
+    assert 0.0 < d < 2 * np.pi * 1800 * 1e-5 / 2.0 + 1e-6      # |Δy| / Y ≤ ω·τ / range
