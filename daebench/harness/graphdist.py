@@ -207,6 +207,10 @@ def measure(run: Any, truth: Any) -> dict[str, Any]:
     scene's scored observables that the truth holds, split into position and velocity
     level by :func:`velocity_columns`, against the truth's history sampled at the run's
     output times (``at_run_times``: both graphs at one time resolution)."""
+    t = truth.history["t"].to_numpy(float)
+    if len(run.history) < 2 or len(t) < 2 or not t[-1] > t[0]:  # a run that stopped at its start has no graph
+        return {"graph_time_scale": math.nan, "err_graph_q": math.nan, "graph_q_worst": "",
+                "err_graph_v": math.nan, "graph_v_worst": "", "graph_resolution": math.nan}
     cols = [c for c in run.scene.get("output.observables") or []
             if c in run.history.columns and c in truth.history.columns]
     vel = velocity_columns(run.system, cols)
