@@ -38,7 +38,7 @@ segment across that interval) and a vibration only to its output rate. A sweep r
 run's output times** (``at_run_times``): both graphs then have the same resolution, and
 what remains is the run's error, not the output's. (Against the reference's own rows,
 beam-impact's run histories at 1 ms would sit ≥ 0.06 from it for any integrator: the
-reference itself sampled at 1 ms and moved by 0.1 ms is 0.064 (tip_w2) and 0.145 (ω)
+reference itself sampled at 1 ms and moved by 0.1 ms is 0.064 (the tip deflection) and 0.145 (the hub's angular velocity)
 away from its 50 µs rows: its 11 131 rad/s tone, period 0.56 ms, is not resolved at 1 ms.)
 Against an exact solution with its impacts as vertical segments (the tests), set
 ``output.dt`` ≤ h.
