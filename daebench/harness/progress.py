@@ -70,6 +70,9 @@ class _Ticker:
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join()
+        bar = getattr(self, "_bar", None)  # a subclass's rich bar on a terminal
+        if bar is not None:
+            bar.stop()
 
     def __enter__(self) -> Any:
         self.start()
@@ -122,11 +125,6 @@ class RunProgress(_Ticker):
             self._task = self._bar.add_task(self.label, total=self.t_end or 1.0)
             self._bar.start()
         super().start()
-
-    def stop(self) -> None:
-        super().stop()
-        if self._bar is not None:
-            self._bar.stop()
 
     def line(self, text: str) -> None:
         self._last_line = time.monotonic()
@@ -192,11 +190,6 @@ class SweepProgress(_Ticker):
             self._task = self._bar.add_task(self.title, total=self.total, waiting="")
             self._bar.start()
         super().start()
-
-    def stop(self) -> None:
-        super().stop()
-        if self._bar is not None:
-            self._bar.stop()
 
     def running(self, specs: list[Any]) -> None:
         self.waiting = [getattr(s, "label", str(s)) + _step(s) for s in specs]
