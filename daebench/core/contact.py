@@ -14,6 +14,11 @@ Laws
                 adhesion) and the clipped work is booked as dissipation.
 ``penalty``     F = k δ + c δ̇ (clipped at 0).
 
+Friction with the continuous laws: regularised Coulomb F_T = −μ F_N tanh(v_T / v_ε) along
+each penetrating contact's tangent row (μ and the row from the model's ``tangent``
+kernel; formula, Jacobian and power in :mod:`daebench.core.phase`). v_ε is the scene key
+``contact.friction_velocity`` (default :data:`FRICTION_VELOCITY`).
+
 The force formulas exist once, compiled, in :mod:`daebench.core.phase` (``law_force``);
 the Python methods here evaluate them.
 
@@ -34,13 +39,21 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from daebench.core.params import Param
+from daebench.core.params import Param, ParamError
 from daebench.core.phase import LAW_HERTZ, LAW_PENALTY, law_elastic, law_force, law_potential
 
 if TYPE_CHECKING:  # pragma: no cover
     from daebench.core.scene import Scene
 
 DAMPING_LAWS = ("lankarani-nikravesh", "hunt-crossley", "flores", "none")
+#: the driver's laws for contacts that close at the same instant (scene key contact.impact_law;
+#: daebench.driver.events): Newton's law for all at once (one LCP) or one contact after another
+IMPACT_LAWS = ("simultaneous", "sequential")
+#: default regularisation velocity v_ε of the compliant laws' Coulomb friction [m/s]: a held
+#: block creeps at v_ε artanh(|F|/(μ F_N)) — about 1 mm/s, small against the cases' speeds
+#: (m/s) — while the friction's time constant v_ε/(μ g) (≈ 3e-4 s at μ = 0.3) stays above
+#: the default step h = 1e-4 s, so explicit schemes are stable at it too
+FRICTION_VELOCITY = 1e-3
 APPROACH_SPEED_MIN = 1e-3  # m/s: the hysteresis factors scale as 1/v0; a grazing or resting
                            # contact (v0 → 0) gets the damping of a 1 mm/s impact instead of ∞
 
@@ -68,17 +81,21 @@ class ContactLaw:
     name = ""
     continuous = False
 
-    def __init__(self, restitution: float, n_contacts: int = 1):
+    def __init__(self, restitution: float, n_contacts: int = 1, friction_velocity: float = FRICTION_VELOCITY):
         self.restitution = float(restitution)
         self.n_contacts = int(n_contacts)
+        self.friction_velocity = float(friction_velocity)
+        if not (math.isfinite(self.friction_velocity) and self.friction_velocity > 0.0):
+            raise ParamError(f"friction regularisation velocity v_ε must be positive and finite, "
+                             f"got {friction_velocity!r} (scene key contact.friction_velocity)")
 
     def chi(self, approach_speed: np.ndarray) -> np.ndarray:
         """Hysteresis factor per contact for the episodes' approach speeds (0 where none)."""
         return np.zeros(self.n_contacts)
 
     def parameters(self) -> np.ndarray:
-        """[kind, K, exponent, c] as the compiled phase reads them (kind 0: no force)."""
-        return np.zeros(4)
+        """[kind, K, exponent, c, v_ε] as the compiled phase reads them (kind 0: no force)."""
+        return np.zeros(5)
 
     def force(self, g: np.ndarray, gdot: np.ndarray, engaged: np.ndarray | None = None,
               chi: np.ndarray | None = None) -> np.ndarray:
@@ -107,21 +124,28 @@ class ConstraintLaw(ContactLaw):
     name = "constraint"
     continuous = False
 
+    def __init__(self, restitution: float, n_contacts: int = 1, impact_law: str = "simultaneous"):
+        super().__init__(restitution, n_contacts)
+        if impact_law not in IMPACT_LAWS:
+            from daebench.core.params import ParamError
+            raise ParamError(f"contact.impact_law = {impact_law!r}: choose one of {', '.join(IMPACT_LAWS)}")
+        self.impact_law = impact_law
+
 
 class HertzLaw(ContactLaw):
     name = "hertz"
     continuous = True
 
     def __init__(self, restitution: float, stiffness: float, damping: str = "lankarani-nikravesh",
-                 exponent: float = 1.5, n_contacts: int = 1):
-        super().__init__(restitution, n_contacts)
+                 exponent: float = 1.5, n_contacts: int = 1, friction_velocity: float = FRICTION_VELOCITY):
+        super().__init__(restitution, n_contacts, friction_velocity)
         self.stiffness = float(stiffness)
         self.damping = damping
         self.exponent = float(exponent)
         hysteresis_factor(damping, restitution, 1.0)  # validate early
 
     def parameters(self) -> np.ndarray:
-        return np.array([LAW_HERTZ, self.stiffness, self.exponent, 0.0])
+        return np.array([LAW_HERTZ, self.stiffness, self.exponent, 0.0, self.friction_velocity])
 
     def chi(self, approach_speed: np.ndarray) -> np.ndarray:
         v0 = np.asarray(approach_speed, float)
@@ -135,18 +159,20 @@ class PenaltyLaw(ContactLaw):
     name = "penalty"
     continuous = True
 
-    def __init__(self, restitution: float, stiffness: float, damping_coefficient: float, n_contacts: int = 1):
-        super().__init__(restitution, n_contacts)
+    def __init__(self, restitution: float, stiffness: float, damping_coefficient: float, n_contacts: int = 1,
+                 friction_velocity: float = FRICTION_VELOCITY):
+        super().__init__(restitution, n_contacts, friction_velocity)
         self.stiffness = float(stiffness)
         self.damping_coefficient = float(damping_coefficient)
 
     def parameters(self) -> np.ndarray:
-        return np.array([LAW_PENALTY, self.stiffness, 1.0, self.damping_coefficient])
+        return np.array([LAW_PENALTY, self.stiffness, 1.0, self.damping_coefficient, self.friction_velocity])
 
 
 def make_contact_law(law: str, restitution: float, n_contacts: int = 1, *, hertz_stiffness: float = 0.0,
                      hertz_damping: str = "lankarani-nikravesh", hertz_exponent: float = 1.5,
-                     penalty_stiffness: float = 0.0, penalty_damping: float = 0.0) -> ContactLaw | None:
+                     penalty_stiffness: float = 0.0, penalty_damping: float = 0.0,
+                     friction_velocity: float = FRICTION_VELOCITY) -> ContactLaw | None:
     """The law a scene's ``contact.law`` names (None for ``complementarity``: no law, the
     contacts are left to an integrator that resolves them)."""
     if law == "complementarity":
@@ -154,9 +180,10 @@ def make_contact_law(law: str, restitution: float, n_contacts: int = 1, *, hertz
     if law == "constraint":
         return ConstraintLaw(restitution, n_contacts)
     if law == "hertz":
-        return HertzLaw(restitution, hertz_stiffness, hertz_damping, exponent=hertz_exponent, n_contacts=n_contacts)
+        return HertzLaw(restitution, hertz_stiffness, hertz_damping, exponent=hertz_exponent, n_contacts=n_contacts,
+                        friction_velocity=friction_velocity)
     if law == "penalty":
-        return PenaltyLaw(restitution, penalty_stiffness, penalty_damping, n_contacts)
+        return PenaltyLaw(restitution, penalty_stiffness, penalty_damping, n_contacts, friction_velocity)
     raise ValueError(f"unknown contact law '{law}' (one of {', '.join(CONTACT_LAWS)})")
 
 
@@ -170,8 +197,10 @@ LAW_MEANING = {
 }
 #: the one default set of the contact keys (a model overrides what differs for it)
 CONTACT_DEFAULTS: dict[str, Any] = {
-    "law": "constraint", "restitution": 0.0, "hertz_stiffness": 0.0, "hertz_exponent": 1.5,
+    "law": "constraint", "impact_law": "simultaneous", "restitution": 0.0, "hertz_stiffness": 0.0,
+    "hertz_exponent": 1.5,
     "hertz_damping": "lankarani-nikravesh", "penalty_stiffness": 0.0, "penalty_damping": 0.0, "friction": 0.0,
+    "friction_velocity": FRICTION_VELOCITY,
 }
 
 
@@ -184,6 +213,7 @@ class ContactSchema:
     hertz_rule: str = ""     # what contact.hertz_stiffness = 0 means ("": K must be > 0)
     exponent: bool = False   # declares contact.hertz_exponent
     friction: bool = False   # declares contact.friction
+    impact_law: bool = False  # declares contact.impact_law (the driver's law for simultaneous impacts)
 
     @property
     def params(self) -> list[Param]:
@@ -192,6 +222,10 @@ class ContactSchema:
                    f"{k} = {LAW_MEANING[k]}" for k in self.laws), choices=self.laws),
                Param("contact.restitution", float, d["restitution"],
                      "Newton coefficient of restitution e (constraint law, Hertz damping)", low=0.0, high=1.0)]
+        if self.impact_law:
+            out.append(Param("contact.impact_law", str, d["impact_law"], "constraint law, contacts closing at the "
+                             "same instant: simultaneous = Newton's law for all at once (one LCP); sequential = "
+                             "one contact after another", choices=IMPACT_LAWS))
         if "hertz" in self.laws:
             rule = f" (0: {self.hertz_rule})" if self.hertz_rule else ""
             out.append(Param("contact.hertz_stiffness", float, d["hertz_stiffness"], "Hertz stiffness K" + rule,
@@ -209,6 +243,11 @@ class ContactSchema:
         if self.friction:
             out.append(Param("contact.friction", float, d["friction"], "Coulomb friction coefficient μ",
                              low=0.0))
+            if "hertz" in self.laws or "penalty" in self.laws:
+                out.append(Param("contact.friction_velocity", float, d["friction_velocity"],
+                                 "regularisation velocity v_ε of the hertz/penalty laws' Coulomb friction "
+                                 "F_T = −μ F_N tanh(v_T/v_ε): a held contact creeps at ~v_ε", low=1e-9, high=1e3,
+                                 unit="m/s"))
         return out
 
     def check(self, scene: "Scene") -> None:
@@ -233,25 +272,31 @@ class ContactSchema:
         if n_contacts == 0:
             return None
         d = {k: scene.get(f"contact.{k}", v) for k, v in self.defaults.items()}
-        return make_contact_law(d["law"], d["restitution"], n_contacts,
+        out = make_contact_law(d["law"], d["restitution"], n_contacts,
                                 hertz_stiffness=d["hertz_stiffness"] or (hertz_stiffness or 0.0),
                                 hertz_damping=d["hertz_damping"], hertz_exponent=d["hertz_exponent"],
-                                penalty_stiffness=d["penalty_stiffness"], penalty_damping=d["penalty_damping"])
+                                penalty_stiffness=d["penalty_stiffness"], penalty_damping=d["penalty_damping"],
+                                friction_velocity=d["friction_velocity"])
+
+        if isinstance(out, ConstraintLaw):
+            out.impact_law = d["impact_law"] if d["impact_law"] in IMPACT_LAWS else out.impact_law
+        return out
 
 
 def contact_schema(laws: tuple[str, ...] = CONTACT_LAWS, *, hertz_rule: str = "", exponent: bool = False,
-                   friction: bool = False, **defaults: Any) -> ContactSchema:
+                   friction: bool = False, impact_law: bool = False, **defaults: Any) -> ContactSchema:
     """The contact keys of a model offering ``laws``: ``contact.law``, ``contact.restitution``,
     the Hertz keys if it offers ``hertz`` (``contact.hertz_exponent`` with ``exponent``),
     the penalty keys if it offers ``penalty``, ``contact.friction`` (Coulomb μ) with
-    ``friction``. ``defaults`` override :data:`CONTACT_DEFAULTS` by key (without the
+    ``friction``, ``contact.impact_law`` (simultaneous | sequential) with ``impact_law`` (and ``contact.friction_velocity``, the regularisation velocity v_ε, when
+    it also offers ``hertz`` or ``penalty``). ``defaults`` override :data:`CONTACT_DEFAULTS` by key (without the
     ``contact.`` prefix); ``hertz_rule`` says what the model does with
     ``contact.hertz_stiffness = 0`` (none: K must be > 0)."""
     unknown = [k for k in laws if k not in CONTACT_LAWS] + [k for k in defaults if k not in CONTACT_DEFAULTS]
     if unknown:
         raise ValueError(f"contact_schema: unknown law or key {unknown}; laws: {CONTACT_LAWS}, "
                          f"keys: {tuple(CONTACT_DEFAULTS)}")
-    return ContactSchema(tuple(laws), {**CONTACT_DEFAULTS, **defaults}, hertz_rule, exponent, friction)
+    return ContactSchema(tuple(laws), {**CONTACT_DEFAULTS, **defaults}, hertz_rule, exponent, friction, impact_law)
 
 
 @dataclass

@@ -15,9 +15,26 @@ protocol alike:
 * their Jacobians (contact force and ∂(C_qᵀλ)/∂q, ∂(C_q v)/∂q by central differences
   with the one step rule :func:`daebench.core.kernels.fd_step`).
 
-Contact-law parameters ``law`` = [kind, K, exponent, c]: Hertz F = K δⁿ (1 + χ δ̇),
+Contact-law parameters ``law`` = [kind, K, exponent, c, v_ε]: Hertz F = K δⁿ (1 + χ δ̇),
 penalty F = K δ + c δ̇, both clipped at 0 (no adhesion); δ = −g, χ per contact from the
 approach speed of the episode (:func:`daebench.core.contact.hysteresis_factor`).
+
+Regularised Coulomb friction (continuous laws only): at a penetrating contact with
+friction coefficient μ_i > 0 (the model's ``tangent`` kernel, which also gives the
+tangent row t_q with slip velocity v_T = t_q · v) the tangential force
+
+    F_T = −μ_i F_N tanh(v_T / v_ε)
+
+acts along t_q (:func:`friction_force`, the one implementation): the hyperbolic-tangent
+characteristic of the smooth dry-friction models reviewed by Pennestrì, Rossi, Salvini
+& Valentini (2016), "Review and comparison of dry friction force models", Nonlinear Dyn.
+83, 1785–1801 (also Flores et al. 2011's regularised Coulomb law). |F_T| → μ F_N once
+|v_T| ≫ v_ε (the deficit μ F_N (1 − tanh(|v_T|/v_ε)) ≤ 2 μ F_N e^{−2|v_T|/v_ε}); a
+load below the cone is held by a creep speed v_T = v_ε artanh(|F|/(μ F_N)) ∝ v_ε,
+never by an exact stick. Its power Σ F_T v_T ≤ 0 is the friction work the driver books
+(:func:`friction_power`); its ∂/∂q, ∂/∂v enter :func:`force_jacobian` with the normal
+force's (the slope μ F_N / v_ε at v_T = 0 is a stiff viscous term: implicit Newton loops
+need it to converge at steps larger than the time constant v_ε / (μ g)).
 """
 
 from __future__ import annotations
@@ -39,11 +56,11 @@ class PhaseData(NamedTuple):
     model: tuple            # the model's kernel data (a registered NamedTuple)
     nb: int                 # bilateral constraints (rows 0 … nb − 1)
     active: np.ndarray      # int64: closed contacts, constraint rows nb, nb + 1, …
-    law: np.ndarray         # float64[4]: kind, K, exponent, c
+    law: np.ndarray         # float64[5]: kind, K, exponent, c, v_ε (friction regularisation velocity)
     engaged: np.ndarray     # float64 per contact: 1 = its continuous force acts in this phase
     chi: np.ndarray         # float64 per contact: hysteresis factor of the current episode
     gq: np.ndarray          # float64[n] scratch: one gap-Jacobian row
-    work: np.ndarray        # float64[3n] scratch: contact-force differences
+    work: np.ndarray        # float64[5n] scratch: contact-force differences, tangent rows
 
 
 # -- contact laws ------------------------------------------------------------------------
@@ -85,44 +102,81 @@ def law_potential(law, g):
     return 0.0
 
 
+@njit(cache=True)
+def friction_force(law, mu, fn, vt):
+    """Tangential force F_T = −μ F_N tanh(v_T / v_ε) of the regularised Coulomb law at
+    normal force F_N ≥ 0 and slip velocity v_T (module docstring); 0 for μ = 0."""
+    if mu == 0.0 or fn == 0.0:
+        return 0.0
+    return -mu * fn * math.tanh(vt / law[4])
+
+
 # -- forces ---------------------------------------------------------------------------------
 @njit(cache=True)
-def _contact_force(ph, i, q, v, gq):
-    """(g_i, F_i) at (q, v), g_q,i left in gq."""
+def _contact_force(ph, i, q, v, gq, tq):
+    """(g_i, F_N,i, F_T,i) at (q, v); g_q,i left in gq, the tangent row in tq (zero
+    without friction)."""
     g, _ = kernels.gap(ph.model, i, q, v, gq)
     gdot = 0.0
     for j in range(q.shape[0]):
         gdot += gq[j] * v[j]
-    return g, law_force(ph.law, ph.engaged[i] != 0.0, ph.chi[i], g, gdot)
+    fn = law_force(ph.law, ph.engaged[i] != 0.0, ph.chi[i], g, gdot)
+    mu = kernels.tangent(ph.model, i, q, v, tq)
+    if mu == 0.0 or fn == 0.0:
+        return g, fn, 0.0
+    vt = 0.0
+    for j in range(q.shape[0]):
+        vt += tq[j] * v[j]
+    return g, fn, friction_force(ph.law, mu, fn, vt)
 
 
 @njit(cache=True)
 def mass_force(ph, t, q, v, M, Q):
-    """M(q) and the phase's force Q (model force + engaged contact forces)."""
+    """M(q) and the phase's force Q (model force + engaged contact forces g_qᵀF_N + t_qᵀF_T)."""
     kernels.mass_force(ph.model, t, q, v, M, Q)
     if ph.law[0] != LAW_NONE:
-        gq = ph.gq
+        n = q.shape[0]
+        gq, tq = ph.gq, ph.work[3 * n:4 * n]
         for i in range(ph.engaged.shape[0]):
             if ph.engaged[i] != 0.0:
-                g, F = _contact_force(ph, i, q, v, gq)
+                g, F, FT = _contact_force(ph, i, q, v, gq, tq)
                 if g < 0.0:
-                    for j in range(q.shape[0]):
-                        Q[j] += gq[j] * F
+                    for j in range(n):
+                        Q[j] += gq[j] * F + tq[j] * FT
+
+
+@njit(cache=True)
+def friction_power(ph, q, v):
+    """Σ F_T,i v_T,i ≤ 0: the power of the regularised friction forces (the friction
+    work's rate, booked with the contact dissipation)."""
+    if ph.law[0] == LAW_NONE:
+        return 0.0
+    n = q.shape[0]
+    gq, tq = ph.gq, ph.work[3 * n:4 * n]
+    P = 0.0
+    for i in range(ph.engaged.shape[0]):
+        if ph.engaged[i] != 0.0:
+            g, _, FT = _contact_force(ph, i, q, v, gq, tq)
+            if g < 0.0 and FT != 0.0:
+                for j in range(n):
+                    P += FT * tq[j] * v[j]
+    return P
 
 
 @njit(cache=True)
 def force_jacobian(ph, t, q, v, Kq, Kv):
     """∂Q/∂q, ∂Q/∂v of the phase's force: the model's kernel plus central differences of
-    each engaged, penetrating contact force g_iᵀF_i."""
+    each engaged, penetrating contact force g_iᵀF_N,i + t_iᵀF_T,i."""
     kernels.force_jacobian(ph.model, t, q, v, Kq, Kv)
     if ph.law[0] == LAW_NONE:
         return
     n = q.shape[0]
     xp, gp, gm = ph.work[:n], ph.work[n:2 * n], ph.work[2 * n:3 * n]
+    tp, tm = ph.work[3 * n:4 * n], ph.work[4 * n:5 * n]
     for i in range(ph.engaged.shape[0]):
         if ph.engaged[i] == 0.0:
             continue
-        g0, _ = _contact_force(ph, i, q, v, gp)
+        g0, _, _ = _contact_force(ph, i, q, v, gp, tp)
         if not g0 < 0.0:
             continue
         for wrt_v in (False, True):
@@ -132,12 +186,12 @@ def force_jacobian(ph, t, q, v, Kq, Kv):
                 dx = fd_step(x[j])
                 xp[:] = x
                 xp[j] = x[j] + dx
-                g1, F1 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gp)
+                g1, F1, T1 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gp, tp)
                 xp[j] = x[j] - dx
-                g2, F2 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gm)
+                g2, F2, T2 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gm, tm)
                 for r in range(n):
-                    fp = gp[r] * F1 if g1 < 0.0 else 0.0
-                    fm = gm[r] * F2 if g2 < 0.0 else 0.0
+                    fp = gp[r] * F1 + tp[r] * T1 if g1 < 0.0 else 0.0
+                    fm = gm[r] * F2 + tm[r] * T2 if g2 < 0.0 else 0.0
                     K[r, j] = K[r, j] + (fp - fm) / (2.0 * dx)
 
 

@@ -34,9 +34,9 @@ class EvalCounters:
 
 
 def law_parameters(system: MechanicalSystem) -> np.ndarray:
-    """[kind, K, exponent, c] of the system's continuous contact law (kind 0: none)."""
+    """[kind, K, exponent, c, v_ε] of the system's continuous contact law (kind 0: none)."""
     law = system.contact_law
-    return law.parameters() if law is not None and law.continuous else np.zeros(4)
+    return law.parameters() if law is not None and law.continuous else np.zeros(5)
 
 
 class Problem:
@@ -66,7 +66,7 @@ class Problem:
         n = self.n
         self.kernel = phase.PhaseData(system.kernel_data(), int(system.n_bilateral),
                                       np.array(self.active, dtype=np.int64), law_parameters(system),
-                                      self.engaged, self.chi, np.zeros(n), np.zeros(3 * n))
+                                      self.engaged, self.chi, np.zeros(n), np.zeros(5 * n))
         self._zeros = np.zeros(n)
 
     @property
@@ -179,7 +179,8 @@ class Problem:
         return np.where(g < 0.0, F, 0.0)
 
     def contact_power(self, q: np.ndarray, v: np.ndarray) -> float:
-        """Power into the system of the continuous laws' dissipation (≤ 0)."""
+        """Power into the system of the continuous laws' dissipation (≤ 0): the normal
+        law's, plus the regularised friction's (:func:`daebench.core.phase.friction_power`)."""
         law = self.system.contact_law
         if law is None or not law.continuous or not self.n_contacts:
             return 0.0
@@ -187,7 +188,8 @@ class Problem:
         pen = g < 0.0
         if not pen.any():
             return 0.0
-        return law.dissipation_power(g[pen], (G @ v)[pen], (self.engaged != 0.0)[pen], self.chi[pen])
+        return law.dissipation_power(g[pen], (G @ v)[pen], (self.engaged != 0.0)[pen], self.chi[pen]) \
+            + float(phase.friction_power(self.kernel, _f(q), _f(v)))
 
     # -- helpers every integrator needs ----------------------------------------
     def acceleration(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -273,9 +273,10 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
     to it ('complementarity') or closed by the ``constraint`` law (whose restitution it
     applies; :func:`daebench.integrators.base.check_capabilities` is the driver's rule);
     name a scene key value the scene accepts, or the scenes that offer one. A scene with
-    Coulomb friction (``contact.friction`` > 0, contacts on) needs ``capabilities.friction``."""
+    Coulomb friction (``contact.friction`` > 0, contacts on) needs an integrator that applies
+    it under the scene's law (:func:`daebench.integrators.base.applies_friction`)."""
     if (scene.get("contact.friction", 0.0) or 0.0) > 0.0 and scene.get("effects.contact", True) \
-            and not cls.capabilities.friction:
+            and not base.applies_friction(cls, scene.get("contact.law")):
         raise IntegratorError(base.friction_refusal(cls.name, f"scene '{scene.name}'"))
     if not cls.capabilities.contacts:
         return

@@ -101,7 +101,7 @@ class Capabilities:
     friction : bool
         Whether it applies Coulomb friction at the contacts it resolves (a model's
         ``tangent`` kernel with μ > 0, scene key ``contact.friction``). An integrator
-        without it is refused on a case with μ > 0 before the first step.
+        without it is refused on a case with μ > 0 before the first step (:func:`applies_friction`).
     """
 
     order: int
@@ -389,11 +389,18 @@ def get_integrator(name: str) -> type[Integrator]:
     return reg[name].cls
 
 
+def applies_friction(cls: type[Integrator], contact_law: str | None) -> bool:
+    """Whether ``cls`` applies Coulomb friction under ``contact_law``: it declares ``capabilities.friction``, or
+    the law is compliant (hertz, penalty: the phase's regularised Coulomb force) and the driver hands it over."""
+    return cls.capabilities.friction or (contact_law in ("hertz", "penalty") and not cls.capabilities.contacts)
+
+
 def friction_refusal(name: str, what: str) -> str:
     """The message refusing integrator ``name`` on a case with friction (names those that can)."""
     can = [r.name for r in registry().values() if r.cls is not None and r.cls.capabilities.friction]
     return (f"{what} has Coulomb friction (contact.friction > 0), which integrator '{name}' does not apply; "
-            f"use one that does ({', '.join(can) or 'none is installed'}) or `--set contact.friction=0`.")
+            f"use one that does ({', '.join(can) or 'none is installed'}), a compliant law with regularised "
+            f"friction where the case offers one (`--set contact.law=penalty` or `hertz`), or `--set contact.friction=0`.")
 
 
 def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
@@ -406,9 +413,9 @@ def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
     law); ``contact_law``: the name of its law otherwise. An integrator that resolves
     contacts itself takes over contacts with no law or the ``constraint`` law (whose
     restitution it applies); a continuous law would count the contact twice.
-    ``friction``: the system's contacts have Coulomb coefficients μ > 0."""
+    ``friction``: the system's contacts have Coulomb coefficients μ > 0 (:func:`applies_friction`)."""
     cap = cls.capabilities
-    if friction and not cap.friction:
+    if friction and not applies_friction(cls, contact_law):
         raise IntegratorError(friction_refusal(cls.name, what))
     if contacts_by_integrator and not cap.contacts:
         raise IntegratorError(

@@ -24,7 +24,9 @@ import importlib
 from importlib.metadata import entry_points
 from types import ModuleType
 
+from daebench.core.kernels import friction_coefficients
 from daebench.core.params import did_you_mean
+from daebench.core.scene import SceneError
 
 ENTRY_POINT_GROUP = "daebench.models"
 
@@ -50,5 +52,19 @@ def get_model(name: str) -> ModuleType:
 
 
 def build_system(scene):
-    """The MechanicalSystem a scene describes."""
-    return get_model(scene.model).build(scene)
+    """The MechanicalSystem a scene describes (friction asked of it: :func:`check_friction_kernel`)."""
+    system = get_model(scene.model).build(scene)
+    if scene.get("effects.contact", True):
+        check_friction_kernel(system, float(scene.get("contact.friction", 0.0) or 0.0), f"model '{scene.model}'")
+    return system
+
+
+def check_friction_kernel(system, mu: float, what: str = "this model") -> None:
+    """Refuse Coulomb friction μ > 0 asked of a system with contacts whose kernels give no
+    friction coefficient (no ``tangent`` kernel, :mod:`daebench.core.kernels`): the run
+    would be silently frictionless."""
+    if mu > 0.0 and system.n_contacts and not (friction_coefficients(
+            system.kernel_data(), system.n_contacts, *system.initial_state()) > 0.0).any():
+        raise SceneError(f"contact.friction = {mu:g} is asked of {what}, whose contacts have no friction: it "
+                         f"registers no 'tangent' kernel (daebench.core.kernels); use `--set contact.friction=0` "
+                         f"or a model with one (rigid2d, cradle)")

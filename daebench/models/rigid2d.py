@@ -20,7 +20,8 @@ Friction: Coulomb with coefficient μ = ``contact.friction`` at every contact po
 ``tangent`` kernel of :mod:`daebench.core.kernels`); the integrators that apply it
 declare ``capabilities.friction`` (event-capturing Moreau–Jean). Restitution e of the
 ``constraint`` law (Newton, normal direction); ``complementarity`` leaves the contacts to
-the integrator with e = 0.
+the integrator with e = 0; ``penalty`` and ``hertz`` are compliant ground contacts with
+regularised Coulomb friction (:mod:`daebench.core.phase`), which every driver integrator runs.
 
 Scenes: ``cases/block-incline.toml``, ``cases/rocking-block.toml``,
 ``cases/falling-rod.toml``; their closed forms are in :mod:`daebench.models.rigid2d_exact`.
@@ -46,7 +47,7 @@ DESCRIPTION = ("planar rigid body (box or rod) on inclined rigid ground with Cou
 
 SHAPES = ("box", "rod")
 
-CONTACT = contact_schema(("constraint", "complementarity"), friction=True)
+CONTACT = contact_schema(("constraint", "complementarity", "hertz", "penalty"), friction=True)
 
 OBSERVABLES = (
     Observable("x", "m", "x", derivative="vx", summary=True),
@@ -187,7 +188,7 @@ class Rigid2d(KernelSystem):
     def energy(self, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         kin = 0.5 * self.m * (float(v[0]) ** 2 + float(v[1]) ** 2) + 0.5 * self.J * float(v[2]) ** 2
         pot = self.m * self.g * (float(q[0]) * math.sin(self.phi) + float(q[1]) * math.cos(self.phi))
-        return {"kinetic": kin, "gravity": pot}
+        return {"kinetic": kin, "gravity": pot, "contact": self.contact_potential(q)}
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         return {"x": float(q[0]), "y": float(q[1]), "theta": float(q[2]), "vx": float(v[0]),
