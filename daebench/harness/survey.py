@@ -35,14 +35,16 @@ import json
 import math
 import os
 import time
-from dataclasses import dataclass, field
+from contextlib import contextmanager
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Iterator, Mapping, Sequence
 
 import pandas as pd
 
-from daebench.harness import bench, compare, costs, guards, profiles, provenance, recommend, scoring, sweepstore
+from daebench.harness import bench, compare, costs, executors, guards, profiles, provenance, recommend, scoring, sweepstore
 from daebench.harness.compare import Entry, Protocol
+from daebench.harness.options import Execution, Timing
 from daebench.harness.runner import results_dir
 from daebench.integrators import base
 from daebench.core.params import ParamError
@@ -200,14 +202,7 @@ def execute_specs(specs: Sequence[bench.RunSpec], scene: Scene, *, jobs: int = 1
                   description: str = "runs", run_cap: float | None = None, store: Any = None,
                   history_dir: Path | None = None, repeats: int | None = None, warmup: bool = True) -> pd.DataFrame:
     """:func:`daebench.harness.bench.run_specs` with its settings as keywords (the one place
-    that builds the sweep's option values: :mod:`daebench.harness.options` where it exists)."""
-    try:
-        from daebench.harness.options import Execution, Timing
-    except ImportError:  # the sweep before its option values
-        kw = {} if repeats is None else {"repeats": repeats}
-        return bench.run_specs(specs, scene, jobs=jobs, executor=executor, scheduler=scheduler,
-                               reference_mode=reference_mode, progress=progress, description=description,
-                               run_cap=run_cap, store=store, history_dir=history_dir, warmup=warmup, **kw)
+    that builds the sweep's option values: :mod:`daebench.harness.options`)."""
     tm = Timing(run_cap=run_cap, warmup=warmup, **({} if repeats is None else {"repeats": repeats}))
     return bench.run_specs(specs, scene, Execution(jobs=jobs, executor=executor, scheduler=scheduler,
                                                    progress=progress), tm, reference_mode=reference_mode,
@@ -216,10 +211,6 @@ def execute_specs(specs: Sequence[bench.RunSpec], scene: Scene, *, jobs: int = 1
 
 def execute_one(spec: bench.RunSpec, scene: Scene) -> dict[str, Any]:
     """One run in this process, unscored, one cold timed call (for the repeat check)."""
-    try:
-        from daebench.harness.options import Timing
-    except ImportError:
-        return bench.execute(spec, scene, reference_mode="none", repeats=1, warmup=False)
     return bench.execute(spec, scene, reference_mode="none", timing=Timing(repeats=1, warmup=False))
 
 
@@ -327,6 +318,23 @@ def select_cases(opts: SurveyOptions) -> list[str]:
     return want
 
 
+@contextmanager
+def workers(opts: SurveyOptions) -> Iterator[SurveyOptions]:
+    """One set of workers for the whole survey (every case, every round), so that each
+    worker loads a kernel once: ``opts.jobs`` worker processes
+    (:func:`daebench.harness.executors.shared_pool`), or one Dask client for
+    ``opts.scheduler`` (the options handed back carry it); released at the end."""
+    if opts.scheduler is None:
+        with executors.shared_pool(opts.jobs):
+            yield opts
+        return
+    client, release = executors.connect_dask(opts.scheduler, opts.jobs)
+    try:
+        yield replace(opts, scheduler=client)
+    finally:
+        release()
+
+
 def run_survey(opts: SurveyOptions) -> SurveyResult:
     """Run every case, then score: the reach table (cost to reach each target), profiles and
     the recommendation per case; written under results/survey/<name>/.
@@ -351,12 +359,13 @@ def run_survey(opts: SurveyOptions) -> SurveyResult:
     runs = folder / "runs"
     t0 = time.perf_counter()
     results = []
-    for c in cases:
-        try:
-            results.append(run_case(case_scene(c, opts.quick), opts, name, runs))
-        except bench.SweepInterrupted as exc:
-            exc.name = name
-            raise
+    with workers(opts) as run_opts:
+        for c in cases:
+            try:
+                results.append(run_case(case_scene(c, run_opts.quick), run_opts, name, runs))
+            except bench.SweepInterrupted as exc:
+                exc.name = name
+                raise
     res = score(results, opts.targets)
     res.name, res.folder, res.wall_s = name, folder, time.perf_counter() - t0
     res.files = write(res, opts)
