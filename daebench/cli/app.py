@@ -406,6 +406,7 @@ def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke te
 
 from daebench.cli import compare as cli_compare, capture as cli_eventcapture, plot as cli_plot, seed003 as cli_seed003, stability as cli_stability  # noqa: E402  (study commands)
 from daebench.cli import survey as cli_survey  # noqa: E402  (survey, report, effects)
+from daebench.cli import compile_report as cli_compile_report  # noqa: E402
 
 app.add_typer(cli_plot.plot_app, name="plot")
 cli_seed003.register(app)
@@ -413,6 +414,7 @@ cli_stability.register(app)
 cli_compare.register(app)
 cli_eventcapture.register(app)
 cli_survey.register(app)
+cli_compile_report.register(app)
 
 
 def main() -> None:  # pragma: no cover

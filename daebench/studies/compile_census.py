@@ -1,0 +1,183 @@
+"""What a cold run compiles: every function numba compiles for one daebench command, with
+its own compile time, from an empty kernel cache.
+
+The command runs in a fresh subprocess with ``NUMBA_CACHE_DIR`` set to a new empty folder
+and ``NUMBA_OPT`` as given (numba's default, 3, when not). The child listens to numba's
+``numba:compile`` events (:mod:`numba.core.event`): a compile event spans the typing,
+lowering and LLVM work of one function for one signature, *including* the compiles of the
+callees it triggers; each function's **own** time is its span minus its nested compiles'
+spans, so the own times add up to the total compile time. ``numba:llvm_lock`` spans are
+summed as the LLVM share (optimisation and machine-code emission, also repeated for every
+caller that links a callee's module).
+
+``daebench compile-report -- run beam-impact --integrator hht`` prints the table;
+:func:`census` returns it. A second run of the command in the same cache folder gives the
+warm CPU time, so the compile share is measured, not assumed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Iterator, Sequence
+
+
+@dataclass
+class Compiled:
+    """One function compiled for one signature."""
+
+    name: str          # module.qualname
+    signature: str
+    own_s: float       # wall seconds spent on this function alone (nested compiles excluded)
+    total_s: float     # its span, nested compiles included
+
+
+@dataclass
+class Census:
+    """The compile census of one command (wall seconds; CPU of the child process)."""
+
+    command: str
+    opt: str
+    cold_cpu_s: float
+    warm_cpu_s: float
+    compile_s: float                    # sum of own times = time inside numba:compile spans
+    llvm_s: float                       # inside numba:llvm_lock spans
+    returncode: int
+    functions: list[Compiled] = field(default_factory=list)
+
+    def by_module(self) -> list[tuple[str, int, float]]:
+        """(module, functions compiled, own seconds), costliest first."""
+        acc: dict[str, list[float]] = defaultdict(lambda: [0, 0.0])
+        for f in self.functions:
+            mod = f.name.rsplit(".", 1)[0] if "." in f.name else f.name
+            acc[mod][0] += 1
+            acc[mod][1] += f.own_s
+        return sorted(((m, int(n), s) for m, (n, s) in acc.items()), key=lambda r: -r[2])
+
+
+@contextmanager
+def recording() -> Iterator[dict]:
+    """Record numba's compiles while the block runs: yields ``{"functions": [...], "llvm_s": x}``
+    (filled as compiles end; each function a :class:`Compiled` as a dict)."""
+    from numba.core import event as ev
+
+    stack: list[list] = []          # [name, signature, start, nested seconds]
+    rec: dict = {"functions": [], "llvm_s": 0.0}
+    llvm_start = [0.0]
+
+    class Compiles(ev.Listener):
+        def on_start(self, event):
+            d = event.data
+            disp = d["dispatcher"]
+            py = getattr(disp, "py_func", None)
+            name = f"{getattr(py, '__module__', '?')}.{getattr(py, '__qualname__', repr(disp))}"
+            stack.append([name, ", ".join(str(a) for a in d["args"]), time.perf_counter(), 0.0])
+
+        def on_end(self, event):
+            name, sig, t0, nested = stack.pop()
+            span = time.perf_counter() - t0
+            if stack:
+                stack[-1][3] += span
+            rec["functions"].append({"name": name, "signature": sig[:200], "own_s": span - nested,
+                                     "total_s": span})
+
+    class Llvm(ev.Listener):
+        def on_start(self, event):
+            llvm_start[0] = time.perf_counter()
+
+        def on_end(self, event):
+            rec["llvm_s"] += time.perf_counter() - llvm_start[0]
+
+    listeners = [("numba:compile", Compiles()), ("numba:llvm_lock", Llvm())]
+    for kind, lis in listeners:
+        ev.register(kind, lis)
+    try:
+        yield rec
+    finally:
+        for kind, lis in listeners:
+            ev.unregister(kind, lis)
+
+
+def _child(out_path: str, args: list[str]) -> int:
+    """Run ``daebench *args`` in this process, recording numba's compiles."""
+    from daebench.cli.app import app
+
+    rc = 0
+    with recording() as rec:
+        try:
+            app(args, standalone_mode=False)
+        except SystemExit as exc:  # typer's exit codes
+            rc = int(exc.code or 0)
+        except Exception as exc:  # noqa: BLE001 — the census reports the command's failure, not ours
+            sys.stderr.write(f"the command failed: {type(exc).__name__}: {exc}\n")
+            rc = 1
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    with open(out_path, "w") as f:
+        json.dump({**rec, "cpu_s": ru.ru_utime + ru.ru_stime, "rc": rc}, f)
+    return rc
+
+
+def _run(args: Sequence[str], env: dict[str, str], timeout: float) -> dict:
+    with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as tmp:
+        path = tmp.name
+    try:
+        proc = subprocess.run([sys.executable, "-m", "daebench.studies.compile_census", path, *args], env=env,
+                              timeout=timeout, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                              check=False)
+        with open(path) as f:
+            text = f.read()
+        if not text:
+            tail = "\n".join(proc.stderr.strip().splitlines()[-5:])
+            raise RuntimeError(f"`daebench {' '.join(args)}` ended before writing its census "
+                               f"(exit {proc.returncode}; killed or crashed). Its last words:\n{tail}")
+        return json.loads(text)
+    finally:
+        os.unlink(path)
+
+
+def census(args: Sequence[str], opt: str | None = None, timeout: float = 1800.0) -> Census:
+    """The compile census of ``daebench *args`` from an empty kernel cache, and its warm CPU.
+
+    Parameters
+    ----------
+    args : the daebench command's arguments, e.g. ``["run", "beam-impact", "-i", "hht"]``
+    opt : ``NUMBA_OPT`` for the child (0–3); None keeps the environment's (numba: 3)
+    timeout : seconds per run
+    """
+    with tempfile.TemporaryDirectory(prefix="daebench-census-") as tmp:
+        env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "cache"),
+                   DAEBENCH_RESULTS=os.path.join(tmp, "results"))
+        if opt is not None:
+            env["NUMBA_OPT"] = str(opt)
+        cold = _run(args, env, timeout)
+        warm = _run(args, env, timeout)
+    fns = [Compiled(**f) for f in cold["functions"]]
+    fns.sort(key=lambda f: -f.own_s)
+    return Census("daebench " + " ".join(args), env.get("NUMBA_OPT", "3 (numba default)"), cold["cpu_s"],
+                  warm["cpu_s"], sum(f.own_s for f in fns), cold["llvm_s"], cold["rc"], fns)
+
+
+def markdown(c: Census, top: int = 15) -> str:
+    """The census as Markdown: totals, the costliest modules and functions."""
+    lines = [f"`{c.command}` (NUMBA_OPT {c.opt}; exit {c.returncode})", "",
+             f"- CPU from an empty cache {c.cold_cpu_s:.1f} s, warm {c.warm_cpu_s:.1f} s "
+             f"(compiling ≈ {c.cold_cpu_s - c.warm_cpu_s:.1f} s)",
+             f"- {len(c.functions)} function compiles, {c.compile_s:.1f} s of wall time inside them, of which "
+             f"LLVM {c.llvm_s:.1f} s (wall times: inflated by other load on the machine)", "",
+             "| module | compiles | own time [s] |", "|---|---|---|"]
+    lines += [f"| {m} | {n} | {s:.2f} |" for m, n, s in c.by_module()[:top]]
+    lines += ["", "| function | own [s] | with nested [s] | signature |", "|---|---|---|---|"]
+    lines += [f"| {f.name} | {f.own_s:.2f} | {f.total_s:.2f} | {f.signature[:60]} |" for f in c.functions[:top]]
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":  # pragma: no cover — the child of census()
+    sys.exit(_child(sys.argv[1], sys.argv[2:]))
