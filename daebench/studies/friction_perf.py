@@ -4,7 +4,10 @@ with its friction coefficient and with μ = 0 (``daebench perf``, with the captu
 Without friction Moreau–Jean solves the normal impulses by Murty's method; with friction
 one LCP of four unknowns per active contact by Lemke's (:mod:`daebench.stepping.friction`).
 Nonsmooth generalized-α adds two unknowns per contact to its Newton system
-(:mod:`daebench.stepping.nsga_friction`).
+(:mod:`daebench.stepping.nsga_friction`). The compliant family: hht on block-incline with
+penalty contact, regularised Coulomb (:mod:`daebench.core.phase`) against the same
+penalty run with μ = 0 (:data:`COMPLIANT`; its cost is the tangent rows in the force and
+its central-difference Jacobian).
 """
 
 from __future__ import annotations
@@ -17,17 +20,22 @@ import pandas as pd
 
 CASES = ("block-incline", "rocking-block")
 INTEGRATORS = ("moreau", "nsgenalpha")
+#: (case, integrator, law overrides) timed with the case's μ and μ = 0: compliant contact
+COMPLIANT = (("block-incline", "hht", (("contact.law", "penalty"), ("contact.penalty_stiffness", 1e6),
+                                       ("contact.penalty_damping", 2e3))),)
 
 
 def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...] = CASES,
-                        integrators: tuple[str, ...] = INTEGRATORS) -> pd.DataFrame:
+                        integrators: tuple[str, ...] = INTEGRATORS,
+                        compliant: tuple[tuple, ...] = COMPLIANT) -> pd.DataFrame:
     """µs per step of each integrator on each case, with the case's μ and with μ = 0, at
     the fixed step h through the driver (one warm-up run each, then the minimum of
-    ``repeats`` interleaved runs).
+    ``repeats`` interleaved runs); ``compliant``: further (case, integrator, overrides)
+    runs, e.g. a compliant law with regularised friction.
 
     Returns
     -------
-    DataFrame: case, integrator, mu, steps, wall_s, us_per_step, newton_per_step,
+    DataFrame: case, integrator, law, mu, steps, wall_s, us_per_step, newton_per_step,
     friction_over_frictionless (on the rows with μ > 0).
     """
     from daebench.driver.simulate import simulate
@@ -40,10 +48,13 @@ def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...
         mu = float(load_scene(case)["contact.friction"])
         for name in integrators:
             for m in (mu, 0.0):
-                specs.append((case, name, m))
+                specs.append((case, name, m, ()))
+    for case, name, extra in compliant:
+        mu = float(load_scene(case)["contact.friction"])
+        specs += [(case, name, mu, tuple(extra)), (case, name, 0.0, tuple(extra))]
 
-    def once(case: str, name: str, mu: float) -> tuple[float, Any]:
-        sc = load_scene(case, {"contact.friction": mu})
+    def once(case: str, name: str, mu: float, extra: tuple = ()) -> tuple[float, Any]:
+        sc = load_scene(case, {**dict(extra), "contact.friction": mu})
         system = build_system(sc)
         integ = get_integrator(name)(h=h)
         t0 = time.perf_counter()
@@ -59,15 +70,16 @@ def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...
             if wall < best[spec][0]:
                 best[spec] = (wall, res)
     rows = []
-    for (case, name, mu), (wall, res) in best.items():
+    for (case, name, mu, extra), (wall, res) in best.items():
         steps = int(res.counters["steps"])
-        rows.append({"case": case, "integrator": name, "mu": mu, "status": res.status, "steps": steps,
+        law = dict(extra).get("contact.law") or load_scene(case)["contact.law"]
+        rows.append({"case": case, "integrator": name, "law": law, "mu": mu, "status": res.status, "steps": steps,
                      "wall_s": wall, "us_per_step": 1e6 * wall / max(steps, 1),
                      "newton_per_step": res.counters["newton_iterations"] / max(steps, 1)})
     df = pd.DataFrame(rows)
     ratio = []
     for r in df.itertuples():
-        base = df[(df.case == r.case) & (df.integrator == r.integrator) & (df.mu == 0.0)].us_per_step
+        base = df[(df.case == r.case) & (df.integrator == r.integrator) & (df.law == r.law) & (df.mu == 0.0)].us_per_step
         ratio.append(r.us_per_step / float(base.iloc[0]) if r.mu > 0.0 and len(base) else np.nan)
     df["friction_over_frictionless"] = ratio
     return df

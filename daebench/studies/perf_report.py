@@ -62,7 +62,8 @@ def markdown(r: dict[str, Any]) -> str:
     fr = r.get("friction")
     if fr:
         L.append("   Coulomb friction against the same case with μ = 0, h = 1e-4 s (µs/step, friction/frictionless): "
-                 + "; ".join(f"{x['case']} {x['integrator']} {_f(x['us_per_step'])} ({_f(x['friction_over_frictionless'])}×)"
+                 + "; ".join(f"{x['case']} {x['integrator']}{' + ' + x['law'] if x.get('law') in ('hertz', 'penalty') else ''} "
+                             f"{_f(x['us_per_step'])} ({_f(x['friction_over_frictionless'])}×)"
                              for x in fr if x["mu"] > 0))
     cold = r.get("coldstart")
     if cold:
