@@ -1,7 +1,7 @@
 """Newton's cradle (daebench.models.cradle): simultaneous impacts stated, not accidental.
 The closed forms of the two impact laws (conservation checks), the event-capturing LCP
-(moreau, nsgenalpha) giving the simultaneous Newton law exactly, and the event-driven driver (hht),
-which today resolves the row one contact after the other: the sequential law."""
+(moreau, nsgenalpha) giving the simultaneous Newton law exactly, and the event-driven driver (hht)
+under its declared sequential law (the simultaneous one: tests/test_friction_driven.py)."""
 
 from __future__ import annotations
 
@@ -27,8 +27,8 @@ def test_closed_forms_conserve_momentum_and_energy_at_e_1():
         assert np.allclose(simultaneous_outcome(n, 2.0, 0.0), 2.0 / n)
 
 
-def _run(integrator: str, **settings):
-    sc = load_scene("newton-cradle")
+def _run(integrator: str, overrides: dict | None = None, **settings):
+    sc = load_scene("newton-cradle", overrides or {})
     res = simulate(build_system(sc), get_integrator(integrator)(**settings), sc.t_end, sc["output.dt"])
     assert res.status == "completed", res.message
     return res
@@ -48,9 +48,9 @@ def test_capturing_schemes_apply_the_simultaneous_newton_law(integrator):
 
 @pytest.mark.slow
 def test_event_driven_driver_resolves_the_row_sequentially():
-    """hht through the event-driven driver: the impact map at contact 0, then at contact 1
-    (its gap closes with ġ < 0 right after), as the sequential law: (0, 0, 1) m/s."""
-    res = _run("hht", h=1e-3)
+    """hht through the event-driven driver with contact.impact_law = sequential: the impact
+    map at contact 0, then at contact 1 (its gap closes with ġ < 0 right after): (0, 0, 1) m/s."""
+    res = _run("hht", {"contact.impact_law": "sequential"}, h=1e-3)
     v = res.history[["v1", "v2", "v3"]].values[-1]
     assert np.allclose(v, sequential_outcome(3, 1.0), atol=1e-9)
     assert [i.contact for i in res.impacts[:2]] == [0, 1]

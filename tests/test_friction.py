@@ -189,21 +189,23 @@ def test_falling_rod_impact_closed_form(mu, regime, integrator):
 
 # -- capabilities -----------------------------------------------------------------------------------------
 def test_integrators_without_friction_are_refused_before_the_first_step():
-    """hht (event-driven) and lcp (event-capturing, frictionless) refuse a scene with μ > 0,
-    naming the integrators that apply friction; with μ = 0 the same scene is accepted."""
+    """baumgarte (event-driven) and lcp (event-capturing, frictionless) refuse a scene with
+    μ > 0, naming the integrators that apply friction; with μ = 0 the same scene is accepted.
+    hht, newmark and genalpha take friction through the driver (tests/test_friction_driven.py)."""
     sc = load_scene("block-incline")
-    for name in ("hht", "lcp"):
-        with pytest.raises(IntegratorError, match=r"friction.*\(moreau, nsgenalpha\)"):
+    for name in ("baumgarte", "lcp"):
+        with pytest.raises(IntegratorError, match=r"friction.*\(genalpha, hht, moreau, newmark, nsgenalpha\)"):
             guards.check_contacts_fit(sc, get_integrator(name))
-    guards.check_contacts_fit(sc.with_overrides({"contact.friction": 0.0}), get_integrator("hht"))
-    guards.check_contacts_fit(sc, get_integrator("moreau"))
-    assert get_integrator("moreau").capabilities.friction and get_integrator("nsgenalpha").capabilities.friction
-    assert not get_integrator("hht").capabilities.friction
+    guards.check_contacts_fit(sc.with_overrides({"contact.friction": 0.0}), get_integrator("baumgarte"))
+    for name in ("moreau", "hht"):
+        guards.check_contacts_fit(sc, get_integrator(name))
+    assert all(get_integrator(n).capabilities.friction for n in ("moreau", "nsgenalpha", "hht", "newmark", "genalpha"))
+    assert not get_integrator("baumgarte").capabilities.friction
 
 
 def test_driver_refuses_friction_for_an_integrator_without_it():
-    """The driver's own capability check (the API path, no harness guard): hht on a case
-    with μ > 0 is refused before the first step."""
+    """The driver's own capability check (the API path, no harness guard): baumgarte on a
+    case with μ > 0 is refused before the first step."""
     sc = load_scene("block-incline")
     with pytest.raises(IntegratorError, match=r"friction.*moreau"):
-        simulate(build_system(sc), get_integrator("hht")(h=1e-3), sc.t_end, sc["output.dt"])
+        simulate(build_system(sc), get_integrator("baumgarte")(h=1e-3), sc.t_end, sc["output.dt"])

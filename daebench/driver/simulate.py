@@ -11,7 +11,13 @@ step just taken, on the integrator's dense output:
   with a continuous law (Hertz, penalty) the approach speed v₀ is recorded and the
   step size switches to ``h_contact``;
 * a closed contact's force λ turning tensile (λ: + → −): the contact opens;
-* a penetrating contact separating (continuous laws: g: − → +).
+* a penetrating contact separating (continuous laws: g: − → +);
+* with Coulomb friction (μ > 0) at closed contacts: a slipping contact's slip velocity
+  through zero, a sticking one's force leaving the cone (:mod:`daebench.driver.stickslip`).
+
+Where several contacts close at once the declared impact law applies (``contact.impact_law``:
+simultaneous, the default, or sequential; with friction Newton–Coulomb in the manner of
+Pfeiffer & Glocker); the run record names it (``RunResult.impact_law``).
 
 The earliest event is located to ``EVENT_TOL`` seconds by Brent's method on the dense
 output; the run is cut there, the event applied, and the integrator restarted on the
@@ -35,7 +41,8 @@ import pandas as pd
 
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
-from daebench.driver.events import ContactState, apply_event, find_event
+from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name
+from daebench.driver.stickslip import PAINLEVE_SLIP, FrictionPhase
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
 from daebench.stepping.watch import Watch
@@ -63,6 +70,7 @@ class RunResult:
     final: State | None = None
     phases: int = 0
     states: dict[str, np.ndarray] | None = None  # with record_states: t, q, v, a, lam at the output times
+    impact_law: str = ""              # the driver's impact law, e.g. "newton, simultaneous" ("": none applied)
 
 
     @property
@@ -116,7 +124,7 @@ class Driver:
         q = np.asarray(q, float)
         v = np.asarray(v, float)
         cs = self.contacts = ContactState.start(Problem(sys_), q, self._constraint_contacts,
-                                                self._continuous_contacts)
+                                                self._continuous_contacts, v)
         self.rows: list[dict[str, float]] = []
         self._states: list[tuple] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
@@ -124,6 +132,8 @@ class Driver:
         self.work: dict[str, float] = {k: 0.0 for k in self._power_terms(0.0, q, v)}  # W(0) = 0, not NaN
         if self.integ.capabilities.contacts:
             self.work["contact"] = 0.0  # booked from Advance.contact_work; the t = 0 row too
+        if cs.mu.any():
+            self.work["friction"] = 0.0  # slip friction at closed contacts (the t = 0 row too)
         self._contact_work: tuple[float, ...] | None = None
         terms0 = sys_.energy(q, v)
         self.E0 = float(sum(terms0.values()))
@@ -158,7 +168,7 @@ class Driver:
         res = float(np.nanmax(np.abs(hist["energy_residual"]))) if len(hist) else math.nan
         return RunResult(status, message, self._t_last, time.perf_counter() - wall0,
                          self.integ.counters_snapshot(), hist, cs.impacts, dict(self.cmax), res,
-                         self._last_state, phases, self._states_arrays())
+                         self._last_state, phases, self._states_arrays(), impact_law_name(cs))
 
     _t_last = 0.0
     _last_state: State | None = None
@@ -174,7 +184,18 @@ class Driver:
             k = problem.n_bilateral
             tensile = [c for j, c in enumerate(cs.active) if lam[k + j] < 0.0 and c not in cs.hold]
             if tensile:
-                cs.release(tensile, state.t)  # a release like any other (see ContactState.hold)
+                if cs.slip:
+                    self._painleve(state, [c for c in tensile if c in cs.slip])
+                cs.release(tensile, state.t, state.q)  # a release like any other (see ContactState.hold)
+                return state
+            # a stick group whose force is outside the cone slips (the direction its force fails)
+            failing = [(c, lt) for c, (margin, lt) in cs.cone_margins(problem, lam).items() if margin < 0.0]
+            if failing:
+                for c, lam_t in failing:
+                    for m in cs.groups[c]:
+                        del cs.stick[m]
+                        cs.slip[m] = math.copysign(1.0, lam_t)
+                cs.regroup(state.t, state.q)
                 return state
         h = self.integ.step_size(cs.in_contact)
         self.integ.start(problem, state, h)
@@ -204,6 +225,21 @@ class Driver:
             if new.t >= self.t_end - 1e-15 * max(1.0, self.t_end):
                 return new
 
+    def _painleve(self, state: State, pulling: list[int]) -> None:
+        """A slipping contact that pulls, and would penetrate when opened: Painlevé's paradox."""
+        cs = self.contacts
+        rest = [c for c in cs.active if c not in pulling]
+        trial = ContactState(cs.constraint, cs.continuous, cs.armed, cs.last_impact_t, cs.last_release_t,
+                             cs.approach_speed, rest, base=cs.base, mu=cs.mu,
+                             stick={c: a for c, a in cs.stick.items() if c in rest},
+                             slip={c: s for c, s in cs.slip.items() if c in rest})
+        trial.regroup(state.t, state.q)
+        a, _ = trial.phase(self.system).acceleration(state.t, state.q, state.v)
+        g, G, gam = cs.base.gap_rows(state.q, state.v)
+        gdd = G[pulling] @ a - gam[pulling]
+        if (gdd < 0.0).any():
+            raise StepFailure(f"{PAINLEVE_SLIP} (contacts {pulling} at t = {state.t:.9g} s)", state.t)
+
     def _report_progress(self, t: float) -> None:
         """Tell the caller the simulated time, at most every PROGRESS_EVERY seconds of wall time."""
         if self.progress is None:
@@ -222,7 +258,8 @@ class Driver:
         without event, output time or sign change is exactly what the runner does itself
         (re-arming gaps, constraint maxima); the step that needs more is handed back and
         processed below like any other step, so results do not depend on the path."""
-        return self.system.power_free and not self.contacts.penetrating
+        return self.system.power_free and not self.contacts.penetrating and not isinstance(problem.system,
+                                                                                           FrictionPhase)
 
     def _watch(self, problem: Problem) -> Watch:
         cs = self.contacts
@@ -260,6 +297,9 @@ class Driver:
         out = self.system.power(t, q, v)
         if self._continuous_contacts and self.contacts.penetrating:
             out = {**out, "contact": self._current.contact_power(q, v)}
+        phase_sys = self._current.system
+        if isinstance(phase_sys, FrictionPhase) and phase_sys.slip:
+            out = {**out, "friction": phase_sys.friction_power(t, q, v)}
         return out
 
     def _accumulate_work(self, prev: State, end: State, p0: dict, p1: dict, problem: Problem) -> None:

@@ -72,6 +72,7 @@ class RunRecord:
     impacts: list[dict[str, Any]] = field(default_factory=list)
     constraint_max: dict[str, float] = field(default_factory=dict)
     t_final: float = math.nan
+    impact_law: str = ""   # the driver's impact law (daebench.driver.events.impact_law_name; "": none applied)
 
     def as_dict(self) -> dict[str, Any]:
         return {k: _jsonable(v) for k, v in self.__dict__.items()}
@@ -148,7 +149,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
         status=result.status, message=result.message, wall_s=result.wall_s, counters=result.counters,
         energy_residual=result.energy_residual, observables=final, history=str(path) if path else None,
         impacts=[i.as_dict() for i in result.impacts], constraint_max=result.constraint_max,
-        t_final=result.t_final,
+        t_final=result.t_final, impact_law=result.impact_law,
     )
     return rec, result
 

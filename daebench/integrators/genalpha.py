@@ -52,7 +52,8 @@ class GeneralizedAlpha(NewmarkFamily):
     name: ClassVar[str] = "genalpha"
     description: ClassVar[str] = "generalized-α (Chung–Hulbert ρ∞, Arnold–Brüls index-3 form), scaled Newton"
     capabilities: ClassVar[Capabilities] = Capabilities(
-        order=2, fixed_step=True, adaptive=True, constraints=True, index=3)
+        order=2, fixed_step=True, adaptive=True, constraints=True, index=3,
+        friction=True)  # Coulomb friction by the driver: stick/slip phases, Newton–Coulomb impacts
     settings_spec: ClassVar[tuple[Setting, ...]] = (
         *STEP_SETTINGS,
         *ADAPTIVE_SETTINGS,

@@ -65,7 +65,8 @@ class HHT(NewmarkFamily):
     name: ClassVar[str] = "hht"
     description: ClassVar[str] = "HHT-α with GGL stabilization (index-3 positions + velocities), scaled Newton"
     capabilities: ClassVar[Capabilities] = Capabilities(
-        order=2, fixed_step=True, adaptive=True, constraints=True, index=3)
+        order=2, fixed_step=True, adaptive=True, constraints=True, index=3,
+        friction=True)  # Coulomb friction by the driver: stick/slip phases, Newton–Coulomb impacts
     settings_spec: ClassVar[tuple[Setting, ...]] = (
         *STEP_SETTINGS,
         *ADAPTIVE_SETTINGS,

@@ -64,7 +64,8 @@ class Newmark(NewmarkFamily):
     name: ClassVar[str] = "newmark"
     description: ClassVar[str] = "Newmark-β (default trapezoidal) for ODE models and index-3 constraints"
     capabilities: ClassVar[Capabilities] = Capabilities(
-        order=2, fixed_step=True, adaptive=True, constraints=True, index=3)
+        order=2, fixed_step=True, adaptive=True, constraints=True, index=3,
+        friction=True)  # Coulomb friction by the driver: stick/slip phases, Newton–Coulomb impacts
     settings_spec: ClassVar[tuple[Setting, ...]] = (
         *STEP_SETTINGS,
         *ADAPTIVE_SETTINGS,

@@ -38,7 +38,7 @@ from daebench.core.system import KernelSystem
 
 DESCRIPTION = "Newton's cradle: N equal balls on a line, one strikes the touching row (simultaneous impacts)"
 
-CONTACT = contact_schema(("constraint", "complementarity"), restitution=1.0)
+CONTACT = contact_schema(("constraint", "complementarity"), restitution=1.0, impact_law=True)
 MAX_BALLS = 12
 
 SCHEMA: dict[str, Param] = {

