@@ -113,14 +113,17 @@ def friction_force(law, mu, fn, vt):
 
 # -- forces ---------------------------------------------------------------------------------
 @njit(cache=True)
-def _contact_force(ph, i, q, v, gq, tq):
+def _contact_force(ph, i, q, v, gq, tq, fric=True):
     """(g_i, F_N,i, F_T,i) at (q, v); g_q,i left in gq, the tangent row in tq (zero
-    without friction)."""
+    without friction; with ``fric`` False the tangent kernel is not called, tq not
+    written and F_T = 0)."""
     g, _ = kernels.gap(ph.model, i, q, v, gq)
     gdot = 0.0
     for j in range(q.shape[0]):
         gdot += gq[j] * v[j]
     fn = law_force(ph.law, ph.engaged[i] != 0.0, ph.chi[i], g, gdot)
+    if not fric:
+        return g, fn, 0.0
     mu = kernels.tangent(ph.model, i, q, v, tq)
     if mu == 0.0 or fn == 0.0:
         return g, fn, 0.0
@@ -176,9 +179,10 @@ def force_jacobian(ph, t, q, v, Kq, Kv):
     for i in range(ph.engaged.shape[0]):
         if ph.engaged[i] == 0.0:
             continue
-        g0, _, _ = _contact_force(ph, i, q, v, gp, tp)
+        g0, _, _ = _contact_force(ph, i, q, v, gp, tp, False)
         if not g0 < 0.0:
             continue
+        fric = kernels.tangent(ph.model, i, q, v, tp) != 0.0   # μ_i: a frictionless contact skips the rows
         for wrt_v in (False, True):
             x = v if wrt_v else q
             K = Kv if wrt_v else Kq
@@ -186,12 +190,12 @@ def force_jacobian(ph, t, q, v, Kq, Kv):
                 dx = fd_step(x[j])
                 xp[:] = x
                 xp[j] = x[j] + dx
-                g1, F1, T1 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gp, tp)
+                g1, F1, T1 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gp, tp, fric)
                 xp[j] = x[j] - dx
-                g2, F2, T2 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gm, tm)
+                g2, F2, T2 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gm, tm, fric)
                 for r in range(n):
-                    fp = gp[r] * F1 + tp[r] * T1 if g1 < 0.0 else 0.0
-                    fm = gm[r] * F2 + tm[r] * T2 if g2 < 0.0 else 0.0
+                    fp = gp[r] * F1 + (tp[r] * T1 if fric else 0.0) if g1 < 0.0 else 0.0
+                    fm = gm[r] * F2 + (tm[r] * T2 if fric else 0.0) if g2 < 0.0 else 0.0
                     K[r, j] = K[r, j] + (fp - fm) / (2.0 * dx)
 
 
