@@ -25,7 +25,8 @@ from daebench.driver.simulate import simulate
 from daebench.integrators.base import get_integrator
 from daebench.models import build_system
 from daebench.models.cradle import sequential_outcome, simultaneous_outcome
-from daebench.models.rigid2d_exact import housner_ratio, incline_motion, incline_stop, rod_impact
+from daebench.models.rigid2d_exact import (housner_ratio, incline_motion, incline_stop, rocking_impact_omegas,
+                                           rod_impact)
 from daebench.models.scenes import load_scene
 
 G = 9.81
@@ -107,3 +108,65 @@ def test_falling_rod_impact_through_the_driver_is_the_closed_form(mu):
     assert res.impact_law == (LAW_NEWTON if mu == 0.0 else LAW_NEWTON_COULOMB) + ", simultaneous"
     if mu == 0.8:   # stick: the contact point leaves the impact without slip
         assert abs(imp.v_plus[0] + 0.5 * math.cos(imp.q[2]) * imp.v_plus[2]) < 1e-13
+
+
+# -- stick and slip phases: the block on an incline ----------------------------------------------------
+@pytest.mark.parametrize("integrator", ["hht", "newmark", "genalpha"])
+@pytest.mark.parametrize("mu", [0.3, 0.7])
+def test_block_incline_slides_stops_and_sticks_or_slides_back_exactly(integrator, mu):
+    """μ = 0.3 < tan 30°: slide up, stop at t_s, slide back; μ = 0.7 > tan 30°: stop and
+    stick at x_s. The accelerations are constant in each phase, which the Newmark family
+    integrates exactly, and the stop is located to EVENT_TOL: the whole history is the
+    closed form to round-off at any step (h = 10 ms here), the block stays flat on the
+    slope, and the energy balance (slip friction's work booked as W_friction) closes."""
+    phi = math.radians(30.0)
+    res = run("block-incline", {"contact.friction": mu}, integrator=integrator, h=1e-2)
+    assert res.status == "completed", res.message
+    hist = res.history
+    x, v = incline_motion(3.0, phi, mu, G, hist.t.values)
+    assert np.abs(hist.x.values - x).max() < 1e-11
+    assert np.abs(hist.vx.values - v).max() < 1e-11
+    assert np.abs(hist.theta.values).max() < 1e-14 and abs(hist.gap.min()) < 1e-14
+    ts, xs = incline_stop(3.0, phi, mu, G)
+    if mu > math.tan(phi):
+        after = hist[hist.t > ts]
+        assert np.abs(after.x.values - xs).max() < 1e-12 and np.abs(after.vx.values).max() < 1e-12
+    assert abs(res.energy_residual) < 1e-11
+    work = hist.W_friction.values[-1]   # −μ m g cos φ × the distance slid
+    assert work == pytest.approx(-mu * G * math.cos(phi) * (2 * xs - x[-1] if mu < math.tan(phi) else xs), rel=1e-11)
+
+
+# -- Housner's rocking block ----------------------------------------------------------------------------
+@pytest.mark.slow
+def test_rocking_block_housner_ratio_under_hht():
+    """Corners sticking (μ = 1), no bounce: at each impact the simultaneous Newton–Coulomb
+    LCP of both bottom corners gives the new corner the impulse and lifts the old one, and
+    |ω⁺|/|ω⁻| = 1 − 1.5 sin²α to round-off (the impact map is exact); |ω⁻| before the
+    impacts converges to the closed form at second order (hht on the smooth rotations)."""
+    r = housner_ratio(0.2, 1.0)
+    exact = rocking_impact_omegas(0.2, 1.0, math.atan(0.2) / 2, G, 2)
+    errs = []
+    for h in (2e-3, 1e-3):
+        res = run("rocking-block", h=h, t_end=1.0)
+        assert res.status == "completed", res.message
+        imps = [i for i in res.impacts if i.t > 0]
+        assert [i.contact for i in imps] == [1, 0] and all(i.closed for i in imps)
+        ratio = np.array([abs(i.v_plus[2]) / abs(i.v_minus[2]) for i in imps])
+        assert np.abs(ratio - r).max() < 1e-13
+        errs.append(np.abs(np.array([abs(i.v_minus[2]) for i in imps]) - exact).max())
+    assert errs[-1] < 2e-6, errs
+    assert 1.7 < math.log2(errs[0] / errs[1]) < 2.3, errs
+
+
+# -- Painlevé's paradox ---------------------------------------------------------------------------------
+def test_painleve_slip_ends_the_run_with_its_verdict():
+    """A rod resting on its lower end at 30°, sliding (U_T = +1 m/s) with μ = 2 > 4/3: the
+    normal force of the slip phase would pull while the free end would fall into the
+    ground (W_NN − μ W_NT < 0) — the run ends 'failed' naming Painlevé's paradox, no hang,
+    no traceback. Sliding the other way (or at μ = 0.5) is consistent and completes."""
+    bad = {"contact.friction": 2.0, "start.gap": 0.0, "start.vx": 1.0, "contact.restitution": 0.0}
+    res = run("falling-rod", bad, h=1e-3, t_end=0.05)
+    assert res.status == "failed" and "Painlevé" in res.message, res.message
+    for ok in ({**bad, "start.vx": -1.0}, {**bad, "contact.friction": 0.5}):
+        res = run("falling-rod", ok, h=1e-3, t_end=0.05)
+        assert res.status == "completed", res.message
