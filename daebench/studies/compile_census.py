@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import resource
+import runpy
 import subprocess
 import sys
 import tempfile
@@ -107,15 +108,16 @@ def recording() -> Iterator[dict]:
 
 
 def _child(out_path: str, args: list[str]) -> int:
-    """Run ``daebench *args`` in this process, recording numba's compiles."""
-    from daebench.cli.app import app
-
+    """Run ``daebench *args`` in this process, recording numba's compiles. The command runs
+    as the program ``python -m daebench.cli.app`` would (by module name, as
+    :mod:`.coldstart` runs it: a study does not import the CLI layer above it)."""
     rc = 0
     with recording() as rec:
+        sys.argv = ["daebench", *args]
         try:
-            app(args, standalone_mode=False)
-        except SystemExit as exc:  # typer's exit codes
-            rc = int(exc.code or 0)
+            runpy.run_module("daebench.cli.app", run_name="__main__", alter_sys=True)
+        except SystemExit as exc:  # the command's exit code
+            rc = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
         except Exception as exc:  # noqa: BLE001 — the census reports the command's failure, not ours
             sys.stderr.write(f"the command failed: {type(exc).__name__}: {exc}\n")
             rc = 1
