@@ -76,6 +76,7 @@ def test_quick_case_budget_skip_then_resume(tmp_path, monkeypatch):
     assert "over the case budget" in tab.message.iloc[1]
     meta = json.loads((res.folder / "survey.json").read_text())
     assert meta["cases"][0]["skipped_budget"] == 2 and meta["cases"][0]["rounds_run"] == 1
+    assert meta["workers_started"] == 1                               # --jobs 1: one worker for the survey
     with pytest.raises(ParamError, match="exists"):
         S.run_survey(S.SurveyOptions(budget_s=100.0, **o))
     again = S.run_survey(S.SurveyOptions(budget_s=100.0, resume=True, **o)).table
@@ -112,3 +113,18 @@ def test_digest_is_equal_across_executors(tmp_path):
         digests[how] = [digest.history_digest(pd.read_parquet(p)) for p in df["history"]]
     assert digests["inline"] == digests["jobs2"] == digests["dask"]
     assert len(set(digests["inline"])) == 2                       # two different runs, two digests
+
+
+@pytest.mark.slow
+def test_one_worker_serves_every_case_and_round(tmp_path, monkeypatch):
+    """Two cases × two rounds (four sweeps) on --jobs 1: one worker process in all (it
+    keeps its kernels), every run completed, the pendulum's scored against its exact solution."""
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    res = S.run_survey(S.SurveyOptions(cases=("pendulum", "ball"), integrators=("hht",), quick=True, jobs=1,
+                                       name="w", reference="none", repeat_check=False, progress=False,
+                                       budget_s=600.0))
+    assert res.workers_started == 1
+    assert [c.rounds_run for c in res.cases] == [2, 2]
+    assert list(res.table.status) == ["completed"] * 4
+    pend = res.table[res.table.case == "pendulum"]
+    assert len(pend) == 2 and pend.filter(like="err_").notna().any(axis=1).all()

@@ -88,15 +88,20 @@ def register(app: typer.Typer) -> None:
 
             res.files.append(R.write_survey_report(res))
         out(f"written: {res.folder} ({', '.join(p.name for p in res.files)})")
+        pool = f"; {res.workers_started} worker process(es) for every case and round" \
+            if res.workers_started is not None else ""
         out(f"wall time of the survey: {time.perf_counter() - t0:.1f} s (name {res.name}; "
-            f"resume with --resume --name {res.name})")
+            f"resume with --resume --name {res.name}{pool})")
         bad = res.table[res.table["status"].isin(("error", "crashed"))] if len(res.table) else res.table
         if len(bad) or S.mismatches(res):
             raise typer.Exit(1)
 
     @app.command("report")
     def report(name: str = typer.Argument(..., help="a survey name (results/survey/<name>/)"),
-               out_path: Optional[str] = typer.Option(None, "--out", help="the HTML file (default: in the survey)")
+               out_path: Optional[str] = typer.Option(None, "--out", help="the HTML file (default: in the survey)"),
+               compact: bool = typer.Option(False, "--compact",
+                                            help="a small page: no per-case work–precision figures, the profile "
+                                                 "figure scaled down, tables without digests and messages")
                ) -> None:
         """Write one self-contained HTML page of a survey: recommendations, sortable tables, figures,
         the reference's trusted span where known, provenance."""
@@ -105,10 +110,10 @@ def register(app: typer.Typer) -> None:
 
         try:
             res = R.load_survey(name)
-            path = R.write_survey_report(res, Path(out_path) if out_path else None)
+            path = R.write_survey_report(res, Path(out_path) if out_path else None, compact=compact)
         except ParamError as exc:
             fail(str(exc))
-        out(f"written: {path}")
+        out(f"written: {path} ({path.stat().st_size / 1e3:.0f} kB)")
 
     @app.command("effects")
     def effects(case: str = typer.Argument(..., help="scene name or path to a .toml file"),

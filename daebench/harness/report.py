@@ -130,12 +130,34 @@ def page(title: str, paragraphs: Sequence[str], sections: Sequence[tuple[str, st
 REACH_COLUMNS = ("case", "label", "measure", "target", "reach_wall_s", "reach_steps", "reach_kind", "runs",
                  "completed", "best_err", "failure")
 RUN_COLUMNS = ("case", "label", "h", "tol", "status", "wall_s", "steps", "digest", "message")
+#: ``compact``: the columns kept (no digests, messages or failure texts: those are in table.csv)
+COMPACT_REACH = ("case", "label", "measure", "target", "reach_wall_s", "reach_steps", "reach_kind", "best_err")
+COMPACT_RUNS = ("case", "label", "h", "tol", "status", "wall_s", "steps")
+COMPACT_WIDTH = 1100      # px: the profile figure's width in a compact page (8-bit palette PNG)
 
 
-def write_survey_report(res: Any, path: Path | None = None) -> Path:
+def small_png(src: Path, dst: Path, width: int = COMPACT_WIDTH) -> Path:
+    """``src`` scaled down to ``width`` pixels (never up) as a 256-colour PNG (a line plot
+    loses nothing visible; a tenth of the bytes)."""
+    from PIL import Image
+
+    with Image.open(src) as im:
+        im = im.convert("RGB")
+        if im.width > width:
+            im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
+        im.quantize(colors=256).save(dst, optimize=True)
+    return dst
+
+
+def write_survey_report(res: Any, path: Path | None = None, compact: bool = False) -> Path:
     """The page of a survey (:class:`daebench.harness.survey.SurveyResult`): recommendations,
     profile table and figure, the cost to reach each target, a work–precision figure per
-    case, every run, the trusted span, provenance. Written to ``<survey>/report.html``."""
+    case, every run, the trusted span, provenance. Written to ``<survey>/report.html``.
+
+    ``compact``: a page small enough to keep under version control (a few hundred kB for
+    a dozen cases): the profile figure as a small palette PNG, no work–precision figure per
+    case, and the tables without digests and messages (:data:`COMPACT_REACH`,
+    :data:`COMPACT_RUNS`; the survey's CSV files have every column)."""
     from daebench.harness import plots, survey
 
     f = Path(res.folder)
@@ -149,19 +171,20 @@ def write_survey_report(res: Any, path: Path | None = None) -> Path:
                                  "cheapest; ρ(∞): reaches the target at all")))
     prof_png = f / "profile-wall.png"
     if prof_png.exists():
-        sections.append(("Profile figure", figure_html(prof_png, "performance profiles, cost = wall time")))
+        shown = small_png(prof_png, figs / "profile-wall-small.png") if compact else prof_png
+        sections.append(("Profile figure", figure_html(shown, "performance profiles, cost = wall time")))
     if len(res.reach):
-        sections.append(("Cost to reach each target", table_html(res.reach, REACH_COLUMNS)))
+        sections.append(("Cost to reach each target", table_html(res.reach, COMPACT_REACH if compact else REACH_COLUMNS)))
     wp = []
     for r in res.cases:
-        if r.measures and len(r.table):
+        if r.measures and len(r.table) and not compact:
             files = plots.work_precision(r.table, "wall_s", r.measures, "label", figs / f"wp-{r.case}", prov,
                                          title=f"{r.case}: work–precision")[1]
             wp += [figure_html(p, f"{r.case}: work–precision") for p in files if Path(p).suffix == ".png"]
     if wp:
         sections.append(("Work–precision per case", "".join(wp)))
     if len(res.table):
-        sections.append(("Every run", table_html(res.table, RUN_COLUMNS)))
+        sections.append(("Every run", table_html(res.table, COMPACT_RUNS if compact else RUN_COLUMNS)))
     ts = trusted_span(res.table)
     sections.append(("The reference's trusted span",
                      table_html(ts) if len(ts) else "<p>These rows do not record the reference's trusted span.</p>"))

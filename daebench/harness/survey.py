@@ -19,6 +19,11 @@ capped (``timeout`` row) at ``run_cap``, by default the budget but at least
 :data:`MIN_RUN_CAP_S` (a cold numba compile takes 30–90 s, minutes on a loaded machine;
 a worker killed while compiling leaves nothing in the cache, so the next run compiles again).
 
+**Workers.** One set of workers serves the whole survey (:func:`workers`): the same
+``jobs`` worker processes run every case and every round, so a worker loads each kernel
+once (``workers_started`` in ``survey.json``: ``jobs`` unless a worker crashed or was
+killed); under ``--scheduler`` one Dask client and its workers.
+
 **Resumable.** Each case's rows go to its own row store
 (``results/survey/<name>/runs/<name>--<case>.rows.sqlite``,
 :class:`daebench.harness.sweepstore.SweepStore`) as they finish; ``resume`` with the same
@@ -123,6 +128,7 @@ class SurveyResult:
     cases: list[CaseResult]
     wall_s: float
     files: list[Path] = field(default_factory=list)
+    workers_started: int | None = None   # worker processes started over the survey (None: on Dask)
 
 
 # ---- protocols --------------------------------------------------------------------------
@@ -319,18 +325,18 @@ def select_cases(opts: SurveyOptions) -> list[str]:
 
 
 @contextmanager
-def workers(opts: SurveyOptions) -> Iterator[SurveyOptions]:
+def workers(opts: SurveyOptions) -> Iterator[tuple[SurveyOptions, executors.WorkerPool | None]]:
     """One set of workers for the whole survey (every case, every round), so that each
     worker loads a kernel once: ``opts.jobs`` worker processes
     (:func:`daebench.harness.executors.shared_pool`), or one Dask client for
     ``opts.scheduler`` (the options handed back carry it); released at the end."""
     if opts.scheduler is None:
-        with executors.shared_pool(opts.jobs):
-            yield opts
+        with executors.shared_pool(opts.jobs) as pool:
+            yield opts, pool
         return
     client, release = executors.connect_dask(opts.scheduler, opts.jobs)
     try:
-        yield replace(opts, scheduler=client)
+        yield replace(opts, scheduler=client), None
     finally:
         release()
 
@@ -359,7 +365,7 @@ def run_survey(opts: SurveyOptions) -> SurveyResult:
     runs = folder / "runs"
     t0 = time.perf_counter()
     results = []
-    with workers(opts) as run_opts:
+    with workers(opts) as (run_opts, pool):
         for c in cases:
             try:
                 results.append(run_case(case_scene(c, run_opts.quick), run_opts, name, runs))
@@ -368,6 +374,7 @@ def run_survey(opts: SurveyOptions) -> SurveyResult:
                 raise
     res = score(results, opts.targets)
     res.name, res.folder, res.wall_s = name, folder, time.perf_counter() - t0
+    res.workers_started = pool.started if pool is not None else None
     res.files = write(res, opts)
     return res
 
@@ -413,7 +420,7 @@ def write(res: SurveyResult, opts: SurveyOptions | None = None) -> list[Path]:
     md = [f"# Survey {res.name}", ""] + [p + "\n" for p in res.paragraphs.values()]
     (f / "recommendations.md").write_text("\n".join(md) + provenance.markdown_footer(prov))
     files.append(f / "recommendations.md")
-    side = {"name": res.name, "wall_s": res.wall_s,
+    side = {"name": res.name, "wall_s": res.wall_s, "workers_started": res.workers_started,
             "options": {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(opts).items()
                         if k != "scheduler"} if opts else {},
             "rules": {"budget": f"per case; a round of halved steps runs if spent + {ROUND_GROWTH:g} × the last "
