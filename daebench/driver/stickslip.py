@@ -51,6 +51,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from daebench.core import kernels
 from daebench.core.problem import Problem
@@ -75,6 +76,14 @@ def tangent_row(md: Any, j: int, q: np.ndarray, v: np.ndarray | None = None) -> 
     kernels.tangent(md, int(j), np.ascontiguousarray(q, float),
                     np.zeros(q.shape[0]) if v is None else np.ascontiguousarray(v, float), tq)
     return tq
+
+
+@njit(cache=True)
+def _tangent_rows(md, j, Q, out):
+    """The tangent rows of contact j at each row of Q (one compiled call for many points)."""
+    z = np.zeros(Q.shape[1])
+    for r in range(Q.shape[0]):
+        kernels.tangent(md, j, Q[r], z, out[r])
 
 
 class FrictionPhase(MechanicalSystem):
@@ -103,6 +112,18 @@ class FrictionPhase(MechanicalSystem):
         self.stick = dict(stick)
         self.active = tuple(active)
         self.slip = [(self.active.index(j), j, float(s), float(mu[j])) for j, s in slip.items()]
+        self._memo: dict[tuple, Any] = {}
+
+    def _cached(self, what: str, fun, *arrays: np.ndarray | None):
+        """``fun()`` memoized on the bytes of ``arrays`` (the compiled callbacks ask for the
+        rows of one point several times: C, C_q, γ, each contact's gap separately)."""
+        key = (what, *(None if a is None else a.tobytes() for a in arrays))
+        out = self._memo.get(key)
+        if out is None:
+            if len(self._memo) > 64:
+                self._memo.clear()
+            out = self._memo[key] = fun()
+        return out
 
     # -- the model, unchanged ----------------------------------------------------------------
     def mass(self, q: np.ndarray) -> np.ndarray:
@@ -112,13 +133,13 @@ class FrictionPhase(MechanicalSystem):
         return self._bp.mass_jacobian_product(q, a)
 
     def gap(self, q: np.ndarray) -> np.ndarray:
-        return self._bp.gap(q)
+        return self._cached("g", lambda: self._bp.gap_rows(q), q)[0]
 
     def gap_jacobian(self, q: np.ndarray) -> np.ndarray:
-        return self._bp.gap_jacobian(q)
+        return self._cached("g", lambda: self._bp.gap_rows(q), q)[1]
 
     def gap_gamma(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return self._bp.gap_gamma(q, v)
+        return self._cached("gv", lambda: self._bp.gap_rows(q, v), q, v)[2]
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         return self.base.energy(q, v)
@@ -178,12 +199,19 @@ class FrictionPhase(MechanicalSystem):
     def _stick_rows(self, q: np.ndarray, v: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         ns, n = len(self.stick), self.n
         C, T, gam = np.zeros(ns), np.zeros((ns, n)), np.zeros(ns)
+        scale = float(np.max(np.abs(v))) if v is not None else 0.0
+        e = GAMMA_STEP / scale if scale > 0.0 else 0.0
         for r, (j, qa) in enumerate(self.stick.items()):
             d = q - qa
-            C[r] = sum(w * (tangent_row(self._md, j, qa + x * d) @ d) for x, w in zip(_GL_X, _GL_W))
-            T[r] = tangent_row(self._md, j, q)
-            if v is not None:
-                gam[r] = -_directional(lambda e: tangent_row(self._md, j, q + e * v) @ v, v)
+            # one compiled call: q, the quadrature nodes on [q*, q], and q ± e v, q ± 2e v
+            pts = np.vstack([q, qa + np.outer(_GL_X, d)] + ([q + k * e * v for k in (1, -1, 2, -2)] if e else []))
+            rows = np.empty_like(pts)
+            _tangent_rows(self._md, int(j), pts, rows)
+            T[r] = rows[0]
+            C[r] = float(_GL_W @ (rows[1:1 + QUAD_NODES] @ d))
+            if e:   # γ_T = −d/dε [t_q(q + ε v) v] by the 4-point central difference
+                f = rows[1 + QUAD_NODES:] @ v
+                gam[r] = -(8.0 * (f[0] - f[1]) - (f[2] - f[3])) / (12.0 * e)
         return C, T, gam
 
     def _rows(self, t: float, q: np.ndarray, v: np.ndarray | None = None):
@@ -196,25 +224,18 @@ class FrictionPhase(MechanicalSystem):
                 np.concatenate([gb, gs, -gg[idx]]))
 
     def constraint(self, t: float, q: np.ndarray) -> np.ndarray:
-        return np.concatenate([self._bp.constraint(t, q), self._stick_rows(q, None)[0]])
+        return np.concatenate([self._bp.constraint(t, q), self._cached("s", lambda: self._stick_rows(q, None), q)[0]])
 
     def constraint_jacobian(self, t: float, q: np.ndarray) -> np.ndarray:
-        return np.vstack([self._bp.constraint_jacobian(t, q), self._stick_rows(q, None)[1]])
+        return np.vstack([self._bp.constraint_jacobian(t, q),
+                          self._cached("s", lambda: self._stick_rows(q, None), q)[1]])
 
     def constraint_t(self, t: float, q: np.ndarray) -> np.ndarray:
         return np.concatenate([self._bp.constraint_t(t, q), np.zeros(len(self.stick))])
 
     def constraint_gamma(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.concatenate([self._bp.constraint_gamma(t, q, v), self._stick_rows(q, v)[2]])
-
-
-def _directional(f, v: np.ndarray) -> float:
-    """d/dε f(ε) at 0 by the 4-point central difference with ε |v|∞ = GAMMA_STEP."""
-    scale = float(np.max(np.abs(v)))
-    if scale == 0.0:
-        return 0.0
-    e = GAMMA_STEP / scale
-    return (8.0 * (f(e) - f(-e)) - (f(2 * e) - f(-2 * e))) / (12.0 * e)
+        return np.concatenate([self._bp.constraint_gamma(t, q, v),
+                               self._cached("sv", lambda: self._stick_rows(q, v), q, v)[2]])
 
 
 def stick_groups(base: Problem, md: Any, t: float, q: np.ndarray, active: list[int],

@@ -7,7 +7,11 @@ Nonsmooth generalized-α adds two unknowns per contact to its Newton system
 (:mod:`daebench.stepping.nsga_friction`). The compliant family: hht on block-incline with
 penalty contact, regularised Coulomb (:mod:`daebench.core.phase`) against the same
 penalty run with μ = 0 (:data:`COMPLIANT`; its cost is the tangent rows in the force and
-its central-difference Jacobian).
+its central-difference Jacobian). The event-driven family: hht through the driver with the
+``constraint`` law (:data:`EVENT_DRIVEN`): stick and slip phases as a
+:class:`daebench.driver.stickslip.FrictionPhase`, whose rows and slip force the compiled
+stepper calls back in Python, against the frictionless phases that stay compiled; over the
+first 0.1 s of each case (block-incline: slipping; rocking-block: rocking on a sticking corner).
 """
 
 from __future__ import annotations
@@ -23,15 +27,19 @@ INTEGRATORS = ("moreau", "nsgenalpha")
 #: (case, integrator, law overrides) timed with the case's μ and μ = 0: compliant contact
 COMPLIANT = (("block-incline", "hht", (("contact.law", "penalty"), ("contact.penalty_stiffness", 1e6),
                                        ("contact.penalty_damping", 2e3))),)
+#: (case, integrator, overrides) timed with the case's μ and μ = 0: event-driven friction (driver)
+EVENT_DRIVEN = (("block-incline", "hht", (("t_end", 0.1),)), ("rocking-block", "hht", (("t_end", 0.1),)))
 
 
 def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...] = CASES,
                         integrators: tuple[str, ...] = INTEGRATORS,
-                        compliant: tuple[tuple, ...] = COMPLIANT) -> pd.DataFrame:
+                        compliant: tuple[tuple, ...] = COMPLIANT,
+                        driven: tuple[tuple, ...] = EVENT_DRIVEN) -> pd.DataFrame:
     """µs per step of each integrator on each case, with the case's μ and with μ = 0, at
     the fixed step h through the driver (one warm-up run each, then the minimum of
     ``repeats`` interleaved runs); ``compliant``: further (case, integrator, overrides)
-    runs, e.g. a compliant law with regularised friction.
+    runs, e.g. a compliant law with regularised friction; ``driven``: the same for the
+    event-driven driver's stick/slip phases (:data:`EVENT_DRIVEN`).
 
     Returns
     -------
@@ -49,7 +57,7 @@ def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...
         for name in integrators:
             for m in (mu, 0.0):
                 specs.append((case, name, m, ()))
-    for case, name, extra in compliant:
+    for case, name, extra in (*compliant, *driven):
         mu = float(load_scene(case)["contact.friction"])
         specs += [(case, name, mu, tuple(extra)), (case, name, 0.0, tuple(extra))]
 
@@ -58,7 +66,7 @@ def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...
         system = build_system(sc)
         integ = get_integrator(name)(h=h)
         t0 = time.perf_counter()
-        res = simulate(system, integ, sc.t_end, sc["output.dt"])
+        res = simulate(system, integ, sc.t_end, min(sc["output.dt"], sc.t_end))
         return time.perf_counter() - t0, res
 
     for spec in specs:
