@@ -335,18 +335,11 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
         part = [i]
         held = np.vstack([B] + [Gq[[c]] for c in cs.active])
     mu = cs.mu[part] if cs.mu.size else np.zeros(len(part))
-    if zeno or not mu.any():
-        res = _newton(M, Gq[part], T[part], mu, v, 0.0 if zeno else e, held, zeno)
-    else:
-        res = frictional_impact(M, Gq[part], T[part], mu, v, e, held)
-    if not res.ok:
-        raise StepFailure(f"{failure_message(res.status)} (impact of contact {i})", t)
+    res = _law(M, Gq[part], T[part], mu, v, 0.0 if zeno else e, held, t, i)
     k = part.index(i)
     closed = zeno or e == 0.0 or res.vn_plus[k] < REBOUND_MIN
     if closed and not (zeno or e == 0.0):
-        res = frictional_impact(M, Gq[part], T[part], mu, v, 0.0, held)
-        if not res.ok:
-            raise StepFailure(f"{failure_message(res.status)} (impact of contact {i})", t)
+        res = _law(M, Gq[part], T[part], mu, v, 0.0, held, t, i)
     cs.d_impacts += res.energy_loss
     opened = []
     for r, c in enumerate(part):
@@ -367,14 +360,19 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
     return res.v_plus
 
 
-def _newton(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.ndarray, e: float,
-            held: np.ndarray, zeno: bool):
-    """Frictionless contacts: the simultaneous Newton LCP, or (Zeno: one contact, closed
-    plastically whatever its velocity) the equality map of core.contact.impact_map."""
-    if not zeno:
-        return frictional_impact(M, GN, GT, mu, v, e, held)
-    r = impact_map(M, GN, v, e, held)
-    return _Res(r.v_plus, r.impulse, np.zeros_like(r.impulse), r.vn_minus, r.vn_plus, r.energy_loss)
+def _law(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.ndarray, e: float,
+         held: np.ndarray, t: float, i: int):
+    """The impact of the contacts GN (impact of contact i at t): one frictionless contact —
+    the equality map of core.contact.impact_map (also a Zeno closing, whatever the
+    velocity; the driver's map before the LCP, kept bit for bit); else the LCP of
+    core.frictional_impact. Its failure ends the run, named."""
+    if GN.shape[0] == 1 and not mu.any():
+        r = impact_map(M, GN, v, e, held)
+        return _Res(r.v_plus, r.impulse, np.zeros_like(r.impulse), r.vn_minus, r.vn_plus, r.energy_loss)
+    res = frictional_impact(M, GN, GT, mu, v, e, held)
+    if not res.ok:
+        raise StepFailure(f"{failure_message(res.status)} (impact of contact {i})", t)
+    return res
 
 
 @dataclass
