@@ -267,7 +267,8 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
     except RuntimeError as exc:
         fail(str(exc), 1)
     out(f"reference: {ref.path}")
-    out(f"{ref.meta.get('integrator', 'ida')} rtol {ref.rtol:g}, {ref.meta['wall_s']:.3g} s, {len(ref.impacts)} impacts")
+    out(f"{ref.describe()}, {ref.meta['wall_s']:.3g} s, {len(ref.impacts)} impacts"
+        + (f" — a fine event-capturing run: {ref.meta.get('why')}" if ref.kind == "capturing" else ""))
     agr = ref.meta.get("agreement", {})
     worst = [f"{k} {v:.2e}" for k, v in agr.items() if k.startswith("err_") and k.endswith("_max") and v == v]
     if worst:

@@ -25,7 +25,9 @@ over the run):
   capped at :data:`DIGITS_CAP` (a table of :data:`WINDOWS` equal windows × observables;
   the same table of p_c is ``digits_perturbed``);
 * ``trust_t``: the last output time before the first one at which max(a_c, p_c) > :data:`TRUST_REL`
-  × R_c for some scored observable c (``t_end`` if there is none). On [0, trust_t] every
+  × R_c for some scored observable c (``t_end`` if there is none); a column the reference
+  keeps constant (R_c ≤ :data:`CONSTANT_RANGE` × max(1, max |y|): round-off only) limits
+  nothing. On [0, trust_t] every
   scored observable of the reference is right to TRUST_REL of its range, far below the
   errors the harness scores (fixed-step runs: 1e-3 … 1e-1 of the range); after it the
   reference runs disagree by more than that, and an error measured there would measure
@@ -47,6 +49,7 @@ PERTURB_FACTOR = 10.0   # relative perturbation of the start / the reference's r
 TRUST_REL = 1e-4        # spread / range beyond which the reference is not trusted
 WINDOWS = 10            # time windows of the digits table
 DIGITS_CAP = 16.0       # digits reported when the runs agree to round-off
+CONSTANT_RANGE = 1e-12  # a column whose range is below this (× its size when > 1) is constant: no trust limit
 
 
 def _unique(hist: pd.DataFrame) -> pd.DataFrame:
@@ -122,8 +125,8 @@ def assess(ref: pd.DataFrame, ref_impacts: Sequence[float], loose: pd.DataFrame,
     first = len(t)
     limited_by = None
     for c in cols:
-        if not ranges[c] > 0:
-            continue
+        if not ranges[c] > 0 or ranges[c] <= CONSTANT_RANGE * max(1.0, float(np.nanmax(np.abs(ref[c])))):
+            continue   # a constant column (θ ≡ 0 of a block that never tips): its round-off limits nothing
         bad = np.flatnonzero(~(s[c] <= TRUST_REL * ranges[c]))
         if bad.size and bad[0] < first:
             first, limited_by = int(bad[0]), c
@@ -217,13 +220,15 @@ def summary_lines(meta: dict[str, Any], impacts: Sequence[float], t_end: float) 
         lines.append("the scene's horizon ends before its first impact: the reference has no impact")
     elif tt < impacts[0]:
         lines.append(f"the trusted span ends before the first impact (t = {impacts[0]:.6g} s)")
-    lines.append(f"runs: loose ×{acc['loose_factor']:g} {acc.get('loose')}, perturbed start "
-                 f"(relative {acc['perturb_factor']:g}×rtol) {acc.get('perturbed')}, "
+    coarse = f"coarse h = {acc['coarse_h']:g} s" if "coarse_h" in acc else f"loose ×{acc['loose_factor']:g}"
+    pert = f"relative {acc['perturb_rel']:g}" if "perturb_rel" in acc else f"relative {acc['perturb_factor']:g}×rtol"
+    lines.append(f"runs: {coarse} {acc.get('loose')}, perturbed start ({pert}) {acc.get('perturbed')}, "
                  f"impacts {acc.get('loose_impacts')} / {acc.get('perturbed_impacts')} (reference {len(impacts)})")
     table = acc.get("digits", {})
     cols = [c for c in table if c != "windows"]
     if cols:
-        lines.append("estimated correct digits (loose run's difference / 10, of the range) per time window:")
+        est = acc.get("estimate") or f"loose run's difference / {acc.get('loose_factor', LOOSE_FACTOR):g}"
+        lines.append(f"estimated correct digits ({est}, of the range) per time window:")
         lines.append("  window [s]          " + " ".join(f"{c[:10]:>10s}" for c in cols))
         for k, (a, b) in enumerate(table["windows"]):
             lines.append(f"  {a:8.4g} – {b:<8.4g} " + " ".join(f"{table[c][k]:10.1f}" for c in cols))

@@ -77,7 +77,26 @@ _BEAM = Protocol(
     measures=("err_{obs}_max_trusted", "err_pre_{obs}_max", "err_impact1_t"),
     why="the paper's steps (h = 1e-4 s, 1e-6 s in contact) and two halvings; the θ error over the "
         "reference's trusted span beside the error before the first impact and the first impact's time error")
-PROTOCOLS: dict[str, Protocol] = {"beam-impact": _BEAM, "beam-impact-hub": _BEAM}
+# the nonsmooth cases of issue 25 (friction): both families at the same three steps, the reference a
+# fine Moreau–Jean run (daebench.harness.refcapture); IDA and the integrators that cannot take the
+# case's friction are refused before running, each with its reason
+_ROCK_STEPS = (2e-3, 1e-3, 5e-4)
+_ROCK = Protocol(
+    entries=tuple(Entry(n, _ROCK_STEPS) for n in ("moreau", "nsgenalpha", "hht", "newmark", "genalpha"))
+    + (Entry("ida"),),
+    measures=("err_{obs}_max_trusted", "err_omega_max_trusted"),
+    why="the event-capturing schemes and the event-driven ones (where they apply friction) at three halvings "
+        "of h; θ and ω over the capturing reference's trusted span")
+_CRANK_STEPS = (4e-5, 2e-5, 1e-5)
+_CRANK = Protocol(
+    entries=tuple(Entry(n, _CRANK_STEPS) for n in ("moreau", "nsgenalpha", "hht", "newmark", "genalpha"))
+    + (Entry("ida"),),
+    measures=("err_{obs}_max", "err_{obs}_max_trusted", "err_y_max"),
+    why="the Siconos example's h = 1e-5 s and two doublings, both families; the crank angle over the whole run "
+        "(the reference's estimated θ digits stay ≥ 4 of the range throughout) and over its trusted span (the "
+        "chattering's bounces part from the coarse check run soon after the first impact), the slider's height")
+PROTOCOLS: dict[str, Protocol] = {"beam-impact": _BEAM, "beam-impact-hub": _BEAM, "rocking-block": _ROCK,
+                                  "slider-crank-clearance": _CRANK}
 
 
 def default_protocol(scene: Scene) -> Protocol:
@@ -214,8 +233,8 @@ def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused
     df.to_parquet(files[1], index=False)
     ms = measures_present(df, proto.measures)
     if ms:
-        title = f"{scene.name}: work–precision ({len(df)} runs, reference IDA rtol " \
-                f"{ref.rtol:g})" if ref is not None else f"{scene.name}: work–precision"
+        title = f"{scene.name}: work–precision ({len(df)} runs, reference {ref.describe()})" if ref is not None \
+            else f"{scene.name}: work–precision"
         files += plots.work_precision(df, "wall_s", ms, "label", folder / f"wp-{scene.name}", prov, title=title)[1]
     side = folder / "compare.json"
     provenance.write_sidecar(side, prov, scene=scene.name, scene_hash=scene.hash, why=proto.why,

@@ -8,7 +8,9 @@ count, columns and time span). Both are written atomically (temporary file, then
 ``os.replace``), the parquet first, so a reader sees either the old pair, or a new
 parquet whose checksum does not match the old sidecar — which :func:`load_reference`
 reports as damaged. Every read checks the sidecar, the checksum, the columns, the time
-span against the scene's ``t_end`` and the scene hash; a damaged reference is recomputed
+span against the scene's ``t_end``, the scene hash and the kind of reference the scene
+needs (IDA, or a fine event-capturing run for friction and complementarity contacts:
+:mod:`daebench.harness.refcapture`); a damaged reference is recomputed
 (``compute`` and ``auto`` modes) or refused with the command that fixes it (``require``).
 """
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,7 +29,7 @@ import pandas as pd
 from daebench.harness import guards, metrics, provenance
 from daebench.harness.scoring import declared
 from daebench.core.params import ParamError
-from daebench.harness import accuracy
+from daebench.harness import accuracy, refcapture
 from daebench.harness.runner import make_integrator, results_dir, run_scene
 from daebench.integrators.odeint import IndexOneODE
 from daebench.models import build_system
@@ -66,7 +69,19 @@ class Reference:
 
     @property
     def rtol(self) -> float:
-        return float(self.meta["settings"]["rtol"])
+        """IDA's rtol (NaN for a capturing reference: it has a step instead)."""
+        return float(self.meta["settings"].get("rtol", math.nan))
+
+    @property
+    def kind(self) -> str:
+        """'ida' or 'capturing' (:mod:`daebench.harness.refcapture`)."""
+        return str(self.meta.get("kind", "ida"))
+
+    def describe(self) -> str:
+        """What computed it, in a few words: 'ida rtol 1e-11' or 'moreau h 5e-06 (event capturing)'."""
+        if self.kind == "capturing":
+            return f"{self.meta.get('integrator', '?')} h {float(self.meta['settings']['h']):g} (event capturing)"
+        return f"{self.meta.get('integrator', 'ida')} rtol {self.rtol:g}"
 
     @property
     def trust_span(self) -> tuple[float, int]:
@@ -175,12 +190,17 @@ def validate(scene: Scene, path: Path) -> Reference:
     t0, t1 = float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])
     if abs(t0) > 1e-12 or abs(t1 - scene.t_end) > 1e-9 * max(1.0, scene.t_end):
         raise damaged(f"time span [{t0:g}, {t1:g}] s does not cover the scene's [0, {scene.t_end:g}] s")
+    want, why = refcapture.reference_kind(scene)
+    if meta.get("kind", "ida") != want:
+        raise damaged(f"it is a '{meta.get('kind', 'ida')}' reference, this scene needs a '{want}' one"
+                      + (f" ({why})" if why else ""))
+    key = "h" if want == "capturing" else "rtol"
     try:
-        rtol = float(meta["settings"]["rtol"])
+        tol = float(meta["settings"][key])
     except (KeyError, TypeError, ValueError, OverflowError):
-        raise damaged("sidecar settings lack rtol") from None
-    if not 0 < rtol < 1:
-        raise damaged(f"rtol {rtol!r} in the sidecar")
+        raise damaged(f"sidecar settings lack {key}") from None
+    if not 0 < tol < 1:
+        raise damaged(f"{key} {tol!r} in the sidecar")
     return Reference(hist, [float(t) for t in meta["impacts"]], meta, path)
 
 
@@ -231,10 +251,16 @@ def reference_tolerances(tightest_rtol: float | None = None, rtol: float | None 
 
 def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: float | None = None,
                       atol: float | None = None, check: bool = True,
-                      progress: Callable[[str, float], Any] | None = None) -> Reference:
+                      progress: Callable[[str, float], Any] | None = None,
+                      tightest_h: float | None = None) -> Reference:
     """Compute, check and cache the reference of ``scene``, with its accuracy record.
 
-    The reference solver is IDA, or — for a model that declares ``reference_solver``
+    A scene with friction, with contacts left to an integrator, or whose model asks for it
+    gets a fine event-capturing reference instead of IDA's
+    (:func:`daebench.harness.refcapture.reference_kind`): Moreau–Jean at a fixed step
+    (at most ``tightest_h`` / STEP_MARGIN), checked by a 2× coarser run and a perturbed
+    start, its accuracy record built the same way; ``rtol``/``atol`` do not apply to it.
+    Otherwise the reference solver is IDA, or — for a model that declares ``reference_solver``
     (the IVP test-set mechanisms) — that solver on the index-1 ODE with per-component
     absolute tolerances rtol × the model's ``state_scale()``
     (:mod:`daebench.integrators.odeint`). It runs at (rtol, atol) (defaults 1e-11 /
@@ -252,9 +278,15 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     RuntimeError
         If the reference run does not complete.
     """
-    r, a = reference_tolerances(tightest_rtol, rtol, atol)
     dense_scene = scene.with_overrides({"output.dt": scene["output.dt"] / REF_OVERSAMPLE})
-    solver = getattr(build_system(scene), "reference_solver", REF_INTEGRATOR)
+    system = build_system(scene)
+    kind, why = refcapture.reference_kind(scene, system)
+    if kind == "capturing":
+        h = refcapture.reference_step(scene, REF_OVERSAMPLE, tightest_h)
+        integ, res, acc_meta = refcapture.capture_runs(scene, dense_scene, h, check, progress)
+        return _store(scene, dense_scene, integ, res, {}, acc_meta, {"kind": kind, "why": why})
+    r, a = reference_tolerances(tightest_rtol, rtol, atol)
+    solver = getattr(system, "reference_solver", REF_INTEGRATOR)
 
     def run(rt: float, at: float, label: str, method: str = solver, start: Any = None) -> tuple[Any, Any]:
         integ = (make_integrator(REF_INTEGRATOR, {"rtol": rt, "atol": at}) if method == REF_INTEGRATOR
@@ -292,6 +324,13 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
                                    loose_factor=f)
         acc_meta.update({"loose": loose.status, "perturbed": pert.status,
                          "perturbed_impacts": len(pert.impacts), "loose_impacts": len(loose.impacts)})
+    return _store(scene, dense_scene, integ, res, agreement, acc_meta, {"kind": "ida"})
+
+
+def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: dict[str, Any],
+           acc_meta: dict[str, Any], extra: dict[str, Any]) -> Reference:
+    """Write the reference's history and sidecar atomically (module docstring)."""
+    impacts = [float(i.t) for i in res.impacts]
     path = reference_path(scene)
     hist = res.history
     kept = (f"the reference was computed ({res.wall_s:.3g} s) but is not cached; the runs scored against it "
@@ -309,7 +348,7 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
             "integrator": integ.name, "settings": integ.to_config(), "wall_s": res.wall_s,
             "counters": res.counters, "impacts": impacts, "output_dt": dense_scene["output.dt"], "agreement": agreement,
             "accuracy": acc_meta,
-            "energy_residual_max": res.energy_residual, "sha256": sha256(path), "rows": len(hist),
+            "energy_residual_max": res.energy_residual, **extra, "sha256": sha256(path), "rows": len(hist),
             "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}
     guards.atomic_write(path.with_suffix(".json"),
                         lambda p: provenance.write_sidecar(p, provenance.collect([scene]), **meta),

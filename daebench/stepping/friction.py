@@ -18,7 +18,11 @@ the sliding speed |U_T,i|; while the contact slides |P_T| = μ P_N against U_T, 
 sticks (U_T = 0) |P_T| ≤ μ P_N (Stewart & Trinkle 1996; Anitescu & Potra 1997; Acary &
 Brogliato 2008 §13). Contacts with μ_i = 0 carry only their normal row. The LCP matrix is
 copositive-plus and the LCP always has a solution (Stewart & Trinkle), which Lemke finds;
-a ray end (LCP_RAY) is reported as a failed step with a named status.
+a ray end (LCP_RAY) is reported as a failed step with a named status. Two guards against a
+degenerate tableau (contacts on one line — the slider's two corners on a wall — have
+identical tangent rows, and Lemke's ratio test ties): no LCP at all when no active contact
+needs a normal impulse (P = 0 solves it), and one retry with b perturbed by TIE_BREAK
+relative after a ray end.
 
 Layout of the unknowns z (m = n_a + 3 n_f of them for n_a active contacts, n_f of them
 with friction): the n_a normal impulses first (in contact order), then (β⁺, β⁻, σ) of
@@ -33,7 +37,9 @@ import numpy as np
 from numba import njit
 
 from daebench.core import kernels
-from daebench.core.lcp import LemkeWork, lemke_work, solve_lcp_lemke
+from daebench.core.lcp import LCP_RAY, LemkeWork, lemke_work, solve_lcp_lemke
+
+TIE_BREAK = 1e-10   # relative perturbation of b that breaks Lemke's degenerate ties (impulses(), a retry)
 from daebench.core.linalg import lu_solve
 
 
@@ -162,7 +168,25 @@ def impulses(model, fw, G, active, LU, piv, n, nc, q1, v1, v0, vfree, e, P):
                     A[fi, fj + 1] = -tt
                     A[fi + 1, fj] = -tt
                     A[fi + 1, fj + 1] = tt
+    need = False
+    for i in range(nc):
+        if fw.slot[i] >= 0 and b[fw.slot[i]] < 0.0:
+            need = True
+    if not need:
+        # no active contact needs a normal impulse: P = 0 (with σ = |U_T|) solves the LCP, and
+        # Lemke need not pivot through the identical tangent rows of contacts on one line
+        return 0
     st = solve_lcp_lemke(A, b, m, fw.z, fw.w, fw.lemke)
+    if st == LCP_RAY:
+        # degenerate ties (contacts on one line have identical tangent rows) can end Lemke on a
+        # ray although a solution exists: break them by a perturbation of b of order TIE_BREAK
+        # relative (the lexicographic rule's intent), then solve again
+        scale = 0.0
+        for a in range(m):
+            scale = max(scale, abs(b[a]))
+        for a in range(m):
+            b[a] += TIE_BREAK * scale * (a + 1) / m
+        st = solve_lcp_lemke(A, b, m, fw.z, fw.w, fw.lemke)
     if st < 0:
         return st
     for i in range(nc):
