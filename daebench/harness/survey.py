@@ -14,7 +14,7 @@ tolerance) of every setting. The first round always runs; a later round runs onl
 time spent on the case so far plus :data:`ROUND_GROWTH` × the last round's wall time (a
 halved step costs about twice as much) fits the budget. The runs of rounds left out are
 rows with status ``skipped-budget`` (not stored: ``--resume`` with a larger ``--budget``
-runs them). The time to compute a missing reference is not counted. A single run is
+runs them; a resume counts the rounds' times already spent, ``<store>.rounds.json``). The time to compute a missing reference is not counted. A single run is
 capped (``timeout`` row) at ``run_cap``, by default the budget but at least
 :data:`MIN_RUN_CAP_S` (a cold numba compile takes 30–90 s, minutes on a loaded machine;
 a worker killed while compiling leaves nothing in the cache, so the next run compiles again).
@@ -265,10 +265,12 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
     store = _open_store(folder, name, scene, specs, opts, ref_mode)
     skipped: list[dict[str, Any]] = []
     groups = rounds(specs)
-    t0, last, ran = time.perf_counter(), 0.0, 0
+    log = folder / f"{name}--{scene.name}.rounds.json"   # wall time of each round run: a resume goes on from there
+    past = [float(x) for x in json.loads(log.read_text())] if opts.resume and log.exists() else []
+    t0, last, ran = time.perf_counter() - sum(past), 0.0, 0
     try:
         for k, group in enumerate(groups):
-            spent = time.perf_counter() - t0
+            spent, last = time.perf_counter() - t0, past[k - 1] if 0 < k <= len(past) else last
             done = store.finished()
             todo = [s for s in group if s.index not in done]
             if k > 0 and todo and spent + ROUND_GROWTH * last > budget:
@@ -282,7 +284,9 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
                               reference_mode=ref_mode, progress=opts.progress, run_cap=cap, store=store,
                               repeats=opts.repeats,
                               description=f"survey {scene.name} round {k + 1}")
-            last, ran = time.perf_counter() - r0, k + 1
+            last, ran = (time.perf_counter() - r0 if todo else past[k] if k < len(past) else 0.0), k + 1
+            past[k:k + 1] = [last]
+            log.write_text(json.dumps(past))
         rows = list(store.finished().values())
     finally:
         store.close()
