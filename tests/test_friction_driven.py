@@ -170,3 +170,30 @@ def test_painleve_slip_ends_the_run_with_its_verdict():
     for ok in ({**bad, "start.vx": -1.0}, {**bad, "contact.friction": 0.5}):
         res = run("falling-rod", ok, h=1e-3, t_end=0.05)
         assert res.status == "completed", res.message
+
+
+@pytest.mark.slow
+def test_rocking_block_corner_slides_when_the_stick_force_leaves_the_cone():
+    """μ = 0.1: the pivot corner sticks from the release until the friction the rotation
+    about it needs, |F_T|/F_N (Newton–Euler about the fixed corner, from the run's own θ, ω),
+    reaches μ — then the driver's located 'slide' event lets it slip. The corner's
+    position is held to 1e-12 m until 10 µs before that crossing and moves on from 20 µs after."""
+    mu, b, h, m = 0.1, 0.1, 0.5, 1.0
+    res = run("rocking-block", {"contact.friction": mu, "output.dt": 1e-5}, h=1e-3, t_end=0.25)
+    assert res.status == "completed", res.message
+    H = res.history
+    t, th, w = H.t.values, H.theta.values, H.omega.values
+    p, r = -b, -h                                         # the pivot: bottom-left corner
+    xc = H.x.values + p * np.cos(th) - r * np.sin(th)
+    rpg = -np.array([p * np.cos(th) - r * np.sin(th), p * np.sin(th) + r * np.cos(th)])   # pivot → centre
+    io = m * (4 * b * b + 4 * h * h) / 12 + m * (rpg ** 2).sum(0)
+    alpha = rpg[0] * (-m * G) / io
+    ft = m * (-alpha * rpg[1] - w ** 2 * rpg[0])
+    fn = m * (alpha * rpg[0] - w ** 2 * rpg[1]) + m * G
+    k = np.flatnonzero(np.abs(ft) / fn > mu)[0]
+    ratio = np.abs(ft) / fn
+    ts = t[k - 1] + (mu - ratio[k - 1]) * (t[k] - t[k - 1]) / (ratio[k] - ratio[k - 1])
+    assert 0.2 < ts < 0.23
+    assert np.abs(xc[t < ts - 1e-5] - xc[0]).max() < 1e-12
+    moved = np.abs(xc[t > ts + 2e-5] - xc[0])   # the slip starts from rest, its acceleration from 0
+    assert moved.min() > 1e-12 and (np.diff(moved) > 0).all()
