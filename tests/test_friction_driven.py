@@ -197,3 +197,30 @@ def test_rocking_block_corner_slides_when_the_stick_force_leaves_the_cone():
     assert np.abs(xc[t < ts - 1e-5] - xc[0]).max() < 1e-12
     moved = np.abs(xc[t > ts + 2e-5] - xc[0])   # the slip starts from rest, its acceleration from 0
     assert moved.min() > 1e-12 and (np.diff(moved) > 0).all()
+
+
+def test_degenerate_frictional_impact_is_solved_and_no_solution_is_named():
+    """The impact LCP of two slider corners on one wall of slider-crank-clearance (μ = 0.01,
+    t = 0.18 s under hht: identical tangent rows, slipping at U_T = −27 m/s, one corner
+    grazing): Lemke's pivoting ends on a ray although a solution exists; the enumeration of
+    the complementary bases finds it (z ≥ 0, w ≥ 0, zᵀw = 0 to round-off), the slip one:
+    λ_0R = 2 μ P_N (P_T = +μ P_N) at both corners. An LCP without a solution stays
+    LCP_RAY, whose message names Painlevé."""
+    from daebench.core.frictional_impact import enumerate_lcp, failure_message
+    from daebench.core.lcp import LCP_RAY, lemke_work, solve_lcp_lemke
+
+    A = np.array([[941.06411762397602, -910.78773422988775, -464.22576604058168, -464.22576604468679, 0, 0],
+                  [-920.04699348914698, 931.80485836061143, 461.70015988123936, 461.70015988534448, 0, 0],
+                  [-466.61120374612176, 459.31472217567870, 238.54377055400721, 238.54377055605977, 1, 0],
+                  [-466.61120375024740, 459.31472217976329, 238.54377055605977, 238.54377055811233, 0, 1],
+                  [0.02, 0, -1, 0, 0, 0],
+                  [0, 0.02, 0, -1, 0, 0]])
+    b = np.array([-3.9091234076378800e-15, -8.1734013755225209e-04, -27.219550139821365, -27.219550139821369, 0, 0])
+    z, w = np.zeros(6), np.zeros(6)
+    assert solve_lcp_lemke(A, b, 6, z, w, lemke_work(6)) == LCP_RAY
+    z = enumerate_lcp(A, b)
+    w = A @ z + b
+    assert z.min() >= 0 and w.min() > -1e-12 and np.abs(z * w).max() < 1e-12
+    assert z[:2].max() > 0 and np.allclose(z[2:4], 2 * 0.01 * z[:2], rtol=1e-6)
+    assert enumerate_lcp(np.array([[-1.0]]), np.array([-1.0])) is None
+    assert "Painlevé" in failure_message(LCP_RAY)

@@ -29,9 +29,12 @@ M_B⁻¹ the inverse of M on B v = 0, from the augmented system). The laws, per 
            [2 μ S,            −I,    0]]           0           ]
 
   (S selects the frictional contacts' normal impulses), solved by Lemke's method
-  (:func:`daebench.core.lcp.solve_lcp_lemke`; the matrix is not a P-matrix). An LCP
-  without solution (Lemke's secondary ray) is returned as ``status = LCP_RAY``: an
-  inconsistent or indeterminate frictional contact (Painlevé), which the driver names.
+  (:func:`daebench.core.lcp.solve_lcp_lemke`; the matrix is not a P-matrix). Where
+  Lemke's method ends on a secondary ray — which degenerate data (zero rows of b, a
+  grazing contact) can cause although a solution exists — every complementary basis is
+  tried (:func:`enumerate_lcp`, up to :data:`ENUMERATE_MAX` unknowns); an LCP without
+  solution is returned as ``status = LCP_RAY``: an inconsistent or indeterminate
+  frictional contact (Painlevé), which the driver names.
 
 The impact map is exact: no time step enters, so a closed form (the falling rod's
 impulse, the cradle's outcome) is met to round-off.
@@ -44,6 +47,7 @@ C. Glocker, Set-Valued Force Laws, Springer (2001), §8.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +55,7 @@ import numpy as np
 from daebench.core.lcp import LCP_FAILURES, LCP_RAY, lcp_work, lemke_work, solve_lcp, solve_lcp_lemke
 
 #: the names of the impact laws, as the run record gives them
+ENUMERATE_MAX = 12     # unknowns up to which a failed Lemke run is checked by enumerating the bases
 LAW_NEWTON = "newton"
 LAW_NEWTON_COULOMB = "newton-coulomb (Pfeiffer–Glocker LCP)"
 PAINLEVE = ("frictional impact LCP without a solution (Lemke's method ended on a ray): an inconsistent or "
@@ -127,6 +132,12 @@ def frictional_impact(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndar
         m = k + 2 * nf
         z, w = np.zeros(m), np.zeros(m)
         status = int(solve_lcp_lemke(np.ascontiguousarray(A), np.ascontiguousarray(b), m, z, w, lemke_work(m)))
+        if status < 0 and m <= ENUMERATE_MAX:
+            # Lemke's pivoting can end on a ray in a degenerate LCP that has a solution (zero
+            # rows of b, a grazing contact): the complementary bases, all of them, decide
+            found = enumerate_lcp(A, b)
+            if found is not None:
+                z, status = found, 0
         pn = z[:k]
         pt = z[k:k + nf] - mu[F] * pn[F]
     if status < 0:
@@ -138,6 +149,26 @@ def frictional_impact(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndar
     pt_all[F] = pt
     loss = 0.5 * float(v_minus @ M @ v_minus - v_plus @ M @ v_plus)
     return FrictionalImpact(v_plus, pn, pt_all, un, GN @ v_plus, GT @ v_plus, loss, status)
+
+
+def enumerate_lcp(A: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """A solution of LCP(A, b) by trying every complementary basis (smallest first), or
+    None when there is none: exact, for the few unknowns of an impact (≤ ENUMERATE_MAX)."""
+    m = b.size
+    scale = max(float(np.abs(b).max()), 1e-300)
+    for size in range(m + 1):
+        for basis in itertools.combinations(range(m), size):
+            z = np.zeros(m)
+            if basis:
+                idx = list(basis)
+                try:
+                    z[idx] = np.linalg.solve(A[np.ix_(idx, idx)], -b[idx])
+                except np.linalg.LinAlgError:
+                    continue
+            w = A @ z + b
+            if z.min() >= -1e-12 * max(1.0, float(np.abs(z).max())) and w.min() >= -1e-12 * scale:
+                return np.maximum(z, 0.0)
+    return None
 
 
 def failure_message(status: int) -> str:

@@ -271,12 +271,23 @@ def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, 
     elif kind == "stop":
         # the contact and every other slipping one at rest with it stick here
         md = cs.base.kernel.model
-        stopped = [c for c in cs.slip if c == i or abs(float(tangent_row(md, c, q) @ v)) < SLIP_MIN]
+        stopped = {c: s for c, s in cs.slip.items() if c == i or abs(float(tangent_row(md, c, q) @ v)) < SLIP_MIN}
         for c in stopped:
             del cs.slip[c]
             cs.stick[c] = q.copy()
         cs.regroup(t, q)
-        q, v = project(cs.phase(system), t, q, v)
+        try:
+            phase = cs.phase(system)
+            q1, v1 = project(phase, t, q, v)
+            phase.acceleration(t, q1, v1)
+            q, v = q1, v1
+        except np.linalg.LinAlgError:
+            # sticking would lock the system (the stick rows singular there, e.g. a slider at
+            # its crank's dead centre): the slip velocity passes through zero, the slip reverses
+            for c, s in stopped.items():
+                del cs.stick[c]
+                cs.slip[c] = -s
+            cs.regroup(t, q)
     elif kind == "slide":
         lam_t = cs.cone_margins(problem, state.lam)[i][1]
         for c in cs.groups[i]:
