@@ -140,7 +140,9 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
     pairs.append(("energy balance", f"max |E − E0 − W_nc + D_impacts| = {r.energy_residual:.3e} J "
                                     f"(bookkeeping error of the run; 0 is exact)"))
     if r.impacts:
-        pairs.append(("impacts", f"{len(r.impacts)}; first at t = {r.impacts[0]['t']:.12g} s"))
+        law = getattr(r.record, "impact_law", "")
+        pairs.append(("impacts", f"{len(r.impacts)}; first at t = {r.impacts[0]['t']:.12g} s"
+                                 + (f"; impact law: {law}" if law else "")))
     c = r.constraint_max
     if any(c.values()):
         pairs.append(("constraints", f"max while closed |C| {c['C']:.2e} m, |Ċ| {c['Cdot']:.2e} m/s, "

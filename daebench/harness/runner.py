@@ -182,7 +182,8 @@ def write_history(result: RunResult, scene: Scene, integ: Integrator, out_dir: s
         guards.atomic_write(path, lambda p: result.history.to_csv(p, index=False, float_format="%.17g"),
                             "the history", kept)
     side = {"scene": scene.name, "scene_hash": scene.hash, "integrator": integ.name,
-            "settings": _jsonable(dict(integ.settings)), "status": result.status, "message": result.message}
+            "settings": _jsonable(dict(integ.settings)), "status": result.status, "message": result.message,
+            "impact_law": result.impact_law}
     guards.atomic_write(path.with_suffix(".json"), lambda p: p.write_text(json.dumps(side, indent=2)),
                         "the history's sidecar", f"the history is in {path}")
     return path
