@@ -100,7 +100,10 @@ class Capabilities:
         contact episode with :meth:`Integrator.report_contact`.
     friction : bool
         Whether it applies Coulomb friction at the contacts it resolves (a model's
-        ``tangent`` kernel with μ > 0, scene key ``contact.friction``). An integrator
+        ``tangent`` kernel with μ > 0, scene key ``contact.friction``) — or, for an
+        integrator the driver runs with the ``constraint`` law, whether it runs the driver's
+        stick/slip phases (:mod:`daebench.driver.stickslip`: extra constraint rows and a
+        state-dependent force, so it must take constraints). An integrator
         without it is refused on a case with μ > 0 before the first step (:func:`applies_friction`).
     """
 
