@@ -249,9 +249,14 @@ def test_event_driven_takes_the_frictionless_case_and_refuses_friction_it_cannot
 
 @pytest.mark.slow
 def test_event_driven_hht_finds_the_first_contact():
-    """hht at μ = 0 locates the first contact at the free flight's time (scipy) to 1e-7 s and runs
-    the chattering through (the driver's impacts, the contacts closing)."""
+    """hht at μ = 0 locates the first contact at the free flight's time (scipy) to within 1e-6 s,
+    the error falling like h (5.5e-7, 2.7e-7 s at h = 1e-5, 5e-6 s), and runs the chattering
+    through (the driver's impacts, the contacts closing) without penetrating."""
     sc = load_scene(CASE, {"t_end": 0.02})
-    res, _ = cached_run("hht", CASE, {"t_end": 0.02}, h=1e-5)
-    assert abs(res.impacts[0].t - _first_contact_time(sc)) < 1e-7
-    assert res.history.gap.min() > -1e-9
+    t1 = _first_contact_time(sc)
+    err = []
+    for h in (1e-5, 5e-6):
+        res, _ = cached_run("hht", CASE, {"t_end": 0.02}, h=h)
+        err.append(abs(res.impacts[0].t - t1))
+        assert res.history.gap.min() > -1e-9
+    assert err[0] < 1e-6 and 0.4 * err[0] < err[1] < 0.6 * err[0], err
