@@ -94,3 +94,20 @@ def test_capturing_reference_is_validated_and_refused_as_the_wrong_kind(incline_
         meta["kind"] = "capturing"
         side.write_text(json.dumps(meta))
     assert references.validate(sc, ref.path).kind == "capturing"
+
+
+def test_compare_protocols_plan_both_families_and_refuse_with_reasons():
+    """`daebench compare rocking-block` plans moreau, nsgenalpha and the event-driven integrators
+    that declare friction at three steps each, and refuses IDA (and every integrator without
+    friction) before running, each with the reason; the slider-crank plan runs IDA (μ = 0)."""
+    from daebench.harness import compare
+
+    sc = load_scene("rocking-block")
+    specs, refused = compare.plan(sc, compare.protocol_for(sc))
+    ran = {s.integrator for s in specs}
+    assert {"moreau", "nsgenalpha"} <= ran and sum(s.integrator == "moreau" for s in specs) == 3
+    assert "ida" in refused and "friction" in refused["ida"] and "ida" not in ran
+    crank = load_scene("slider-crank-clearance")
+    specs, refused = compare.plan(crank, compare.protocol_for(crank))
+    assert {"moreau", "nsgenalpha", "hht", "ida"} <= {s.integrator for s in specs}
+    assert "lcp" in refused and "complementarity" in refused["lcp"]

@@ -50,7 +50,8 @@ def _sample(ref: Reference, column: str, t_end: float) -> list[float]:
 def make(scene: Scene, ref: Reference) -> dict[str, Any]:
     """The fingerprint of ``ref``: impact times and the model's fingerprinted observables
     at the sample times (the output rows nearest to them)."""
-    return {"scene": scene.name, "rtol": ref.rtol, "impacts": list(ref.impacts),
+    made = {"rtol": ref.rtol} if ref.kind == "ida" else {"kind": ref.kind, "h": float(ref.meta["settings"]["h"])}
+    return {"scene": scene.name, **made, "impacts": list(ref.impacts),
             **{o.name: _sample(ref, o.name, scene.t_end) for o in scoring.declared(scene.model).fingerprinted()}}
 
 
