@@ -111,3 +111,12 @@ def test_compare_protocols_plan_both_families_and_refuse_with_reasons():
     specs, refused = compare.plan(crank, compare.protocol_for(crank))
     assert {"moreau", "nsgenalpha", "hht", "ida"} <= {s.integrator for s in specs}
     assert "lcp" in refused and "complementarity" in refused["lcp"]
+
+
+def test_ida_tolerances_are_refused_for_a_capturing_reference():
+    """--rtol/--atol name IDA's tolerances: asked of a scene whose reference is a capturing run,
+    they are refused with the reason, not silently ignored."""
+    from daebench.core.params import ParamError
+
+    with pytest.raises(ParamError, match="event-capturing reference.*do not apply"):
+        references.compute_reference(load_scene("rocking-block"), rtol=1e-9)

@@ -282,6 +282,9 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     system = build_system(scene)
     kind, why = refcapture.reference_kind(scene, system)
     if kind == "capturing":
+        if rtol is not None or atol is not None:
+            raise ParamError(f"scene '{scene.name}' has an event-capturing reference ({why}); IDA's --rtol/--atol "
+                             f"do not apply to it: leave them out")
         h = refcapture.reference_step(scene, REF_OVERSAMPLE, tightest_h)
         integ, res, acc_meta = refcapture.capture_runs(scene, dense_scene, h, check, progress)
         return _store(scene, dense_scene, integ, res, {}, acc_meta, {"kind": kind, "why": why})
