@@ -42,32 +42,59 @@ _OTHER = {"err_impact1_t": "error of the 1st impact time [s]", "err_impact2_t": 
           "energy_resid_max": "max |energy-balance residual| [J]", "energy_resid_rel": "max energy residual / energy scale"}
 
 
-def _declared(key: str, name: str) -> Any:
+def _declared(key: str, name: str, model: str | None = None) -> Any:
     """The one declaration (:mod:`daebench.core.observables`) whose ``key`` ('name' or
-    'score_name') is ``name`` across the registered models (None: none, or two that differ)."""
+    'score_name') is ``name``: model ``model``'s, else across the registered models (None:
+    none, or two that differ in unit)."""
     from daebench.harness import scoring
 
-    found = {d for d in scoring.every_declared() if getattr(d, key) == name}
-    return found.pop() if len({d.text for d in found}) == 1 else None
+    pool = scoring.every_declared()
+    if model is not None:
+        d = scoring.declared(model)
+        pool = [*d.declared, *d.positions]
+    found = {d for d in pool if getattr(d, key) == name}
+    if len({d.text for d in found}) == 1:
+        return found.pop()
+    units = {d.unit for d in found}
+    if len(units) == 1:  # models label it differently but agree on its unit: name and unit
+        return Observable(name, units.pop())
+    return None
 
 
-def label_of(col: str) -> str:
+def model_of(df: pd.DataFrame) -> str | None:
+    """The model of a sweep table's runs (one case, or cases of one model), for labels; None
+    when its rows name no case or cases of several models."""
+    from daebench.models.scenes import load_scene
+
+    if "case" not in df.columns:
+        return None
+    models = set()
+    for case in pd.unique(df["case"].dropna()):
+        try:
+            models.add(load_scene(str(case)).model)
+        except ParamError:  # a case file moved since the sweep: the labels fall back to every model's
+            return None
+    return models.pop() if len(models) == 1 else None
+
+
+def label_of(col: str, model: str | None = None) -> str:
     """Axis label for a column name (err_<obs>_max → 'max error of <label> [<unit>]', with
-    the label and unit the models declare)."""
+    the label and unit the model declares; without ``model``, those all models agree on)."""
     if col in LABELS:
         return LABELS[col]
     if col in _OTHER:
         return _OTHER[col]
-    m = re.fullmatch(r"err_(.+)_(final|max|l2)", col)
+    m = re.fullmatch(r"err_(.+)_(final|max|l2)(_trusted)?", col)
     if m:
         what = m.group(1)
         for prefix, where in _ERR_WHERE:
-            d = _declared("score_name", what[len(prefix):]) if what.startswith(prefix) else None
+            d = _declared("score_name", what[len(prefix):], model) if what.startswith(prefix) else None
             if d is not None:
                 what = f"{d.label or d.score_name}{where}" + (f" [{d.unit}]" if d.unit else "")
                 break
-        return f"{ {'final': 'final', 'max': 'max', 'l2': 'L2'}[m.group(2)]} error of {what}"
-    d = _declared("name", col)
+        span = " over the reference's trusted span" if m.group(3) else ""
+        return f"{ {'final': 'final', 'max': 'max', 'l2': 'L2'}[m.group(2)]} error of {what}{span}"
+    d = _declared("name", col, model)
     return d.text if d is not None else col
 
 
@@ -149,13 +176,24 @@ def convergence(df: pd.DataFrame, x: str = "h", y: str | Sequence[str] = (), gro
             if i == 0:
                 ax.loglog(xv, 0.4 * yv[-1] * (xv / xv[-1]) ** 2, "k:", lw=0.8, label="slope 2")
         ax.set_xlabel({"h": "step h [s]", "tol": "tolerance"}.get(x, label_of(x)))
-        ax.set_ylabel(label_of(yc))
+        ax.set_ylabel(label_of(yc, model_of(df)))
         ax.grid(True, which="both", alpha=0.3)
         tidy_log_ticks(ax)
         ax.legend(fontsize=7)
     fig.suptitle(title or "convergence")
     fig.tight_layout(rect=(0, 0.03, 1, 1))
     return fig, (save(fig, stem, prov) if stem is not None else [])
+
+
+def _steps_note(df: pd.DataFrame, rows: np.ndarray) -> str:
+    """' (h a…b s)': the step sizes of a line's runs, for its legend entry ('' without steps)."""
+    if "h" not in df.columns:
+        return ""
+    h = pd.to_numeric(df["h"], errors="coerce").to_numpy(float)[rows]
+    h = np.unique(h[np.isfinite(h) & (h > 0)])
+    if not h.size:
+        return ""
+    return f" (h {h[-1]:.3g} s)" if h.size == 1 else f" (h {h[-1]:.3g}…{h[0]:.3g} s)"
 
 
 def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] = (),
@@ -166,13 +204,14 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
     Runs without a finite positive x and y (failed, diverged) are listed in the legend
     as not shown."""
     n = 1 if isinstance(y, str) else len(y)
+    model = model_of(df)
     fig, axes, ys_cols, xs, keys = _log_panels(df, x, y, group, 7.0 if n == 1 else 4.6 * n, 5.0)
     for j, (ax, yc) in enumerate(zip(axes[0], ys_cols)):
         ys = pd.to_numeric(df[yc], errors="coerce").to_numpy(float)
         for i, k in enumerate(dict.fromkeys(keys)):
             sel = (keys == k).to_numpy() & np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
             n_bad = int(((keys == k).to_numpy() & ~sel).sum())
-            lab = k + (f" ({n_bad} not shown)" if n_bad else "")
+            lab = k + _steps_note(df, (keys == k).to_numpy()) + (f" ({n_bad} not shown)" if n_bad else "")
             if sel.any():
                 order = np.argsort(xs[sel])
                 ax.loglog(xs[sel][order], ys[sel][order], "o-", ms=4, color=f"C{i % 10}", label=lab)
@@ -184,7 +223,7 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
             ax.step(xs[front][o], ys[front][o], where="post", color="k", lw=0.8, ls="--", alpha=0.6)
             ax.scatter(xs[front], ys[front], s=90, facecolors="none", edgecolors="k", label="Pareto front", zorder=5)
         ax.set_xlabel(label_of(x))
-        ax.set_ylabel(label_of(yc))
+        ax.set_ylabel(label_of(yc, model))
         ax.grid(True, which="both", alpha=0.3)
         tidy_log_ticks(ax)
         if j == 0:
