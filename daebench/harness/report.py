@@ -133,19 +133,20 @@ RUN_COLUMNS = ("case", "label", "h", "tol", "status", "wall_s", "steps", "digest
 #: ``compact``: the columns kept (no digests, messages or failure texts: those are in table.csv)
 COMPACT_REACH = ("case", "label", "measure", "target", "reach_wall_s", "reach_steps", "reach_kind", "best_err")
 COMPACT_RUNS = ("case", "label", "h", "tol", "status", "wall_s", "steps")
-COMPACT_WIDTH = 1100      # px: the profile figure's width in a compact page (8-bit palette PNG)
+COMPACT_WIDTH = 900       # px: the profile figure's width in a compact page
+COMPACT_COLORS = 32       # palette of that PNG (line plots: nothing visible lost)
 
 
 def small_png(src: Path, dst: Path, width: int = COMPACT_WIDTH) -> Path:
-    """``src`` scaled down to ``width`` pixels (never up) as a 256-colour PNG (a line plot
-    loses nothing visible; a tenth of the bytes)."""
+    """``src`` scaled down to ``width`` pixels (never up) as a :data:`COMPACT_COLORS`-colour
+    palette PNG (a line plot loses nothing visible)."""
     from PIL import Image
 
     with Image.open(src) as im:
         im = im.convert("RGB")
         if im.width > width:
             im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
-        im.quantize(colors=256).save(dst, optimize=True)
+        im.quantize(colors=COMPACT_COLORS).save(dst, optimize=True)
     return dst
 
 
