@@ -218,3 +218,21 @@ def test_observable_of_a_switched_off_effect_is_reported_not_scored(registry):
     row = df.iloc[0]
     assert row["status"] == "completed" and row["unscored_observables"] == "gap"
     assert math.isfinite(row["err_theta_max"]) and "err_gap_max" not in df.columns
+
+
+def test_a_reference_too_loose_for_the_sweep_is_recomputed_under_compute(tmp_path, monkeypatch, capsys):
+    """survey/compare with --reference compute: a cached reference not REF_MARGIN tighter than
+    the tightest scored rtol is replaced by one that is (said on stderr); 'require' refuses it."""
+    from daebench.harness.references import load_reference
+    from daebench.models.scenes import load_scene
+
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    sc = load_scene("pendulum").with_overrides({"t_end": 0.2})
+    bench.compute_reference(sc, rtol=1e-8, check=False)
+    specs = [bench.RunSpec(0, "ida", {"rtol": 1e-10}, {}, {"rtol": 1e-10})]
+    with pytest.raises(bench.SweepError, match="not 100× tighter"):
+        bench.prepare_references(specs, sc, "require")
+    bench.prepare_references(specs, sc, "compute")
+    assert "computing one at rtol 1e-12 in its place" in capsys.readouterr().err
+    assert load_reference(sc, mode="require").rtol == pytest.approx(1e-12)
+    bench.prepare_references(specs, sc, "require")  # now tight enough: accepted as it is
