@@ -90,3 +90,30 @@ def test_report_in_headless_chromium(tmp_path):
     fin = [x for x in after if np.isfinite(x)]
     assert fin == sorted(fin) and after != before               # the click sorted the rows ascending
     assert sorted(map(str, before)) == sorted(map(str, after))  # the same rows, reordered
+
+
+def test_compare_report_in_headless_chromium(tmp_path):
+    """`daebench compare CASE --report`: the page of one comparison, built from a synthetic
+    result (known table, one real figure) and checked in the browser like the survey's."""
+    from daebench.harness import plots
+    from daebench.harness.compare import CompareResult, Protocol
+    from daebench.models.scenes import load_scene
+
+    sc = load_scene("ball")
+    table = _survey(tmp_path).table
+    table = table[table.case == "p1"].assign(case="ball")
+    fig = plots.work_precision(table, "wall_s", ["err_x_max"], "label", tmp_path / "wp-ball")[1]
+    res = CompareResult(table, {"ida": "refused: <no> friction"}, list(fig),
+                        Protocol((), measures=("err_x_max",), why="three steps & two halvings"))
+    page = report.write_compare_report(res, sc, tmp_path / "report.html")
+    text = page.read_text()
+    assert text.index("Recommendation") < text.index("Work–precision")
+    assert "fast" in text.split("Work–precision")[0]     # the recommendation names the cheapest setting
+    assert "&lt;no&gt; friction" in text and "three steps &amp; two halvings" in text
+    dom, log = _dump(page, "?selftest&table=0&col=3", tmp_path)   # "Every run": label, h, status, wall_s
+    st = _selftest(dom)
+    assert st["errors"] == [] and not [ln for ln in log.splitlines() if ":CONSOLE" in ln]
+    assert st["figures"] == 1 and st["zero_size"] == 0
+    assert st["header"].startswith("wall_s")
+    after = [_num(x) for x in st["after"]]
+    assert after == sorted(after) and sorted(after) != [_num(x) for x in st["before"]]

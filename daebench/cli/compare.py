@@ -25,7 +25,9 @@ def register(app: typer.Typer) -> None:
                 run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
                 out: Optional[str] = typer.Option(None, "--out",
                                                   help="output folder (default results/compare/<case>-<hash>)"),
-                json_out: bool = typer.Option(False, "--json", help="print the table as JSON records only")) -> None:
+                json_out: bool = typer.Option(False, "--json", help="print the table as JSON records only"),
+                report_page: bool = typer.Option(False, "--report",
+                                                 help="also write report.html (one self-contained page) in the folder")) -> None:
         """Run every applicable integrator at the case's protocol (daebench/harness/compare.py: PROTOCOLS),
         score each run against the reference, print one table and write the work-precision figure."""
         from daebench.harness import compare as C
@@ -60,6 +62,15 @@ def register(app: typer.Typer) -> None:
             for line in Rec.compare_lines(res.table, C.measures_present(res.table, res.protocol.measures)):
                 say(line)
             say(f"written: {', '.join(str(p) for p in res.files if p.suffix in ('.png', '.csv'))}")
+        if report_page:
+            from daebench.harness.report import write_compare_report
+
+            try:
+                page = write_compare_report(res, sc, folder / "report.html")
+            except OutputWriteError as exc:
+                fail(str(exc), 1)
+            (sys.stderr.write if json_out else say)(f"report page: {page}" + ("\n" if json_out else ""))
+        if not json_out:
             say(f"wall time of the comparison: {time.perf_counter() - t0:.1f} s")
         changed = D.mismatch_lines(previous, res.table)   # a run whose history differs from its last time
         for line in changed:

@@ -22,7 +22,7 @@ from typing import Any, Sequence
 import pandas as pd
 
 from daebench.core.params import ParamError
-from daebench.harness import provenance
+from daebench.harness import guards, provenance
 
 #: columns the reference's trusted span may be recorded in (added by the reference's own check)
 TRUST_COLUMNS = ("trust_t", "trust_impacts")
@@ -196,6 +196,37 @@ def write_survey_report(res: Any, path: Path | None = None, compact: bool = Fals
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(page(f"daebench survey {res.name}", list(res.paragraphs.values()), sections, prov),
                    encoding="utf-8")
+    return out
+
+
+def write_compare_report(res: Any, scene: Any, path: Path) -> Path:
+    """The page of one `daebench compare` (:class:`daebench.harness.compare.CompareResult`):
+    the recommendation, the work–precision figure, every run with the protocol's measures,
+    the reference and its trusted span, the integrators not applicable, provenance."""
+    from daebench.harness import recommend
+    from daebench.harness.compare import measures_present
+
+    measures = measures_present(res.table, res.protocol.measures)
+    recs = [line.removeprefix("recommendation — ") for line in recommend.compare_lines(res.table, measures)]
+    sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.protocol.why)}</p>")]
+    figs = [figure_html(p, f"{scene.name}: work–precision") for p in res.files if Path(p).suffix == ".png"]
+    if figs:
+        sections.append(("Work–precision", "".join(figs)))
+    cols = [c for c in (*RUN_COLUMNS, *measures) if c in res.table.columns and c != "case"]
+    sections.append(("Every run", table_html(res.table, cols)))
+    ref = res.reference
+    ts = trusted_span(res.table)
+    span = table_html(ts) if len(ts) else "<p>These rows do not record the reference's trusted span.</p>"
+    sections.append(("The reference and its trusted span",
+                     (f"<p>{html.escape(ref.describe())}</p>" if ref is not None else "<p>no reference</p>") + span))
+    if res.not_applicable:
+        sections.append(("Not applicable", table_html(pd.DataFrame(sorted(res.not_applicable.items()),
+                                                                   columns=["integrator", "why"]))))
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    text = page(f"daebench compare {scene.name}", recs, sections, provenance.collect([scene]))
+    guards.atomic_write(out, lambda p: Path(p).write_text(text, encoding="utf-8"), "the report page",
+                        "the table and figure are written")
     return out
 
 
