@@ -134,7 +134,7 @@ RUN_COLUMNS = ("case", "label", "h", "tol", "status", "wall_s", "steps", "digest
 COMPACT_REACH = ("case", "label", "measure", "target", "reach_wall_s", "reach_steps", "reach_kind", "best_err")
 COMPACT_RUNS = ("case", "label", "h", "tol", "status", "wall_s", "steps")
 COMPACT_WIDTH = 900       # px: the profile figure's width in a compact page
-COMPACT_COLORS = 32       # palette of that PNG (line plots: nothing visible lost)
+COMPACT_COLORS = 128      # palette of that PNG (32 merged the setting colours of the legend)
 
 
 def small_png(src: Path, dst: Path, width: int = COMPACT_WIDTH) -> Path:
