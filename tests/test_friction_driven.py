@@ -206,7 +206,8 @@ def test_degenerate_frictional_impact_is_solved_and_no_solution_is_named():
     the complementary bases finds it (z ≥ 0, w ≥ 0, zᵀw = 0 to round-off), the slip one:
     λ_0R = 2 μ P_N (P_T = +μ P_N) at both corners. An LCP without a solution stays
     LCP_RAY, whose message names Painlevé."""
-    from daebench.core.frictional_impact import enumerate_lcp, failure_message
+    from daebench.core.frictional_impact import failure_message
+    from daebench.core.lcp import enumerate_lcp
     from daebench.core.lcp import LCP_RAY, lemke_work, solve_lcp_lemke
 
     A = np.array([[941.06411762397602, -910.78773422988775, -464.22576604058168, -464.22576604468679, 0, 0],

@@ -32,7 +32,7 @@ M_B⁻¹ the inverse of M on B v = 0, from the augmented system). The laws, per 
   (:func:`daebench.core.lcp.solve_lcp_lemke`; the matrix is not a P-matrix). Where
   Lemke's method ends on a secondary ray — which degenerate data (zero rows of b, a
   grazing contact) can cause although a solution exists — every complementary basis is
-  tried (:func:`enumerate_lcp`, up to :data:`ENUMERATE_MAX` unknowns); an LCP without
+  tried (:func:`daebench.core.lcp.enumerate_lcp`, up to :data:`ENUMERATE_MAX` unknowns); an LCP without
   solution is returned as ``status = LCP_RAY``: an inconsistent or indeterminate
   frictional contact (Painlevé), which the driver names.
 
@@ -47,12 +47,11 @@ C. Glocker, Set-Valued Force Laws, Springer (2001), §8.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
-from daebench.core.lcp import LCP_FAILURES, LCP_RAY, lcp_work, lemke_work, solve_lcp, solve_lcp_lemke
+from daebench.core.lcp import LCP_FAILURES, LCP_RAY, enumerate_lcp, lcp_work, lemke_work, solve_lcp, solve_lcp_lemke
 
 #: the names of the impact laws, as the run record gives them
 ENUMERATE_MAX = 12     # unknowns up to which a failed Lemke run is checked by enumerating the bases
@@ -149,26 +148,6 @@ def frictional_impact(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndar
     pt_all[F] = pt
     loss = 0.5 * float(v_minus @ M @ v_minus - v_plus @ M @ v_plus)
     return FrictionalImpact(v_plus, pn, pt_all, un, GN @ v_plus, GT @ v_plus, loss, status)
-
-
-def enumerate_lcp(A: np.ndarray, b: np.ndarray) -> np.ndarray | None:
-    """A solution of LCP(A, b) by trying every complementary basis (smallest first), or
-    None when there is none: exact, for the few unknowns of an impact (≤ ENUMERATE_MAX)."""
-    m = b.size
-    scale = max(float(np.abs(b).max()), 1e-300)
-    for size in range(m + 1):
-        for basis in itertools.combinations(range(m), size):
-            z = np.zeros(m)
-            if basis:
-                idx = list(basis)
-                try:
-                    z[idx] = np.linalg.solve(A[np.ix_(idx, idx)], -b[idx])
-                except np.linalg.LinAlgError:
-                    continue
-            w = A @ z + b
-            if z.min() >= -1e-12 * max(1.0, float(np.abs(z).max())) and w.min() >= -1e-12 * scale:
-                return np.maximum(z, 0.0)
-    return None
 
 
 def failure_message(status: int) -> str:

@@ -36,9 +36,14 @@ with inelastic collisions and Coulomb friction", Int. J. Numer. Meth. Eng. 39 (1
 K. G. Murty, "Note on a Bard-type scheme for solving the complementarity problem",
 Opsearch 11 (1974) 123–130.
 R. W. Cottle, J.-S. Pang, R. E. Stone, The Linear Complementarity Problem (1992), §4.2.
+
+For the few unknowns of an impact, :func:`enumerate_lcp` tries every complementary basis: the
+check that an LCP on which Lemke's method ends on a ray really has no solution.
 """
 
 from __future__ import annotations
+
+import itertools
 
 from typing import NamedTuple
 
@@ -249,3 +254,23 @@ def lcp(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, int]:
     status = solve_lcp(np.ascontiguousarray(A, dtype=np.float64).reshape(k, k), b, np.ones(k, np.bool_), z, w,
                        lcp_work(k))
     return z, int(status)
+
+
+def enumerate_lcp(A: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """A solution of LCP(A, b) by trying every complementary basis (smallest first), or
+    None when there is none: exact, for the few unknowns of an impact (the caller bounds their number)."""
+    m = b.size
+    scale = max(float(np.abs(b).max()), 1e-300)
+    for size in range(m + 1):
+        for basis in itertools.combinations(range(m), size):
+            z = np.zeros(m)
+            if basis:
+                idx = list(basis)
+                try:
+                    z[idx] = np.linalg.solve(A[np.ix_(idx, idx)], -b[idx])
+                except np.linalg.LinAlgError:
+                    continue
+            w = A @ z + b
+            if z.min() >= -1e-12 * max(1.0, float(np.abs(z).max())) and w.min() >= -1e-12 * scale:
+                return np.maximum(z, 0.0)
+    return None
