@@ -80,17 +80,18 @@ _BEAM = Protocol(
 # the nonsmooth cases of issue 25 (friction): both families at the same three steps, the reference a
 # fine Moreau–Jean run (daebench.harness.refcapture); IDA and the integrators that cannot take the
 # case's friction are refused before running, each with its reason
-_ROCK_STEPS = (2e-3, 1e-3, 5e-4)
+def _both_families(steps: tuple[float, ...]) -> tuple[Entry, ...]:
+    """The capturing and the event-driven integrators at ``steps``, and IDA at its default."""
+    return tuple(Entry(n, steps) for n in ("moreau", "nsgenalpha", "hht", "newmark", "genalpha")) + (Entry("ida"),)
+
+
 _ROCK = Protocol(
-    entries=tuple(Entry(n, _ROCK_STEPS) for n in ("moreau", "nsgenalpha", "hht", "newmark", "genalpha"))
-    + (Entry("ida"),),
+    entries=_both_families((2e-3, 1e-3, 5e-4)),
     measures=("err_{obs}_max_trusted", "err_omega_max_trusted"),
     why="the event-capturing schemes and the event-driven ones (where they apply friction) at three halvings "
         "of h; θ and ω over the capturing reference's trusted span")
-_CRANK_STEPS = (4e-5, 2e-5, 1e-5)
 _CRANK = Protocol(
-    entries=tuple(Entry(n, _CRANK_STEPS) for n in ("moreau", "nsgenalpha", "hht", "newmark", "genalpha"))
-    + (Entry("ida"),),
+    entries=_both_families((4e-5, 2e-5, 1e-5)),
     measures=("err_{obs}_max", "err_{obs}_max_trusted", "err_y_max"),
     why="the Siconos example's h = 1e-5 s and two doublings, both families; the crank angle over the whole run "
         "(the reference's estimated θ digits stay ≥ 4 of the range throughout) and over its trusted span (the "
