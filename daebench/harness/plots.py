@@ -162,6 +162,7 @@ def convergence(df: pd.DataFrame, x: str = "h", y: str | Sequence[str] = (), gro
     line per ``group`` with its measured order (least-squares slope of log e over log x)
     in the legend, and a slope-2 guide."""
     n = 1 if isinstance(y, str) else len(y)
+    model = model_of(df)
     fig, axes, ys_cols, xs, keys = _log_panels(df, x, y, group, 4.6 * n, 4.3)
     for j, (ax, yc) in enumerate(zip(axes[0], ys_cols)):
         ys = pd.to_numeric(df[yc], errors="coerce").to_numpy(float)
@@ -176,7 +177,7 @@ def convergence(df: pd.DataFrame, x: str = "h", y: str | Sequence[str] = (), gro
             if i == 0:
                 ax.loglog(xv, 0.4 * yv[-1] * (xv / xv[-1]) ** 2, "k:", lw=0.8, label="slope 2")
         ax.set_xlabel({"h": "step h [s]", "tol": "tolerance"}.get(x, label_of(x)))
-        ax.set_ylabel(label_of(yc, model_of(df)))
+        ax.set_ylabel(label_of(yc, model))
         ax.grid(True, which="both", alpha=0.3)
         tidy_log_ticks(ax)
         ax.legend(fontsize=7)
