@@ -78,5 +78,6 @@ def generic(template: Callable) -> Callable:
 
     function.register = register
     function.registered = lambda data_class: data_class in impls
+    function.implementation = lambda data_class: impls[data_class]
     overload(function)(typer)
     return function

@@ -6,8 +6,11 @@ arrays — and a **data** object: an instance of a ``typing.NamedTuple`` class o
 (tables, parameters, scratch arrays). Integrators call the five generic functions
 below; numba selects the model's kernel at compile time from the type of the data
 (static dispatch through :func:`numba.extending.overload`), so integrator code imports
-no model, a new model needs no branch anywhere, and every compiled integrator loop is
-specialized to the model it runs (and cached on disk per model type).
+no model and a new model needs no branch anywhere. A phase does not hand the model's own
+data to the integrator loops but its :class:`~daebench.core.handles.ModelHandle`: the
+kernels as compiled function values over one data layout, so each integrator loop is
+compiled once for every model and each model once for every integrator
+(:mod:`daebench.core.handles`).
 
 The interface (all arrays float64; outputs are overwritten, never allocated):
 
@@ -55,11 +58,11 @@ Setting ``DAEBENCH_COMPILED=0`` before daebench is imported runs everything — 
 integrator loops — as plain Python (numba's ``DISABLE_JIT``): the same source,
 interpreted, for debugging.
 
-A caveat of numba's on-disk cache: a cached integrator loop contains the model kernels
-it was compiled with, and numba invalidates it only when the loop's own file changes.
-daebench keys its cache on its own sources (:mod:`daebench.core.numba_cache`); a plugin
-model that changes its kernels should bump its package version (which is part of the
-key) or clear the cache.
+A caveat of numba's on-disk cache: a cached function contains the functions it calls,
+and numba invalidates it only when its own file changes. daebench keys its cache on its
+own sources (:mod:`daebench.core.numba_cache`); a plugin model's compiled handle is keyed
+on its package version too, so a plugin that changes its kernels should bump that
+version or clear the cache.
 """
 
 from __future__ import annotations

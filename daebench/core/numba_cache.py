@@ -67,6 +67,8 @@ def source_stamp() -> str:
 
         h = hashlib.sha256(numba.__version__.encode())
         for path in sorted(PACKAGE_DIR.rglob("*.py")):
+            if "__pycache__" in path.parts:  # generated kernel modules (core.handles) live there
+                continue
             text = path.read_bytes()
             if _COMPILED.search(text):
                 h.update(str(path.relative_to(PACKAGE_DIR)).encode())

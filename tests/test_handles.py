@@ -1,0 +1,116 @@
+"""Model kernels as compiled values (daebench.core.handles): the handle's kernels give
+bit for bit what the model's own kernels give, every integrator loop is compiled once for
+all models, a kernel that raises fails the run, and bad data is refused."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+
+from daebench.api import load_scene
+from daebench.core import handles, kernels
+from daebench.core.kernels import KernelError, PyModel
+from daebench.harness.runner import run_scene
+from daebench.models import build_system
+
+FAST = ["pendulum", "ball", "block-incline"]
+ALL = ["pendulum", "ball", "block-incline", "andrews", "newton-cradle", "rocking-block", "crank", "caraxis",
+       "double-pendulum", "beam-impact", "slider-crank-clearance", "rod-wall", "slider-slot", "spring-wall"]
+
+
+def _evaluate(md, s, q, v):
+    """Every kernel of the interface at (t, q, v), as a dict of arrays and numbers."""
+    n, rng = s.n, np.random.default_rng(3)
+    out = {}
+    M, Q, Kq, Kv, K = (np.empty((n, n)), np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)))
+    kernels.mass_force(md, 0.123, q, v, M, Q)
+    kernels.force_jacobian(md, 0.123, q, v, Kq, Kv)
+    kernels.mass_jacobian_product(md, q, rng.standard_normal(n), K)
+    out.update(M=M, Q=Q, Kq=Kq, Kv=Kv, K=K)
+    m = max(s.n_bilateral, 1)
+    C, Cq, Ct, gam = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
+    kernels.constraints(md, 0.123, q, v, C, Cq, Ct, gam)
+    out.update(C=C, Cq=Cq, Ct=Ct, gam=gam)
+    for i in range(s.n_contacts):
+        gq, tq = np.empty(n), np.empty(n)
+        out[f"gap{i}"] = np.array(kernels.gap(md, i, q, v, gq))
+        out[f"mu{i}"] = np.array(kernels.tangent(md, i, q, v, tq))
+        out.update({f"gq{i}": gq, f"tq{i}": tq})
+    return out
+
+
+def _same_kernels(case: str) -> None:
+    s = build_system(load_scene(case))
+    md = s.kernel_data()
+    if isinstance(md, PyModel):
+        pytest.skip(f"{case} is a Python model: its data is passed as it is")  # not a dependency skip
+    q, v = (np.asarray(x, float) for x in s.initial_state()[:2])
+    v = v + 0.1 * np.random.default_rng(1).standard_normal(s.n)  # a state where every term acts
+    h = handles.handle(md)
+    assert isinstance(h, handles.ModelHandle)
+    direct, through = _evaluate(md, s, q, v), _evaluate(h, s, q, v)
+    for key, val in direct.items():
+        np.testing.assert_array_equal(through[key], val, err_msg=f"{case}: {key}")
+
+
+@pytest.mark.parametrize("case", FAST)
+def test_handle_kernels_equal_the_models_own(case):
+    _same_kernels(case)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", [c for c in ALL if c not in FAST])
+def test_handle_kernels_equal_the_models_own_everywhere(case):
+    _same_kernels(case)
+
+
+def test_one_compiled_loop_serves_every_model():
+    """The integrator loop is typed for the handle, not for the model: running hht on two
+    different models adds at most one compiled signature to it (none once cached)."""
+    from daebench.stepping.runner import run_phase
+
+    run_scene(load_scene("pendulum", ["t_end=0.01"]), "hht", {"h": 1e-3}, write=False)
+    before = len(run_phase.signatures)
+    rec, _ = run_scene(load_scene("ball", ["t_end=0.01"]), "hht", {"h": 1e-3}, write=False)
+    assert rec.status == "completed"
+    assert len(run_phase.signatures) == before
+    assert all("ModelHandle" in str(sig[2]) or "PyModel" in str(sig[2]) for sig in run_phase.signatures)
+
+
+class Stiff(NamedTuple):
+    k: float
+    scale: np.ndarray
+    stop: float
+
+
+def _stiff_mass_force(md, t, q, v, M, Q):
+    M[0, 0] = md.scale[0]
+    Q[0] = -md.k * q[0]
+    if q[0] > md.stop:
+        Q[0] = Q[0] / (md.stop - md.stop)  # ZeroDivisionError: a kernel that raises
+
+
+kernels.register(Stiff, mass_force=_stiff_mass_force, mass_jacobian_product=kernels.constant_mass)
+
+
+def test_a_kernel_that_raises_raises_through_the_handle_and_data_is_read_in_place():
+    scale = np.array([2.0])
+    h = handles.handle(Stiff(3.0, scale, 1.0))
+    M, Q = np.empty((1, 1)), np.empty(1)
+    kernels.mass_force(h, 0.0, np.array([0.5]), np.zeros(1), M, Q)
+    assert (M[0, 0], Q[0]) == (2.0, -1.5)
+    scale[0] = 5.0  # the handle reads the model's arrays, not a copy
+    kernels.mass_force(h, 0.0, np.array([0.5]), np.zeros(1), M, Q)
+    assert M[0, 0] == 5.0
+    with pytest.raises(ZeroDivisionError):  # the model's own exception, through the compiled call
+        kernels.mass_force(h, 0.0, np.array([2.0]), np.zeros(1), M, Q)
+
+
+@pytest.mark.parametrize("bad, what", [(np.ones((4, 4))[:, 1], "C-contiguous"),
+                                       (np.array(["a"]), "float64, int64 or bool"),
+                                       ("text", "not a kernel value")])
+def test_data_a_handle_cannot_carry_is_refused(bad, what):
+    with pytest.raises(KernelError, match=what):
+        handles.handle(Stiff(1.0, bad, 1.0))
