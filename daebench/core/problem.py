@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from daebench.core import handles, phase
+from daebench.core import phase
 from daebench.core.system import MechanicalSystem
 
 @dataclass
@@ -64,7 +64,7 @@ class Problem:
         self.chi = np.zeros(nc) if chi is None else np.asarray(chi, dtype=float).copy()
         self.counters = EvalCounters()
         n = self.n
-        self.kernel = phase.PhaseData(handles.handle(system.kernel_data()), int(system.n_bilateral),
+        self.kernel = phase.PhaseData(system.kernel_handle(), int(system.n_bilateral),
                                       np.array(self.active, dtype=np.int64), law_parameters(system),
                                       self.engaged, self.chi, np.zeros(n), np.zeros(5 * n))
         self._zeros = np.zeros(n)

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from daebench.core import kernels
+from daebench.core import handles, kernels
 from daebench.core.kernels import fd_step
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -167,6 +167,11 @@ class MechanicalSystem:
         handle through which they call this model's Python methods."""
         return kernels.python_handle(self)
 
+    def kernel_handle(self) -> Any:
+        """What compiled code is handed: :func:`daebench.core.handles.handle` of
+        :meth:`kernel_data` (one type for every compiled model)."""
+        return handles.handle(self.kernel_data())
+
 
 class KernelSystem(MechanicalSystem):
     """A model whose physics is its compiled kernels (:mod:`daebench.core.kernels`).
@@ -182,11 +187,19 @@ class KernelSystem(MechanicalSystem):
     def kernel_data(self) -> Any:
         return self.data
 
+    def kernel_handle(self) -> Any:
+        """The handle of ``self.data``, made once per data value (the Python protocol below
+        calls the kernels through it too, so they compile once, for one signature)."""
+        made = self.__dict__.get("_handle_of")
+        if made is None or made[0] is not self.data:
+            made = self.__dict__["_handle_of"] = (self.data, handles.handle(self.data))
+        return made[1]
+
     def mass_force(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(M(q), Q(t, q, v)) in one kernel call (the name :class:`daebench.core.problem.Problem` uses)."""
         M = np.empty((self.n, self.n))
         Q = np.empty(self.n)
-        kernels.mass_force(self.data, float(t), _f(q), _f(v), M, Q)
+        kernels.mass_force(self.kernel_handle(), float(t), _f(q), _f(v), M, Q)
         return M, Q
 
     def mass(self, q: np.ndarray) -> np.ndarray:
@@ -198,19 +211,19 @@ class KernelSystem(MechanicalSystem):
     def force_jacobian(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         Kq = np.empty((self.n, self.n))
         Kv = np.empty((self.n, self.n))
-        kernels.force_jacobian(self.data, float(t), _f(q), _f(v), Kq, Kv)
+        kernels.force_jacobian(self.kernel_handle(), float(t), _f(q), _f(v), Kq, Kv)
         return Kq, Kv
 
     def mass_jacobian_product(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
         K = np.empty((self.n, self.n))
-        kernels.mass_jacobian_product(self.data, _f(q), _f(a), K)
+        kernels.mass_jacobian_product(self.kernel_handle(), _f(q), _f(a), K)
         return K
 
     def _constraint_rows(self, t: float, q: np.ndarray, v: np.ndarray | None = None):
         nb, n = self.n_bilateral, self.n
         C, Cq, Ct, gam = np.zeros(nb), np.zeros((nb, n)), np.zeros(nb), np.zeros(nb)
         if nb:
-            kernels.constraints(self.data, float(t), _f(q), np.zeros(n) if v is None else _f(v), C, Cq, Ct, gam)
+            kernels.constraints(self.kernel_handle(), float(t), _f(q), np.zeros(n) if v is None else _f(v), C, Cq, Ct, gam)
         return C, Cq, Ct, gam
 
     def constraint(self, t: float, q: np.ndarray) -> np.ndarray:
@@ -229,8 +242,9 @@ class KernelSystem(MechanicalSystem):
         k, n = self.n_contacts, self.n
         g, G, gam = np.zeros(k), np.zeros((k, n)), np.zeros(k)
         qq, vv = _f(q), np.zeros(n) if v is None else _f(v)
+        md = self.kernel_handle()
         for i in range(k):
-            g[i], gam[i] = kernels.gap(self.data, i, qq, vv, G[i])
+            g[i], gam[i] = kernels.gap(md, i, qq, vv, G[i])
         return g, G, gam
 
     def gap(self, q: np.ndarray) -> np.ndarray:

@@ -109,7 +109,7 @@ class Driver:
                                                                        and not integrator.capabilities.contacts),
                            integrator.adaptive, contacts_by_integrator=system.contacts_by_integrator,
                            contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
-                           friction=bool((friction_coefficients(system.kernel_data(), system.n_contacts,
+                           friction=bool((friction_coefficients(system.kernel_handle(), system.n_contacts,
                                                                 *system.initial_state()) > 0.0).any()))
         # contacts the driver treats (none when the integrator resolves them itself)
         mine = law is not None and system.n_contacts > 0 and not integrator.capabilities.contacts

@@ -108,7 +108,7 @@ class FrictionPhase(MechanicalSystem):
         self.contact_law = base.contact_law
         self.contact_restitution = base.contact_restitution
         self._bp = Problem(base)
-        self._md = base.kernel_data()
+        self._md = base.kernel_handle()
         self.stick = dict(stick)
         self.active = tuple(active)
         self.slip = [(self.active.index(j), j, float(s), float(mu[j])) for j, s in slip.items()]

@@ -62,7 +62,7 @@ def reference_kind(scene: Scene, system: Any = None) -> tuple[str, str]:
     nc = int(getattr(system, "n_contacts", 0))
     if nc:
         q, v = system.initial_state()
-        mu = friction_coefficients(system.kernel_data(), nc, q, v)
+        mu = friction_coefficients(system.kernel_handle(), nc, q, v)
         if (mu > 0.0).any():
             return "capturing", (f"Coulomb friction at its contacts (μ = {float(mu.max()):g}): the event-driven "
                                  f"IDA applies no friction cone")

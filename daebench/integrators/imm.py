@@ -140,7 +140,7 @@ class InteractiveMode(CompiledIntegrator):
             inner = _nm.NewmarkMethod(c.alpha_m, c.alpha_f, c.beta, c.gamma, False, False, 1e-12, 8, True)
         radius = float(s["radius"]) or float(getattr(self.problem.system, "imm_radius", 0.0))
         return loc.ImmMethod(inner, radius, float(s["tol"]), int(s["maxiter"]), 4 * md.slave.shape[0] + 8,
-                             loc.smallest_element(md))
+                             loc.smallest_element(md), md)
 
     def workspace(self, n: int, m: int) -> Any:
         loc = self._local()

@@ -64,7 +64,7 @@ def check_friction_kernel(system, mu: float, what: str = "this model") -> None:
     friction coefficient (no ``tangent`` kernel, :mod:`daebench.core.kernels`): the run
     would be silently frictionless."""
     if mu > 0.0 and system.n_contacts and not (friction_coefficients(
-            system.kernel_data(), system.n_contacts, *system.initial_state()) > 0.0).any():
+            system.kernel_handle(), system.n_contacts, *system.initial_state()) > 0.0).any():
         raise SceneError(f"contact.friction = {mu:g} is asked of {what}, whose contacts have no friction: it "
                          f"registers no 'tangent' kernel (daebench.core.kernels); use `--set contact.friction=0` "
                          f"or a model with one (rigid2d, cradle)")

@@ -59,6 +59,7 @@ class ImmMethod(NamedTuple):
     maxiter: int
     max_set_changes: int
     lsize: float          # length scale of the tolerance [m]
+    model: tuple          # the planar model's own kernel data (the phase carries only its handle)
 
 
 class ImmWork(NamedTuple):
@@ -412,7 +413,7 @@ _mass_of.register(NewmarkMethod, _newmark_mass)
 
 @njit(cache=True)
 def _start(meth, ws, ph, t, cur, cnt):
-    st = local_solve(meth, ws, ph.model, cur.q, cur.v, cnt)
+    st = local_solve(meth, ws, meth.model, cur.q, cur.v, cnt)
     if st:
         return st
     ws.fc[:] = ws.fc_next
@@ -427,7 +428,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     st, err = methods.step(meth.inner, ws.inner, ph, ctl, t, h, cur, new, cnt)
     if st:
         return st, err
-    st = local_solve(meth, ws, ph.model, new.q, new.v, cnt)
+    st = local_solve(meth, ws, meth.model, new.q, new.v, cnt)
     ws.t_new[0] = t + h
     ws.h_new[0] = h
     return st, err

@@ -1,0 +1,95 @@
+"""What a new model costs to compile when every integrator loop is already cached.
+
+Kernels reach the integrator loops as compiled values (:mod:`daebench.core.handles`), so a
+model added to a warm cache should compile its own kernels once and nothing else, whatever
+integrators then run it. This study measures that, in fresh processes sharing one new
+kernel cache (``NUMBA_CACHE_DIR``):
+
+1. ``warm-up``: the *first* case runs with every integrator of the list (compiles the
+   loops, the phase functions and the first model's kernels — the cold cost);
+2. ``new``: the *second* case runs with the same integrators (its kernels are new, the
+   loops are cached);
+3. ``again``: the same runs once more (everything cached).
+
+The new model's compile cost is CPU(new) − CPU(again): the same runs, the same imports,
+only the compilation differs. CPU time is the child's user + system time, less sensitive
+to the machine's load than wall time. ``python -m daebench.studies.new_model`` prints it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+from dataclasses import asdict, dataclass
+from typing import Sequence
+
+INTEGRATORS = ("hht", "newmark", "genalpha", "baumgarte", "ida", "moreau", "nsgenalpha")
+_CHILD = """
+import json, sys
+from daebench import api
+from daebench.core.params import ParamError
+case, t_end, names = sys.argv[1], sys.argv[2], sys.argv[3].split(",")
+ran = {}
+for name in names:
+    try:
+        ran[name] = api.run(case, name, overrides=[f"t_end={t_end}"], h=1e-3).status
+    except ParamError as exc:  # the integrator does not apply to this case (friction, contacts …)
+        ran[name] = "refused: " + str(exc).splitlines()[0][:80]
+print(json.dumps(ran))
+"""
+
+
+@dataclass
+class NewModelCost:
+    """CPU seconds of each stage and what each integrator did."""
+
+    first: str
+    new: str
+    warmup_cpu_s: float
+    new_cpu_s: float
+    again_cpu_s: float
+    new_model_compile_cpu_s: float
+    runs: dict[str, str]
+
+
+def _child_cpu(args: Sequence[str], env: dict[str, str], timeout: float) -> tuple[float, str]:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    proc = subprocess.run([sys.executable, "-c", _CHILD, *args], env=env, capture_output=True, text=True,
+                          timeout=timeout)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise RuntimeError(f"new-model study child failed ({' '.join(args)}):\n{proc.stderr[-2000:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return cpu, proc.stdout.strip().splitlines()[-1]
+
+
+def measure(first: str = "pendulum", new: str = "ball", integrators: Sequence[str] = INTEGRATORS,
+            t_end: float = 0.05, timeout: float = 3600.0) -> NewModelCost:
+    """The three stages of the module docstring, in a new empty kernel cache."""
+    names = ",".join(integrators)
+    with tempfile.TemporaryDirectory(prefix="daebench-newmodel-") as tmp:
+        env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "cache"),
+                   DAEBENCH_RESULTS=os.path.join(tmp, "results"))
+        warm, _ = _child_cpu([first, str(t_end), names], env, timeout)
+        fresh, runs = _child_cpu([new, str(t_end), names], env, timeout)
+        again, _ = _child_cpu([new, str(t_end), names], env, timeout)
+    return NewModelCost(first, new, warm, fresh, again, fresh - again, json.loads(runs))
+
+
+def markdown(r: NewModelCost) -> str:
+    ran = [k for k, v in r.runs.items() if not v.startswith("refused")]
+    return (f"| stage | CPU [s] |\n|---|---|\n| cold: `{r.first}` × {len(r.runs)} integrators | "
+            f"{r.warmup_cpu_s:.1f} |\n| new model `{r.new}` (loops cached) | {r.new_cpu_s:.1f} |\n"
+            f"| `{r.new}` again (all cached) | {r.again_cpu_s:.1f} |\n\n"
+            f"New model's compile cost: **{r.new_model_compile_cpu_s:.1f} s CPU** for the {len(ran)} integrators "
+            f"that ran it ({', '.join(ran)}; target ≤ 10 s).\n")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    res = measure(*sys.argv[1:3]) if len(sys.argv) > 2 else measure()
+    print(markdown(res))
+    print(json.dumps(asdict(res), indent=2))
