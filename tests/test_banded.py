@@ -112,3 +112,44 @@ def test_rod_wall_hht_banded_equals_dense():
     for key in ("q", "v"):
         scale = np.abs(b.states[key]).max()
         assert np.max(np.abs(a.states[key] - b.states[key])) <= 1e-12 * scale
+
+
+def test_solve_structured_equals_scipy_banded_and_dense():
+    """The driver's solves (a banded mass matrix; an augmented [[M, Bᵀ], [B, 0]]) through the
+    measured band give scipy.linalg.solve_banded's / numpy's dense answer to round-off."""
+    from scipy.linalg import solve_banded
+
+    from daebench.core.linalg import half_bandwidths, solve_structured
+
+    rng = np.random.default_rng(7)
+    n, kl, ku = 300, 3, 2
+    M = _banded(rng, n, kl, ku) + 6.0 * np.eye(n)
+    assert half_bandwidths(M, n) == (kl, ku)
+    b = rng.standard_normal((n, 3))
+    ab = np.zeros((kl + ku + 1, n))
+    for j in range(n):
+        for i in range(max(0, j - ku), min(n, j + kl + 1)):
+            ab[ku + i - j, j] = M[i, j]
+    x = solve_structured(M, b)
+    xs = solve_banded((kl, ku), ab, b)
+    assert np.max(np.abs(x - xs)) <= 1e-13 * np.abs(xs).max()
+    # an augmented system, border of 4 rows (a diagonal M: the FE models' lumped mass)
+    Md = np.diag(rng.uniform(0.5, 2.0, n))
+    B = rng.standard_normal((4, n))
+    A = np.block([[Md, B.T], [B, np.zeros((4, 4))]])
+    rhs = rng.standard_normal(n + 4)
+    x = solve_structured(A, rhs, n)
+    xe = np.linalg.solve(A, rhs)
+    assert np.max(np.abs(x - xe)) <= 1e-12 * np.abs(xe).max()
+    # LAPACK where it is the cheaper (small, or wide band) and for a singular A its error
+    small = rng.standard_normal((20, 20)) + 5 * np.eye(20)
+    assert np.array_equal(solve_structured(small, rhs[:20]), np.linalg.solve(small, rhs[:20]))
+    S = A.copy()
+    S[n:, :] = 0.0
+    S[:, n:] = 0.0
+    try:
+        solve_structured(S, rhs, n)
+    except np.linalg.LinAlgError:
+        pass
+    else:
+        raise AssertionError("a singular augmented system must raise LinAlgError")
