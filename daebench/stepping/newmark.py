@@ -78,11 +78,11 @@ import numpy as np
 from numba import njit
 
 from daebench.core import phase
-from daebench.core.linalg import BorderedWork, bordered_solve, bordered_work, lu_solve
+from daebench.core.linalg import BorderedWork, bordered_solve, lu_solve
 from daebench.stepping import control, methods
 from daebench.stepping.methods import C_NEWTON, C_RES
-from daebench.stepping.newmark_matrix import (ST_BAND, ST_HOLD, ST_LU, ST_LUH, ST_PREV, factor, mass_row, uses_hM,
-                                             weights)
+from daebench.stepping.newmark_matrix import (ST_BAND, ST_HOLD, ST_LU, ST_LUH, ST_PREV, factor, mass_row, structure,
+                                             uses_hM, weights)
 
 NEWTON_RATE_REFRESH = 0.1    # contraction rate above which a reused iteration matrix is rebuilt
 NEWTON_RATE_DIVERGE = 2.0    # rate above which a fresh-matrix iteration is declared divergent
@@ -150,6 +150,8 @@ class NewmarkWork(NamedTuple):
     bw: BorderedWork    # factors through the model's declared structure (newmark_matrix.factor)
     sp: np.ndarray      # int64[3]: structure declared, mass half-bandwidth (−1 dense), constant mass
     M0: np.ndarray      # (0 × n): the mass_force argument "force only" (constant mass)
+    ij: np.ndarray      # int64 (2, P): the n × n entries inside the declared structure
+    pos: np.ndarray     # int64[n]: each DOF's place in the declared order
 
 
 def workspace(n: int, m: int, ggl: bool, sparsity=None) -> NewmarkWork:
@@ -159,18 +161,11 @@ def workspace(n: int, m: int, ggl: bool, sparsity=None) -> NewmarkWork:
     nx = n + m + (m if ggl else 0)
     mm = max(m, 1)
     e = np.empty
-    if sparsity is None:
-        bw = bordered_work(np.zeros(0, np.int64), 0, 0, 0)
-        sp = np.array([0, -1, 0], np.int64)
-    else:
-        nb = int(sparsity.n_banded)
-        order = np.concatenate([np.asarray(sparsity.order, np.int64), np.arange(n, nx, dtype=np.int64)])
-        bw = bordered_work(order, nb, int(sparsity.kl), int(sparsity.ku))
-        sp = np.array([1, int(sparsity.mass_band), int(bool(sparsity.constant_mass))], np.int64)
+    bw, sp, ij, pos = structure(sparsity, n, nx)
     return NewmarkWork(np.zeros(5), e((nx, nx)), np.zeros(nx, np.int64), e(n), e(n), e(n), e(m), np.zeros(n),
                        np.zeros(n), np.zeros(n), np.zeros(n), e(n), e(n), e(n), np.zeros(n), e(n), e(mm), e(mm),
                        e(mm), e(m), e(nx), e(nx), e(nx), e(nx), e((n, n)), e((n, n)), e((n, n)), e((n, n)),
-                       e((n, n)), e((mm, n)), e((mm, n)), e((mm, n)), bw, sp, np.zeros((0, n)))
+                       e((n, n)), e((mm, n)), e((mm, n)), e((mm, n)), bw, sp, np.zeros((0, n)), ij, pos)
 
 
 @njit(cache=True)
