@@ -50,6 +50,28 @@ def mass_row(mb, i, n):
     return max(0, i - mb), min(n, i + mb + 1)
 
 
+@njit(cache=True)
+def band_mass(M, mb, Mb):
+    """Copy the band of a declared banded M (half-bandwidth mb ≥ 0) into band storage
+    Mb[i, j − i + mb]; nothing for a dense M (mb < 0)."""
+    n = M.shape[0]
+    if mb < 0:
+        return
+    for i in range(n):
+        j0, j1 = mass_row(mb, i, n)
+        for j in range(j0, j1):
+            Mb[i, j - i + mb] = M[i, j]
+
+
+@njit(cache=True, inline="always")
+def mass_rows(ws):
+    """(rows, compact) for the residual's products with M: a declared constant banded M
+    from its band storage (row i, column j at [i, j − i + mb]: one contiguous row instead
+    of one cache line per row of an n × n array), else M itself."""
+    compact = ws.sp[2] != 0 and ws.sp[1] >= 0
+    return (ws.Mb if compact else ws.M), compact
+
+
 def structure(sparsity: Sparsity | None, n: int, nx: int) -> tuple:
     """(bw, sp, ij, pos) of a workspace: the bordered-banded work (the constraint rows join
     the border), sp = [declared, mass half-bandwidth (−1 dense), constant mass], ij the
@@ -71,10 +93,11 @@ def structure(sparsity: Sparsity | None, n: int, nx: int) -> tuple:
         if c < n:                                   # a model DOF on the border: its row and column
             rows += [full, np.full(n, c)]
             cols += [np.full(n, c), full]
-    ij = np.unique(np.vstack([np.concatenate(rows), np.concatenate(cols)]), axis=1)
+    key = np.unique(np.concatenate(rows) * n + np.concatenate(cols))   # each entry once, row by row
+    ij = np.vstack([key // n, key % n])
     pos = np.empty(n, np.int64)
     pos[order[order < n]] = np.arange(n)
-    return bw, sp, ij.astype(np.int64), pos
+    return bw, sp, np.ascontiguousarray(ij, dtype=np.int64), pos
 
 
 @njit(cache=True)
