@@ -179,3 +179,21 @@ def test_rod_wall_penalty_hht_banded_equals_dense():
     assert np.max(np.abs(a.states["v"] - b.states["v"])) <= 1e-12 * scale
     assert np.max(np.abs(a.states["q"] - b.states["q"])) <= 1e-12 * np.abs(b.states["q"]).max()
     assert a.states["v"][-1, 0] > -0.99        # the struck end's x-velocity: slowed by the wall from -1 m/s
+
+
+def test_fe_scaling_study_counts_the_steps(tmp_path):
+    """The structure study at tiny sizes: every run takes t_end / h steps (fixed step), one
+    or more Newton iterations each; its files are written and state the targets."""
+    import json
+
+    from daebench.studies import perf_structure
+
+    fe = perf_structure.main(["--elements", "8,16", "--t-end", "2e-5", "--repeats", "1", "--dense-up-to", "8",
+                              "--out", str(tmp_path)])
+    rows = fe["rows"]
+    assert [r["elements"] for r in rows] == [8, 16] and [r["n"] for r in rows] == [36, 68]
+    assert all(abs(r["steps"] - 200) <= 2 and r["newton_per_step"] >= 1.0 for r in rows)
+    assert all(r["ms_per_step"] > 0 for r in rows) and "ms_per_step_dense" in rows[0]
+    assert "ms_per_step_dense" not in rows[1]
+    assert json.loads((tmp_path / "fe_scaling.json").read_text())["target_exponent"] == 1.3
+    assert "exponent ≤ 1.3" in (tmp_path / "fe_scaling.md").read_text()
