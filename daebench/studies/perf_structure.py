@@ -135,7 +135,7 @@ def markdown(fe: dict[str, Any] | None, ida: dict[str, Any] | None) -> list[str]
             d = r.get("ms_per_step_dense")
             L.append(f"| {r['elements']} | {r['n']} | {r['newton_per_step']:.2f} | {r['ms_per_step']:.3f} | "
                      f"{r['ms_per_step_marginal']:.3f} | {'' if d is None else f'{d:.3f}'} | "
-                     f"{r.get('dense_over_banded', math.nan):.1f} |")
+                     f"{'' if d is None else format(r['dense_over_banded'], '.1f')} |")
         L.append(f"\nexponent of the cost in n: whole run {fe['exponent']:.2f}, marginal {fe['exponent_marginal']:.2f}, "
                  f"dense {fe['exponent_dense']:.2f}. Targets (whole run): ≤ {fe['target_ms_200']} ms at 200 elements: "
                  f"{fe['ms_at_200']:.3f} ms, {'met' if fe['met_ms_200'] else 'NOT met'}; exponent ≤ "
