@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from daebench.core.linalg import solve_structured
 from daebench.core.params import Param, ParamError
 from daebench.core.phase import LAW_HERTZ, LAW_PENALTY, law_elastic, law_force, law_potential
 
@@ -357,7 +358,7 @@ def impact_map(M: np.ndarray, Gq: np.ndarray, v_minus: np.ndarray, e: float,
     A[n + mb:, :n] = Gq
     vn_minus = Gq @ v_minus
     rhs = np.concatenate([M @ v_minus, np.zeros(mb), -e * vn_minus])
-    sol = np.linalg.solve(A, rhs)
+    sol = solve_structured(A, rhs, n)
     v_plus = sol[:n]
     loss = 0.5 * float(v_minus @ M @ v_minus - v_plus @ M @ v_plus)
     return ImpactResult(v_plus, sol[n + mb:], vn_minus, Gq @ v_plus, loss)

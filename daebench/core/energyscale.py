@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from daebench.core.linalg import solve_structured
+
 FLOOR_TIME = 1e-3        # s: the floor is the energy the start's forces give the free system in this time
 ABSOLUTE_FLOOR = 1e-12   # J: a system with neither energy nor force at the start
 
@@ -41,7 +43,7 @@ def force_floor(system: Any, q0: np.ndarray, v0: np.ndarray, t0: float = 0.0) ->
     try:
         M = np.asarray(system.mass(q0), float)
         Q = np.asarray(system.applied_force(t0, q0, v0), float)
-        a = np.linalg.solve(M, Q)
+        a = solve_structured(M, Q)
     except (np.linalg.LinAlgError, ValueError, NotImplementedError, AttributeError):
         return 0.0
     e = 0.5 * FLOOR_TIME ** 2 * float(Q @ a)

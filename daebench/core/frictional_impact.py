@@ -52,6 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from daebench.core.lcp import LCP_FAILURES, LCP_RAY, enumerate_lcp, lcp_work, lemke_work, solve_lcp, solve_lcp_lemke
+from daebench.core.linalg import solve_structured
 
 #: the names of the impact laws, as the run record gives them
 ENUMERATE_MAX = 12     # unknowns up to which a failed Lemke run is checked by enumerating the bases
@@ -89,12 +90,12 @@ def constrained_inverse(M: np.ndarray, B: np.ndarray, G: np.ndarray) -> np.ndarr
     (the augmented system [[M, Bᵀ], [B, 0]])."""
     n, mb = M.shape[0], B.shape[0]
     if mb == 0:
-        return np.linalg.solve(M, G.T)
+        return solve_structured(M, G.T)
     A = np.zeros((n + mb, n + mb))
     A[:n, :n], A[:n, n:], A[n:, :n] = M, B.T, B
     rhs = np.zeros((n + mb, G.shape[0]))
     rhs[:n] = G.T
-    return np.linalg.solve(A, rhs)[:n]
+    return solve_structured(A, rhs, n)[:n]
 
 
 def frictional_impact(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v_minus: np.ndarray,

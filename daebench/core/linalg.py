@@ -6,7 +6,9 @@ For large, banded systems with a few dense rows and columns (finite-element bodi
 floating frame, plus constraint rows) the bordered-banded factorization
 (:func:`bordered_factor`, :func:`bordered_solve`): a banded LU with partial pivoting
 (LAPACK dgbtf2/dgbtrs) of the banded block and a dense LU of the border's Schur
-complement, O(n·b²) to factor and O(n·b) to solve instead of O(n³) and O(n²)."""
+complement, O(n·b²) to factor and O(n·b) to solve instead of O(n³) and O(n²).
+:func:`solve_structured` is the same factorization for the driver's one-off solves
+(impact maps, projections, M⁻¹ products) with the band measured on the matrix."""
 
 from __future__ import annotations
 
@@ -264,6 +266,69 @@ def bordered_fits(A, bw):
             if (i - j > kl or j - i > ku) and A[ri, order[j]] != 0.0:
                 return False
     return True
+
+
+@njit(cache=True)
+def half_bandwidths(A, nb):
+    """(kl, ku): the largest i − j and j − i over the nonzeros of A's leading nb × nb block
+    (each row scanned from both ends to its first nonzero)."""
+    kl = 0
+    ku = 0
+    for i in range(nb):
+        for j in range(0, i):
+            if A[i, j] != 0.0:
+                kl = max(kl, i - j)
+                break
+        for j in range(nb - 1, i, -1):
+            if A[i, j] != 0.0:
+                ku = max(ku, j - i)
+                break
+    return kl, ku
+
+
+# below this many banded unknowns, or above these fractions of them for the band or the
+# border, LAPACK's dense solve is the cheaper (and the historical) one
+STRUCTURED_MIN_N = 128
+STRUCTURED_MAX_FRACTION = 0.125
+
+
+def solve_structured(A: np.ndarray, b: np.ndarray, nb: int | None = None) -> np.ndarray:
+    """x = A⁻¹ b (``b`` one right-hand side or columns of them) for a dense ``A`` whose
+    leading ``nb`` × ``nb`` block (all of A by default) is banded: a mass matrix, or an
+    augmented system [[M, Bᵀ], [B, 0]] with nb = n. The band is measured on A (O(n²)
+    reads, no declaration to trust) and A is solved through :func:`bordered_factor`,
+    O(n·b² + n·k²) instead of LAPACK's O(n³) — the same solution to round-off.
+
+    LAPACK's dense solve (``numpy.linalg.solve``, with its errors: singular A raises
+    ``LinAlgError``) is used instead where it is the cheaper one — fewer than
+    ``STRUCTURED_MIN_N`` banded unknowns, or a band (kl + ku) or border wider than
+    ``STRUCTURED_MAX_FRACTION`` of them — and where the banded block needs a pivot from
+    outside itself (a zero pivot in it: the banded LU pivots within the block only)."""
+    A = np.ascontiguousarray(A, dtype=np.float64)
+    n = A.shape[0]
+    nb = n if nb is None else int(nb)
+    if A.ndim != 2 or A.shape[1] != n or not 0 <= nb <= n:
+        raise ValueError(f"solve_structured needs a square A and 0 <= nb <= n; got A {A.shape}, nb = {nb}")
+    k = n - nb
+    if nb < STRUCTURED_MIN_N or k > STRUCTURED_MAX_FRACTION * nb:
+        return np.linalg.solve(A, b)
+    kl, ku = half_bandwidths(A, nb)
+    if kl + ku > STRUCTURED_MAX_FRACTION * nb or not np.all(np.isfinite(A)):
+        return np.linalg.solve(A, b)
+    bw = bordered_work(np.arange(n, dtype=np.int64), nb, kl, ku)
+    if bordered_factor(A, bw) != 0:
+        return np.linalg.solve(A, b)
+    x = np.array(b, dtype=np.float64, copy=True)
+    if x.shape[0] != n:
+        raise ValueError(f"solve_structured: b has {x.shape[0]} rows, A has {n}")
+    if x.ndim == 1:
+        bordered_solve(bw, x)
+        return x
+    for c in range(x.shape[1]):
+        col = np.ascontiguousarray(x[:, c])
+        bordered_solve(bw, col)
+        x[:, c] = col
+    return x
 
 
 class Sparsity(NamedTuple):

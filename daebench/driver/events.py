@@ -35,6 +35,7 @@ from scipy.optimize import brentq
 from daebench.core.contact import Impact, impact_map
 from daebench.core.frictional_impact import failure_message, frictional_impact, law_name
 from daebench.core.kernels import friction_coefficients
+from daebench.core.linalg import solve_structured
 from daebench.core.problem import Problem
 from daebench.core.system import MechanicalSystem, State
 from daebench.driver.stickslip import (CONE_TOL, PAINLEVE_SLIP, SLIP_MIN, FrictionPhase, stick_groups,
@@ -414,9 +415,9 @@ def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[n
         if np.max(np.abs(C)) < 1e-15:
             break
         Cq = problem.constraint_jacobian(t, q)
-        MiCt = np.linalg.solve(M, Cq.T)
+        MiCt = solve_structured(M, Cq.T)
         q -= MiCt @ np.linalg.solve(Cq @ MiCt, C)
     Cq = problem.constraint_jacobian(t, q)
-    MiCt = np.linalg.solve(M, Cq.T)
+    MiCt = solve_structured(M, Cq.T)
     v = v - MiCt @ np.linalg.solve(Cq @ MiCt, Cq @ v + problem.constraint_t(t, q))
     return q, v

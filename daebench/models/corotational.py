@@ -65,6 +65,7 @@ import numpy as np
 from numba import njit
 
 from daebench.core import kernels
+from daebench.core.linalg import STRUCTURED_MIN_N, Sparsity, band_order
 from daebench.core.system import KernelSystem
 
 
@@ -166,11 +167,15 @@ def element_force(md, e, pe, ve, fg, Kf, Cf, want_jac):
 
 @njit(cache=True)
 def _mass_force(md, t, q, v, M, Q):
+    """M = diag(mass) and Q; an M with no rows is left alone (force only: what a stepper
+    asks of a model that declares its mass constant, :meth:`Frame.sparsity`)."""
     n = q.shape[0]
+    full = M.shape[0] == n
     for i in range(n):
-        for j in range(n):
-            M[i, j] = 0.0
-        M[i, i] = md.mass[i]
+        if full:
+            for j in range(n):
+                M[i, j] = 0.0
+            M[i, i] = md.mass[i]
         Q[i] = md.fext[i]
     pe = np.empty(6)
     ve = np.empty(6)
@@ -324,6 +329,25 @@ class Frame(KernelSystem):
     @property
     def power_free(self) -> bool:
         return self.data.beta == 0.0
+
+    def sparsity(self) -> Sparsity | None:
+        """The structure of the iteration matrices (:class:`daebench.core.linalg.Sparsity`):
+        an element couples its own six end coordinates only, so in the node-by-node
+        numbering (or its reverse Cuthill–McKee order) the DOFs form a band, with no
+        border; M is diagonal and constant. None (dense LU) below
+        ``STRUCTURED_MIN_N`` DOFs, where the dense factorization is as cheap — and the
+        default cases (double-pendulum: 50 DOFs) keep their histories bit for bit."""
+        if self.n < STRUCTURED_MIN_N:
+            return None
+        if getattr(self, "_sparsity", None) is None:
+            rows, cols = [], []
+            for d in self.data.dof:
+                d = d[d >= 0]
+                rows.append(np.repeat(d, d.size))
+                cols.append(np.tile(d, d.size))
+            order, bw = band_order(self.n, np.zeros(0, np.int64), np.concatenate(rows), np.concatenate(cols))
+            self._sparsity = Sparsity(order, self.n, bw, bw, 0, True)
+        return self._sparsity
 
     # -- geometry ------------------------------------------------------------------------
     def node_position(self, q: np.ndarray, node: int) -> tuple[float, float]:

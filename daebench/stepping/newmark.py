@@ -78,11 +78,11 @@ import numpy as np
 from numba import njit
 
 from daebench.core import phase
-from daebench.core.linalg import BorderedWork, bordered_solve, bordered_work, lu_solve
+from daebench.core.linalg import BorderedWork, bordered_solve, lu_solve
 from daebench.stepping import control, methods
 from daebench.stepping.methods import C_NEWTON, C_RES
-from daebench.stepping.newmark_matrix import (ST_BAND, ST_HOLD, ST_LU, ST_LUH, ST_PREV, factor, mass_row, uses_hM,
-                                             weights)
+from daebench.stepping.newmark_matrix import (ST_BAND, ST_HOLD, ST_LU, ST_LUH, ST_PREV, band_mass, factor, mass_row,
+                                             mass_rows, structure, uses_hM, weights)
 
 NEWTON_RATE_REFRESH = 0.1    # contraction rate above which a reused iteration matrix is rebuilt
 NEWTON_RATE_DIVERGE = 2.0    # rate above which a fresh-matrix iteration is declared divergent
@@ -150,6 +150,9 @@ class NewmarkWork(NamedTuple):
     bw: BorderedWork    # factors through the model's declared structure (newmark_matrix.factor)
     sp: np.ndarray      # int64[3]: structure declared, mass half-bandwidth (−1 dense), constant mass
     M0: np.ndarray      # (0 × n): the mass_force argument "force only" (constant mass)
+    ij: np.ndarray      # int64 (2, P): the n × n entries inside the declared structure
+    pos: np.ndarray     # int64[n]: each DOF's place in the declared order
+    Mb: np.ndarray      # (n, 2 mb + 1): a declared constant banded M in band storage, Mb[i, j − i + mb] = M[i, j]
 
 
 def workspace(n: int, m: int, ggl: bool, sparsity=None) -> NewmarkWork:
@@ -159,18 +162,12 @@ def workspace(n: int, m: int, ggl: bool, sparsity=None) -> NewmarkWork:
     nx = n + m + (m if ggl else 0)
     mm = max(m, 1)
     e = np.empty
-    if sparsity is None:
-        bw = bordered_work(np.zeros(0, np.int64), 0, 0, 0)
-        sp = np.array([0, -1, 0], np.int64)
-    else:
-        nb = int(sparsity.n_banded)
-        order = np.concatenate([np.asarray(sparsity.order, np.int64), np.arange(n, nx, dtype=np.int64)])
-        bw = bordered_work(order, nb, int(sparsity.kl), int(sparsity.ku))
-        sp = np.array([1, int(sparsity.mass_band), int(bool(sparsity.constant_mass))], np.int64)
+    bw, sp, ij, pos = structure(sparsity, n, nx)
     return NewmarkWork(np.zeros(5), e((nx, nx)), np.zeros(nx, np.int64), e(n), e(n), e(n), e(m), np.zeros(n),
                        np.zeros(n), np.zeros(n), np.zeros(n), e(n), e(n), e(n), np.zeros(n), e(n), e(mm), e(mm),
                        e(mm), e(m), e(nx), e(nx), e(nx), e(nx), e((n, n)), e((n, n)), e((n, n)), e((n, n)),
-                       e((n, n)), e((mm, n)), e((mm, n)), e((mm, n)), bw, sp, np.zeros((0, n)))
+                       e((n, n)), e((mm, n)), e((mm, n)), e((mm, n)), bw, sp, np.zeros((0, n)), ij, pos,
+                       np.zeros((n, 2 * max(int(sp[1]), 0) + 1)))
 
 
 @njit(cache=True)
@@ -182,6 +179,7 @@ def _start(meth, ws, ph, t, cur, cnt):
     ws.acc[:] = cur.a
     if ws.sp[2]:  # constant M: filled once here, the iterations ask for the force only
         phase.mass_force(ph, t, cur.q, cur.v, ws.M, ws.Q)
+        band_mass(ws.M, ws.sp[1], ws.Mb)
     for i in range(n):
         ws.hM[i] = (wm - wf) * cur.a[i] if meth.accel_avg else wm * cur.a[i]
         ws.hF[i] = 0.0
@@ -260,6 +258,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     w1, wm, wf = weights(meth)
     hM_on = uses_hM(meth)
     mb = ws.sp[1]
+    Mr, compact = mass_rows(ws)
     t1 = t + h
     be, ga = meth.beta, meth.gamma
     bh2 = be * h * h
@@ -301,13 +300,14 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
             finite = True
             for i in range(n):
                 j0, j1 = mass_row(mb, i, n)
+                o = mb - i if compact else 0
                 s = 0.0
                 for j in range(j0, j1):
-                    s += M[i, j] * aa[j]
+                    s += Mr[i, j + o] * aa[j]
                 s = s * w1
                 if hM_on:
                     for j in range(j0, j1):
-                        s += M[i, j] * ws.hM[j]
+                        s += Mr[i, j + o] * ws.hM[j]
                 ri = bh2 * (s - Q[i] + ws.hF[i])
                 for k in range(m):
                     ri += Cq[k, i] * x[n + k]
@@ -353,7 +353,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
             if m:
                 mscale = 0.0
                 for i in range(n):
-                    mscale = max(mscale, abs(M[i, i]))
+                    mscale = max(mscale, abs(Mr[i, (mb if compact else i)]))
                 mscale = max(mscale, 1e-300)
                 dl = 0.0
                 for k in range(m):
@@ -398,13 +398,14 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
         # F_{n+1} = (C_qᵀλ − Q)_{n+1} from the converged equations of motion (no extra force call)
         for i in range(n):
             j0, j1 = mass_row(mb, i, n)
+            o = mb - i if compact else 0
             s = 0.0
             for j in range(j0, j1):
-                s += M[i, j] * aa[j]
+                s += Mr[i, j + o] * aa[j]
             f = (-wf) * ws.F[i] - w1 * s
             if hM_on:
                 for j in range(j0, j1):
-                    f -= M[i, j] * ws.hM[j]
+                    f -= Mr[i, j + o] * ws.hM[j]
             ws.F_new[i] = f
     err = 0.0
     if ctl.adaptive:

@@ -134,7 +134,7 @@ def run_perf(s: PerfSettings, out: str | Path | None = None) -> dict[str, Any]:
     save()
     res["plugin"] = compiled_plugin(s)
     save()
-    res["fe_banded"] = perf_structure.fe_scaling()   # issue 21: banded vs dense, native vs sksundae IDA
+    res["fe_banded"] = perf_structure.fe_scaling(s.fe_elements, s.fe_t_end, t_short=s.fe_t_end / 2)  # issue 21
     save()
     res["ida_backends"] = perf_structure.ida_backends()
     save()
