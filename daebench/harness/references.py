@@ -29,7 +29,7 @@ import pandas as pd
 from daebench.harness import guards, metrics, provenance
 from daebench.harness.scoring import declared
 from daebench.core.params import ParamError
-from daebench.harness import accuracy, refcapture
+from daebench.harness import accuracy, refcapture, refside
 from daebench.harness.runner import make_integrator, results_dir, run_scene
 from daebench.integrators.odeint import IndexOneODE
 from daebench.models import build_system
@@ -252,7 +252,7 @@ def reference_tolerances(tightest_rtol: float | None = None, rtol: float | None 
 def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: float | None = None,
                       atol: float | None = None, check: bool = True,
                       progress: Callable[[str, float], Any] | None = None,
-                      tightest_h: float | None = None) -> Reference:
+                      tightest_h: float | None = None, parallel: bool = True) -> Reference:
     """Compute, check and cache the reference of ``scene``, with its accuracy record.
 
     A scene with friction, with contacts left to an integrator, or whose model asks for it
@@ -270,8 +270,11 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     observable over time, ``trust_t`` and ``trust_impacts`` (sidecar ``accuracy``). A
     reference by the ODE solver is also checked by IDA CHECK_FACTOR looser (another method
     family; sidecar ``agreement``). All runs write REF_OVERSAMPLE× denser output than the
-    scene's. ``progress(label, t_end)`` is a context manager factory whose value receives the
-    simulated time of each run (:class:`daebench.harness.progress.RunProgress`).
+    scene's. With ``parallel`` the check runs run in forked processes beside the reference
+    run (:mod:`daebench.harness.refside`: same numbers, about the time of the two longer
+    runs on two cores). ``progress(label, t_end)`` is a context manager factory whose value
+    receives the simulated time of the reference run
+    (:class:`daebench.harness.progress.RunProgress`).
 
     Raises
     ------
@@ -291,42 +294,49 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     r, a = reference_tolerances(tightest_rtol, rtol, atol)
     solver = getattr(system, "reference_solver", REF_INTEGRATOR)
 
-    def run(rt: float, at: float, label: str, method: str = solver, start: Any = None) -> tuple[Any, Any]:
+    def run(rt: float, at: float, label: str | None, method: str = solver, start: Any = None) -> tuple[Any, Any]:
         integ = (make_integrator(REF_INTEGRATOR, {"rtol": rt, "atol": at}) if method == REF_INTEGRATOR
                  else IndexOneODE(rtol=rt, atol=at, method=method))
-        with progress(label, scene.t_end) if progress is not None else nullcontext() as cb:
+        with progress(label, scene.t_end) if progress is not None and label else nullcontext() as cb:
             if start is None:
                 return integ, run_scene(dense_scene, integ, write=False, force=True, progress=cb)[1]
             system = accuracy.with_start(build_system(dense_scene), *start)
             return integ, simulate(system, integ, scene.t_end, dense_scene["output.dt"], progress=cb)
 
-    integ, res = run(r, a, f"reference of {scene.name}: {solver} rtol {r:g}")
-    if res.status != "completed":
-        raise RuntimeError(f"reference run of '{scene.name}' {res.status}: {res.message}")
-    impacts = [float(i.t) for i in res.impacts]
-    agreement: dict[str, Any] = {}
-    acc_meta: dict[str, Any] = {}
+    def side(rt: float, at: float, method: str = solver, start: Any = None) -> Callable[[], refside.RunSummary]:
+        return lambda: refside.RunSummary.of(run(rt, at, None, method, start)[1])
+
+    jobs: dict[str, Callable[[], refside.RunSummary]] = {}
     if check:
-        # the independent check: IDA CHECK_FACTOR looser (for an ODE reference, also its loose run below)
-        _, chk = run(r * CHECK_FACTOR, a * CHECK_FACTOR, f"check of the reference: IDA rtol {r * CHECK_FACTOR:g}",
-                     REF_INTEGRATOR)
-        agreement = {"check": f"{REF_INTEGRATOR} rtol={r * CHECK_FACTOR:g} atol={a * CHECK_FACTOR:g}",
-                     "status": chk.status}
-        if chk.status == "completed":
-            acc = metrics.accuracy(chk.history, res.history, ref_impacts=impacts, declared=declared(scene.model))
-            agreement.update({k: v for k, v in acc.items() if k.endswith("_max")})
-            agreement.update(metrics.impact_time_errors([i.t for i in chk.impacts], impacts))
-        loose, f = chk, CHECK_FACTOR
+        # the independent check: IDA CHECK_FACTOR looser (for an ODE reference, also its loose run);
+        # the perturbed start; all beside the reference run (refside: forked processes)
+        jobs["check"] = side(r * CHECK_FACTOR, a * CHECK_FACTOR, REF_INTEGRATOR)
         if solver != REF_INTEGRATOR:
-            f = accuracy.LOOSE_FACTOR
-            _, loose = run(r * f, a * f, f"accuracy of the reference: {solver} rtol {r * f:g}")
-        start = accuracy.perturbed_start(build_system(scene), r)
-        _, pert = run(r, a, f"accuracy of the reference: {solver} rtol {r:g}, perturbed start", start=start)
-        cols = list(scene["output.observables"]) or metrics.observable_columns(res.history)
-        acc_meta = accuracy.assess(res.history, impacts, loose.history, pert.history, cols, scene.t_end,
-                                   loose_factor=f)
-        acc_meta.update({"loose": loose.status, "perturbed": pert.status,
-                         "perturbed_impacts": len(pert.impacts), "loose_impacts": len(loose.impacts)})
+            jobs["loose"] = side(r * accuracy.LOOSE_FACTOR, a * accuracy.LOOSE_FACTOR)
+        jobs["perturbed"] = side(r, a, start=accuracy.perturbed_start(build_system(scene), r))
+    with refside.SideRuns(jobs, parallel=parallel) as runs:
+        integ, res = run(r, a, f"reference of {scene.name}: {solver} rtol {r:g}")
+        if res.status != "completed":
+            raise RuntimeError(f"reference run of '{scene.name}' {res.status}: {res.message}")
+        impacts = [float(i.t) for i in res.impacts]
+        agreement: dict[str, Any] = {}
+        acc_meta: dict[str, Any] = {}
+        if check:
+            got = runs.results()
+            chk = got["check"]
+            agreement = {"check": f"{REF_INTEGRATOR} rtol={r * CHECK_FACTOR:g} atol={a * CHECK_FACTOR:g}",
+                         "status": chk.status}
+            if chk.status == "completed":
+                acc = metrics.accuracy(chk.history, res.history, ref_impacts=impacts, declared=declared(scene.model))
+                agreement.update({k: v for k, v in acc.items() if k.endswith("_max")})
+                agreement.update(metrics.impact_time_errors(chk.impacts, impacts))
+            loose, f = (got["loose"], accuracy.LOOSE_FACTOR) if "loose" in got else (chk, CHECK_FACTOR)
+            pert = got["perturbed"]
+            cols = list(scene["output.observables"]) or metrics.observable_columns(res.history)
+            acc_meta = accuracy.assess(res.history, impacts, loose.history, pert.history, cols, scene.t_end,
+                                       loose_factor=f)
+            acc_meta.update({"loose": loose.status, "perturbed": pert.status,
+                             "perturbed_impacts": len(pert.impacts), "loose_impacts": len(loose.impacts)})
     return _store(scene, dense_scene, integ, res, agreement, acc_meta, {"kind": "ida"})
 
 
