@@ -2,10 +2,12 @@
 
 A reference (:mod:`daebench.harness.references`) is computed three times: the reference
 run, a looser check run and a run from a perturbed start. The three are independent, so
-the two check runs start in forked processes before the reference run starts in the
-calling process (with its progress bar); on two cores the whole takes about the time of
-the two longer runs instead of the sum of the three. The runs are the same function calls
-on the same inputs as in one process, so their histories are the same to the last digit.
+the two check runs are forked from the calling process once the reference run there has
+taken its first steps (:meth:`SideRuns.start` from its progress callback: its kernels are
+compiled by then and the children inherit them, so a cold cache is compiled once, not
+three times); on two cores the whole takes about the time of the two longer runs instead
+of the sum of the three. The runs are the same function calls on the same inputs as in
+one process, so their histories are the same to the last digit.
 
 Where ``fork`` does not exist (Windows, or ``parallel=False``) the check runs are made one
 after the other in the calling process when their results are asked for. A worker ends
@@ -59,13 +61,23 @@ def _child(conn: Any, fn: Callable[[], RunSummary], parent_pid: int) -> None:
 
 
 class SideRuns:
-    """Start ``jobs`` ({name: function returning a RunSummary}) now, in forked processes;
-    :meth:`results` waits for them. A context manager: leaving it kills what still runs."""
+    """``jobs`` ({name: function returning a RunSummary}) in forked processes, started by
+    :meth:`start` (or by :meth:`results`, which waits for them). A context manager:
+    leaving it kills what still runs."""
 
     def __init__(self, jobs: dict[str, Callable[[], RunSummary]], parallel: bool = True) -> None:
         self.jobs = dict(jobs)
         self.procs: dict[str, tuple[Any, Any]] = {}
-        if not (parallel and "fork" in mp.get_all_start_methods() and self.jobs):
+        self.parallel = bool(parallel and "fork" in mp.get_all_start_methods())
+        self.started = False
+
+    def start(self, *_: Any) -> None:
+        """Fork the workers (once; later calls do nothing). Takes and ignores the
+        arguments of a progress callback, so that it can be one."""
+        if self.started:
+            return
+        self.started = True
+        if not (self.parallel and self.jobs):
             return
         ctx = mp.get_context("fork")
         for f in (sys.stdout, sys.stderr):  # a child flushes what it inherited: flush it here first
@@ -91,6 +103,7 @@ class SideRuns:
         Exception
             What a run raised (its own type where it could be pickled).
         """
+        self.start()
         out = {}
         for name, fn in self.jobs.items():
             if name not in self.procs:

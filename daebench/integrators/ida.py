@@ -135,6 +135,7 @@ MAX_NUM_STEPS = 500  # IDA's limit per call; one call = one internal step here
 ALG_ATOL_DEFAULT = 1e10  # absolute tolerance of λ, μ: takes them out of the error test
 DENSE_EDGE = 1e-10  # relative distance to the step end below which dense() returns the end state
 MAX_STEPS_PER_CALL = 2000  # advance(): keeps the driver responsive
+MAX_OUTPUT_ROWS = 4096  # advance(): output rows written per call at most
 
 
 class IDA(Integrator):
@@ -339,10 +340,16 @@ class IDA(Integrator):
         return self._unpack(t_new, y, yp)
 
     # -- many steps per call (the driver's fast path) ---------------------------------
-    def advance(self, t_stop: float, watch: _watch.Watch | None = None) -> Advance:
+    records_outputs = True  # advance() takes the output times and writes their rows (native backend)
+
+    def advance(self, t_stop: float, watch: _watch.Watch | None = None,
+                outputs: np.ndarray | None = None) -> Advance:
         """Take IDA steps until one the driver must see (:func:`daebench.stepping.watch.quiet`):
         the quiet steps' checks, re-arming and constraint maxima run compiled. Same steps,
-        same states as stepping through the driver one at a time."""
+        same states as stepping through the driver one at a time. With ``outputs`` (the
+        output times from the watch's next one on; native backend) a step whose only news
+        is an output time is kept: the states at its output times (those :meth:`dense`
+        gives) come back in ``Advance.outputs``."""
         if watch is None:
             return super().advance(t_stop, None)
         n, m = self._n, self._m
@@ -350,7 +357,7 @@ class IDA(Integrator):
                          watch.t_out_next, watch.t_end)
         C, Cq, Ct, gam = np.empty(m), np.empty((m, n)), np.empty(m), np.empty(m)
         if isinstance(self._solver, _native.NativeIDA):
-            return self._advance_native(float(t_stop), w, C, Cq, Ct, gam)
+            return self._advance_native(float(t_stop), w, C, Cq, Ct, gam, outputs=outputs)
         t_end_tol = 1e-15 * max(1.0, float(t_stop))
         prev = self.state
         for k in range(1, MAX_STEPS_PER_CALL + 1):
@@ -362,18 +369,20 @@ class IDA(Integrator):
         return Advance(prev, self.state, k, w.armed, w.cmax, self._take_events())
 
     def _advance_native(self, t_stop: float, w: _watch.Watch, C, Cq, Ct, gam,
-                        budget: int = MAX_STEPS_PER_CALL) -> Advance:
-        """:meth:`advance` with the step loop compiled (:func:`daebench.stepping.ida_native.advance_loop`):
+                        budget: int = MAX_STEPS_PER_CALL, outputs: np.ndarray | None = None) -> Advance:
+        """:meth:`advance` with the step loop compiled (:func:`daebench.stepping.ida_advance.advance_loop`):
         the same IDA calls and checks as :meth:`_step_impl` and :func:`daebench.stepping.watch.quiet`."""
         if t_stop <= self.state.t:
             raise ValueError(f"t_stop = {t_stop} is not after t = {self.state.t}")
         N = 2 * self._n + 2 * self._m
         start = self.state
-        k, code, flag, ida_t, prev, cur, nfev, njev = self._solver.advance(
-            float(start.t), self._ida_t, t_stop, budget, w, C, Cq, Ct, gam)
+        buf = None if outputs is None or not len(outputs) else np.empty((min(len(outputs), MAX_OUTPUT_ROWS), 2 + 2 * N))
+        k, code, flag, ida_t, prev, cur, nfev, njev, rows, used = self._solver.advance(
+            float(start.t), self._ida_t, t_stop, budget, w, C, Cq, Ct, gam, outputs, buf)
         self.counters.newton_iterations += nfev - self._nfev
         self.counters.lu_factorizations += njev - self._njev
         self._nfev, self._njev = nfev, njev
+        recorded = [(float(r[0]), self._unpack(r[1], r[2:2 + N], r[2 + N:])) for r in rows]
         if k:
             self._ida_t = ida_t
             self.prev = start if k == 1 else self._unpack(prev[0], prev[1:1 + N], prev[1 + N:])
@@ -388,6 +397,9 @@ class IDA(Integrator):
         if code == _native.ADV_NONFINITE:
             raise StepFailure(f"IDA produced non-finite values after t = {t_now:.9g}")
         prev_state = self.prev if k else start
+        if used:
+            w = w._replace(t_out_next=float(outputs[used]) if used < len(outputs) else math.inf)
+            outputs = outputs[used:]
         if code == _native.ADV_PYTHON:  # the Taylor step of _step_impl, then the loop's own check
             prev_state = self.state
             new = self.step(t_stop)
@@ -396,9 +408,10 @@ class IDA(Integrator):
             if new.t < t_stop - t_end_tol and _watch.quiet(
                     self.problem.kernel, w, float(new.t), StateArrays(new.q, new.v, new.a, new.lam), C, Cq, Ct,
                     gam) and k < budget:
-                more = self._advance_native(t_stop, w, C, Cq, Ct, gam, budget - k)
-                return Advance(more.prev, more.new, k + more.steps, more.armed, more.cmax, more.events)
-        return Advance(prev_state, self.state, k, w.armed, w.cmax, self._take_events())
+                more = self._advance_native(t_stop, w, C, Cq, Ct, gam, budget - k, outputs)
+                return Advance(more.prev, more.new, k + more.steps, more.armed, more.cmax, more.events,
+                               outputs=recorded + (more.outputs or []))
+        return Advance(prev_state, self.state, k, w.armed, w.cmax, self._take_events(), outputs=recorded)
 
     def dense(self, t: float) -> State:
         """State at t within the last step from IDA's own interpolating polynomial
