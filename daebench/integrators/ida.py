@@ -73,7 +73,13 @@ compiled C callbacks and :meth:`IDA.advance` runs its quiet steps in one compile
 ``backend = "sksundae"`` goes through scikit-sundae's Python interface (Python callbacks,
 one Python call per step). Both make the same SUNDIALS calls with the same residual and
 Jacobian entries, so their histories agree to the last digit (tests/test_ida_native.py);
-the run record names the backend among the settings.
+the run record names the backend among the settings. A model written in Python (its
+kernels call Python through ``numba.objmode``: :class:`daebench.core.kernels.PyModel`)
+always runs through scikit-sundae: inside a C callback numba cannot hand an exception the
+model raises back to Python (it prints "Exception ignored" and IDA goes on with a stale
+residual; a compiled ``try`` around the call leaves the exception pending instead, and
+Python then fails with ``SystemError``), whereas scikit-sundae's Python callbacks end the
+run with the model's own message. Such a model costs ~10 µs per kernel call anyway.
 
 Dense output
 ------------
@@ -129,6 +135,7 @@ from daebench.stepping import ida_native as _native
 from daebench.stepping.ida_native import ggl_residual
 from daebench.stepping import watch as _watch
 from daebench.stepping.methods import StateArrays
+from daebench.core.kernels import PyModel
 from daebench.core.system import State
 
 MAX_NUM_STEPS = 500  # IDA's limit per call; one call = one internal step here
@@ -190,14 +197,15 @@ class IDA(Integrator):
         Setting("jacobian", str, "analytic", "iteration matrix: assembled or IDA's finite differences",
                 choices=("analytic", "fd")),
         Setting("backend", str, "native",
-                "native: SUNDIALS called directly with compiled callbacks and a compiled step loop; "
+                "native: SUNDIALS called directly with compiled callbacks and a compiled step loop "
+                "(a model written in Python runs through sksundae); "
                 "sksundae: through scikit-sundae's Python interface (same numbers, slower)",
                 choices=("native", "sksundae")),
     )
 
     def __init__(self, **settings) -> None:
         super().__init__(**settings)
-        self._solvers: dict[tuple[int, int], _SundaeIDA | _native.NativeIDA] = {}
+        self._solvers: dict[tuple[int, int, bool], _SundaeIDA | _native.NativeIDA] = {}
         self._solver: _SundaeIDA | _native.NativeIDA | None = None
         self._n = self._m = 0
         self._nfev = self._njev = 0
@@ -245,7 +253,7 @@ class IDA(Integrator):
     def _solver_for(self, n: int, m: int) -> _SundaeIDA | _native.NativeIDA:
         """One scikit-sundae solver per system size, reused across phases (IDAReInit)."""
         cache = self._solvers
-        key = (n, m)
+        key = (n, m, isinstance(self.problem.kernel.model, PyModel))
         if key not in cache:
             s = self.settings
             N = 2 * n + 2 * m
@@ -256,7 +264,7 @@ class IDA(Integrator):
                 max_order=s["max_order"], max_num_steps=MAX_NUM_STEPS, linsolver="dense",
                 algebraic_idx=list(range(2 * n, N)) if m else None,
             )
-            if s["backend"] == "native":
+            if s["backend"] == "native" and not isinstance(self.problem.kernel.model, PyModel):
                 del opts["linsolver"]
                 cache[key] = _native.NativeIDA(N, n, m, analytic_jacobian=s["jacobian"] == "analytic", **opts)
                 return cache[key]
