@@ -67,3 +67,13 @@ def differences(recorded: dict[str, list[float]], now: dict[str, list[float]]) -
             i = int(np.flatnonzero(bad)[0])
             diff.append(f"{k}[{i}] was {a[i]:.12g}, is {b[i]:.12g}")
     return diff
+
+
+def record(system: Any) -> dict[str, list[float]] | None:
+    """:func:`probe` for a reference's sidecar; None (no probe: the reference is then not
+    probe-checked, and not shippable) when the model cannot be evaluated at the moved
+    states (it raises there)."""
+    try:
+        return probe(system)
+    except (ArithmeticError, ValueError, NotImplementedError, np.linalg.LinAlgError):
+        return None

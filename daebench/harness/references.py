@@ -236,7 +236,7 @@ def install_shipped(scene: Scene) -> Path | None:
         return None
     try:
         ref = validate(scene, src)
-        if "model_probe" not in ref.meta:
+        if not isinstance(ref.meta.get("model_probe"), dict):
             raise ReferenceDamaged("it has no model probe")
     except ReferenceDamaged as exc:
         raise ReferenceDamaged(f"the reference shipped for '{scene.name}' is refused: {exc}") from None
@@ -423,7 +423,7 @@ def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: di
             "integrator": integ.name, "settings": integ.to_config(), "wall_s": res.wall_s,
             "counters": res.counters, "impacts": impacts, "output_dt": dense_scene["output.dt"], "agreement": agreement,
             "accuracy": acc_meta,
-            "energy_residual_max": res.energy_residual, "model_probe": modelprobe.probe(build_system(scene)),
+            "energy_residual_max": res.energy_residual, "model_probe": modelprobe.record(build_system(scene)),
             **extra, "sha256": sha256(path), "rows": len(hist),
             "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}
     guards.atomic_write(path.with_suffix(".json"),

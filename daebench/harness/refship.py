@@ -36,7 +36,7 @@ def ship(scene: Scene, ref: Reference) -> Path:
     """Maintainers: copy the cached reference ``ref`` of ``scene`` into the package (after
     its checks; it must carry a model probe)."""
     validate(scene, ref.path)  # the model probe too
-    if "model_probe" not in ref.meta:
+    if not isinstance(ref.meta.get("model_probe"), dict):
         raise ReferenceDamaged(f"{ref.path} has no model probe; recompute it with "
                                f"`daebench reference {scene.name} --force`")
     SHIPPED_DIR.mkdir(parents=True, exist_ok=True)
