@@ -374,7 +374,7 @@ def test_batch_advance_equals_stepping_through_the_driver(monkeypatch):
     def spy(self, t_stop, watch=None, outputs=None):
         calls.append(watch is not None)
         adv = real_advance(self, t_stop, watch, outputs)
-        rows.append(len(adv.outputs or ()))
+        rows.append(len(getattr(adv, "outputs", ())))
         return adv
 
     monkeypatch.setattr(IDA, "advance", spy)

@@ -281,7 +281,8 @@ class Driver:
             adv = self.integ.advance(self.t_end, watch, outputs=self.t_out[self.out_i:])
         else:
             adv = self.integ.advance(self.t_end, watch)
-        for to, s in adv.outputs or ():  # rows of output times its quiet steps passed (power-free: work unchanged)
+        for to, s in getattr(adv, "outputs", ()):  # rows of the output times its quiet steps passed
+            # (integrators with records_outputs, e.g. IDA; a power-free phase: the work is unchanged)
             self._row(to, s, dict(self.work), self._current)
         if watch is not None:
             if cs.armed.size:

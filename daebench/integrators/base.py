@@ -297,9 +297,7 @@ class Advance:
     after the quiet steps, the contact episodes the integrator resolved itself, and — for
     such integrators — the cumulative work of their contact forces at prev.t and at new.t
     and, optionally, their power at prev.t (the driver books it as ``W_contact`` in the
-    energy balance, interpolated within the step: quadratic with the power, else linear).
-    ``outputs``: (output time, state there) of the output times the quiet steps passed, for
-    an integrator that writes them itself (``records_outputs``, given the output times)."""
+    energy balance, interpolated within the step: quadratic with the power, else linear)."""
 
     prev: State
     new: State
@@ -308,7 +306,6 @@ class Advance:
     cmax: np.ndarray | None = None
     events: list[Impact] = field(default_factory=list)
     contact_work: tuple[float, ...] | None = None
-    outputs: list[tuple[float, State]] | None = None
 
 
 def hermite_state(s0: State, s1: State, t: float) -> State:

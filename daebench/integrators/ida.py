@@ -117,6 +117,7 @@ Problems in Differential-Algebraic Equations*, SIAM, 1996.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 from sksundae.ida import IDA as _SundaeIDA
@@ -143,6 +144,14 @@ ALG_ATOL_DEFAULT = 1e10  # absolute tolerance of λ, μ: takes them out of the e
 DENSE_EDGE = 1e-10  # relative distance to the step end below which dense() returns the end state
 MAX_STEPS_PER_CALL = 2000  # advance(): keeps the driver responsive
 MAX_OUTPUT_ROWS = 4096  # advance(): output rows written per call at most
+
+
+@dataclass
+class RecordedAdvance(Advance):
+    """An :class:`Advance` with the (output time, state there) of the output times its quiet
+    steps passed (:meth:`IDA.advance` given the output times; the driver writes their rows)."""
+
+    outputs: list[tuple[float, State]] = field(default_factory=list)
 
 
 class IDA(Integrator):
@@ -357,7 +366,7 @@ class IDA(Integrator):
         same states as stepping through the driver one at a time. With ``outputs`` (the
         output times from the watch's next one on; native backend) a step whose only news
         is an output time is kept: the states at its output times (those :meth:`dense`
-        gives) come back in ``Advance.outputs``."""
+        gives) come back in ``RecordedAdvance.outputs``."""
         if watch is None:
             return super().advance(t_stop, None)
         n, m = self._n, self._m
@@ -417,9 +426,9 @@ class IDA(Integrator):
                     self.problem.kernel, w, float(new.t), StateArrays(new.q, new.v, new.a, new.lam), C, Cq, Ct,
                     gam) and k < budget:
                 more = self._advance_native(t_stop, w, C, Cq, Ct, gam, budget - k, outputs)
-                return Advance(more.prev, more.new, k + more.steps, more.armed, more.cmax, more.events,
-                               outputs=recorded + (more.outputs or []))
-        return Advance(prev_state, self.state, k, w.armed, w.cmax, self._take_events(), outputs=recorded)
+                return RecordedAdvance(more.prev, more.new, k + more.steps, more.armed, more.cmax, more.events,
+                                       outputs=recorded + more.outputs)
+        return RecordedAdvance(prev_state, self.state, k, w.armed, w.cmax, self._take_events(), outputs=recorded)
 
     def dense(self, t: float) -> State:
         """State at t within the last step from IDA's own interpolating polynomial
