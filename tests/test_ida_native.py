@@ -80,3 +80,32 @@ def test_beam_impact_native_equals_sksundae():
     assert np.array_equal(nat.q, ref.q) and np.array_equal(nat.v, ref.v) and np.array_equal(nat.lam, ref.lam)
     assert len(nat.impacts) == len(ref.impacts)
     assert nat.counters["residual_evals"] == ref.counters["residual_evals"]
+
+
+def test_a_python_models_exception_ends_the_run_with_its_message(monkeypatch, capfd):
+    """chain-impact's model is written in Python (its kernels call it through numba.objmode):
+    an exception it raises inside IDA's residual ends the run 'failed' with the model's own
+    message at the time it was raised — not 'Exception ignored' and IDA going on — under
+    the default backend (a Python model runs through scikit-sundae's callbacks)."""
+    from daebench.harness.runner import run_scene
+    from daebench.models.chain import Chain
+
+    real = Chain.applied_force
+
+    def planted(self, t, q, v):
+        if t > 0.005:
+            raise ValueError("planted: the chain's force is undefined beyond 5 ms")
+        return real(self, t, q, v)
+
+    monkeypatch.setattr(Chain, "applied_force", planted)
+    scene = api.load_scene("chain-impact", ["t_end=0.01"])
+    rec, res = run_scene(scene, "ida", {}, write=False)
+    assert res.status == "failed"
+    assert "planted: the chain's force is undefined beyond 5 ms" in res.message
+    assert 0.004 < res.t_final <= 0.005 + 1e-9
+    assert "Exception ignored" not in capfd.readouterr().err
+    monkeypatch.setattr(Chain, "applied_force", real)
+    _, native = run_scene(scene, "ida", {"backend": "native"}, write=False)
+    _, sundae = run_scene(scene, "ida", {"backend": "sksundae"}, write=False)
+    assert native.status == "completed" and native.counters == sundae.counters
+    np.testing.assert_array_equal(native.history.to_numpy(), sundae.history.to_numpy())

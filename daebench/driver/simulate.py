@@ -277,7 +277,13 @@ class Driver:
         """One call of the integrator; adopt its quiet steps' bookkeeping and the contact
         episodes it resolved itself."""
         cs = self.contacts
-        adv = self.integ.advance(self.t_end, watch)
+        if watch is not None and getattr(self.integ, "records_outputs", False):
+            adv = self.integ.advance(self.t_end, watch, outputs=self.t_out[self.out_i:])
+        else:
+            adv = self.integ.advance(self.t_end, watch)
+        for to, s in getattr(adv, "outputs", ()):  # rows of the output times its quiet steps passed
+            # (integrators with records_outputs, e.g. IDA; a power-free phase: the work is unchanged)
+            self._row(to, s, dict(self.work), self._current)
         if watch is not None:
             if cs.armed.size:
                 cs.armed = np.asarray(adv.armed, dtype=bool)[:cs.armed.size].copy()
@@ -322,7 +328,6 @@ class Driver:
     def _record_until(self, prev: State, end: State, problem: Problem, dt: float,
                       base: dict | None = None, p0: dict | None = None, p1: dict | None = None) -> None:
         """Write history rows for the output times in (prev.t, end.t] (t = 0 included once)."""
-        sys_, cs = self.system, self.contacts
         while self.out_i < len(self.t_out) and self.t_out[self.out_i] <= end.t + 1e-12 * max(1.0, self.t_end):
             to = float(self.t_out[self.out_i])
             if to >= end.t or dt == 0.0:
@@ -339,34 +344,40 @@ class Driver:
                 for k in set(p0) | set(p1):
                     pk = p0.get(k, 0.0) + th * (p1.get(k, 0.0) - p0.get(k, 0.0))
                     work[k] = base.get(k, 0.0) + 0.5 * (to - prev.t) * (p0.get(k, 0.0) + pk)
-            row: dict[str, float] = {"t": to}
-            obs = sys_.observables(to, s.q, s.v)
-            row.update(obs if self.observables is None else {k: obs[k] for k in self.observables if k in obs})
-            terms = sys_.energy(s.q, s.v)
-            E = float(sum(terms.values()))
-            row.update({f"E_{k}": float(x) for k, x in terms.items()})
-            row["E"] = E
-            for k, w in work.items():
-                row[f"W_{k}"] = w
-            row["D_impacts"] = cs.d_impacts
-            row["energy_residual"] = E - self.E0 - sum(work.values()) + cs.d_impacts
-            self._check_divergence(to, row["energy_residual"], terms, work)
-            if cs.watched:
-                row["n_active"] = len(cs.active) + len(cs.penetrating)
-            if cs.continuous:
-                F = problem.contact_forces(s.q, s.v)
-                for i in range(sys_.n_contacts):
-                    row[f"contact_force_{i}"] = float(F[i])
-            if problem.m and cs.active:
-                C, Cd, Cdd = problem.constraint_residuals(s.t, s.q, s.v, s.a)
-                row.update({"C": C, "Cdot": Cd, "Cddot": Cdd})
-                k = problem.n_bilateral
-                for j, c in enumerate(cs.active):
-                    row[f"lambda_{c}"] = float(s.lam[k + j]) if s.lam.size > k + j else math.nan
-            self.rows.append(row)
-            if self.record_states:
-                self._states.append(self._state_row(to, s))
-            self.out_i += 1
+            self._row(to, s, work, problem)
+
+    def _row(self, to: float, s: State, work: dict[str, float], problem: Problem) -> None:
+        """Write the history row of output time ``to`` from the state ``s`` there and the
+        work booked until then; the next output time is the following one."""
+        sys_, cs = self.system, self.contacts
+        row: dict[str, float] = {"t": to}
+        obs = sys_.observables(to, s.q, s.v)
+        row.update(obs if self.observables is None else {k: obs[k] for k in self.observables if k in obs})
+        terms = sys_.energy(s.q, s.v)
+        E = float(sum(terms.values()))
+        row.update({f"E_{k}": float(x) for k, x in terms.items()})
+        row["E"] = E
+        for k, w in work.items():
+            row[f"W_{k}"] = w
+        row["D_impacts"] = cs.d_impacts
+        row["energy_residual"] = E - self.E0 - sum(work.values()) + cs.d_impacts
+        self._check_divergence(to, row["energy_residual"], terms, work)
+        if cs.watched:
+            row["n_active"] = len(cs.active) + len(cs.penetrating)
+        if cs.continuous:
+            F = problem.contact_forces(s.q, s.v)
+            for i in range(sys_.n_contacts):
+                row[f"contact_force_{i}"] = float(F[i])
+        if problem.m and cs.active:
+            C, Cd, Cdd = problem.constraint_residuals(s.t, s.q, s.v, s.a)
+            row.update({"C": C, "Cdot": Cd, "Cddot": Cdd})
+            k = problem.n_bilateral
+            for j, c in enumerate(cs.active):
+                row[f"lambda_{c}"] = float(s.lam[k + j]) if s.lam.size > k + j else math.nan
+        self.rows.append(row)
+        if self.record_states:
+            self._states.append(self._state_row(to, s))
+        self.out_i += 1
 
     def _state_row(self, t: float, s: State) -> tuple:
         """(t, q, v, a, λ of the bilateral constraints) of an output state; NaN where the

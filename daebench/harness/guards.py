@@ -131,6 +131,14 @@ def deadline(seconds: float | None) -> Iterator[None]:
         yield
     except RunTimeout:
         raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s") from None
+    except Exception as exc:
+        if not state["fired"]:
+            raise
+        # the asynchronous RunTimeout landed in a Python model's call from compiled code
+        # (numba.objmode): numba's own exception handling then fails with it pending
+        # ("SystemError: … returned a result with an exception set", or a garbled
+        # TypeError). The run is over its cap either way: a timeout, the error its cause
+        raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s") from exc
     finally:
         with lock:
             for timer in timers:

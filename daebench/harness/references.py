@@ -10,8 +10,11 @@ parquet whose checksum does not match the old sidecar — which :func:`load_refe
 reports as damaged. Every read checks the sidecar, the checksum, the columns, the time
 span against the scene's ``t_end``, the scene hash and the kind of reference the scene
 needs (IDA, or a fine event-capturing run for friction and complementarity contacts:
-:mod:`daebench.harness.refcapture`); a damaged reference is recomputed
-(``compute`` and ``auto`` modes) or refused with the command that fixes it (``require``).
+:mod:`daebench.harness.refcapture`), and the model probe (the model's physics at a few
+states, recorded in the sidecar: :mod:`daebench.harness.modelprobe`); a damaged reference is
+recomputed (``compute`` and ``auto`` modes) or refused with the command that fixes it
+(``require``). A scene without a cached reference gets the one the package ships, if any,
+after the same checks (:mod:`daebench.harness.refship`).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import shutil
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +33,7 @@ import pandas as pd
 from daebench.harness import guards, metrics, provenance
 from daebench.harness.scoring import declared
 from daebench.core.params import ParamError
-from daebench.harness import accuracy, refcapture
+from daebench.harness import accuracy, modelprobe, refcapture, refside
 from daebench.harness.runner import make_integrator, results_dir, run_scene
 from daebench.integrators.odeint import IndexOneODE
 from daebench.models import build_system
@@ -48,6 +52,8 @@ REF_INTEGRATOR = "ida"
 #: errs by ≈ 3e-4 of the tone's amplitude)
 REF_OVERSAMPLE = 20
 MODES = ("auto", "require", "compute", "none")
+#: references shipped inside the package (:mod:`daebench.harness.refship`)
+SHIPPED_DIR = Path(__file__).resolve().parents[1] / "data" / "references"
 
 
 class ReferenceMissing(ParamError):
@@ -201,7 +207,50 @@ def validate(scene: Scene, path: Path) -> Reference:
         raise damaged(f"sidecar settings lack {key}") from None
     if not 0 < tol < 1:
         raise damaged(f"{key} {tol!r} in the sidecar")
+    probe = meta.get("model_probe")
+    diff = [] if probe is None else modelprobe.differences(probe, modelprobe.probe(build_system(scene))) \
+        if isinstance(probe, dict) else ["the model probe is not a mapping"]
+    if diff:
+        raise damaged(f"computed with another model '{scene.model}' than today's: {'; '.join(diff[:3])}"
+                      + (" …" if len(diff) > 3 else ""))
     return Reference(hist, [float(t) for t in meta["impacts"]], meta, path)
+
+
+def shipped_path(scene: Scene) -> Path:
+    """Where the package keeps a shipped reference of ``scene`` (it may not exist)."""
+    return SHIPPED_DIR / reference_path(scene).name
+
+
+def install_shipped(scene: Scene) -> Path | None:
+    """Copy the reference the package ships for ``scene`` into the cache after every check
+    of :func:`validate` (a model probe required); None when it ships none for this scene
+    hash (:mod:`daebench.harness.refship`).
+
+    Raises
+    ------
+    ReferenceDamaged
+        It fails a check (damaged; stale: another model).
+    """
+    src = shipped_path(scene)
+    if not (src.is_file() and src.with_suffix(".json").is_file()):
+        return None
+    try:
+        ref = validate(scene, src)
+        if not isinstance(ref.meta.get("model_probe"), dict):
+            raise ReferenceDamaged("it has no model probe")
+    except ReferenceDamaged as exc:
+        raise ReferenceDamaged(f"the reference shipped for '{scene.name}' is refused: {exc}") from None
+    dest = reference_path(scene)
+    kept = "nothing was cached; the shipped reference stays where it is"
+    try:
+        dest.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise guards.write_error(exc, "the reference folder", dest.parent, kept) from None
+    meta = {**ref.meta, "installed_from": f"shipped with daebench ({src.name})"}
+    guards.atomic_write(dest, lambda p: shutil.copyfile(src, p), "the reference", kept)
+    guards.atomic_write(dest.with_suffix(".json"), lambda p: p.write_text(json.dumps(meta, indent=1) + "\n"),
+                        "the reference's sidecar", kept)
+    return dest
 
 
 def load_reference(scene: Scene, compute: bool = False, mode: str | None = None, **kwargs: Any) -> Reference:
@@ -223,6 +272,13 @@ def load_reference(scene: Scene, compute: bool = False, mode: str | None = None,
     mode = mode or ("compute" if compute else "require")
     path = reference_path(scene)
     if not (path.exists() and path.with_suffix(".json").exists()):
+        try:
+            if install_shipped(scene) is not None:
+                return validate(scene, path)
+        except ReferenceDamaged:
+            if mode not in ("compute", "auto"):
+                raise
+            return compute_reference(scene, **kwargs)
         if mode == "compute":
             return compute_reference(scene, **kwargs)
         raise ReferenceMissing(
@@ -252,7 +308,7 @@ def reference_tolerances(tightest_rtol: float | None = None, rtol: float | None 
 def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: float | None = None,
                       atol: float | None = None, check: bool = True,
                       progress: Callable[[str, float], Any] | None = None,
-                      tightest_h: float | None = None) -> Reference:
+                      tightest_h: float | None = None, parallel: bool = True) -> Reference:
     """Compute, check and cache the reference of ``scene``, with its accuracy record.
 
     A scene with friction, with contacts left to an integrator, or whose model asks for it
@@ -270,8 +326,11 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     observable over time, ``trust_t`` and ``trust_impacts`` (sidecar ``accuracy``). A
     reference by the ODE solver is also checked by IDA CHECK_FACTOR looser (another method
     family; sidecar ``agreement``). All runs write REF_OVERSAMPLE× denser output than the
-    scene's. ``progress(label, t_end)`` is a context manager factory whose value receives the
-    simulated time of each run (:class:`daebench.harness.progress.RunProgress`).
+    scene's. With ``parallel`` the check runs run in forked processes beside the reference
+    run (:mod:`daebench.harness.refside`: same numbers, about the time of the two longer
+    runs on two cores). ``progress(label, t_end)`` is a context manager factory whose value
+    receives the simulated time of the reference run
+    (:class:`daebench.harness.progress.RunProgress`).
 
     Raises
     ------
@@ -291,48 +350,58 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     r, a = reference_tolerances(tightest_rtol, rtol, atol)
     solver = getattr(system, "reference_solver", REF_INTEGRATOR)
 
-    def run(rt: float, at: float, label: str, method: str = solver, start: Any = None) -> tuple[Any, Any]:
+    def run(rt: float, at: float, label: str | None, method: str = solver, start: Any = None,
+            tick: Callable[[float], Any] | None = None) -> tuple[Any, Any]:
         integ = (make_integrator(REF_INTEGRATOR, {"rtol": rt, "atol": at}) if method == REF_INTEGRATOR
                  else IndexOneODE(rtol=rt, atol=at, method=method))
-        with progress(label, scene.t_end) if progress is not None else nullcontext() as cb:
+        with progress(label, scene.t_end) if progress is not None and label else nullcontext() as bar:
+            cb = bar if tick is None else (lambda t: (tick(t), bar(t) if bar is not None else None))
             if start is None:
                 return integ, run_scene(dense_scene, integ, write=False, force=True, progress=cb)[1]
             system = accuracy.with_start(build_system(dense_scene), *start)
             return integ, simulate(system, integ, scene.t_end, dense_scene["output.dt"], progress=cb)
 
-    integ, res = run(r, a, f"reference of {scene.name}: {solver} rtol {r:g}")
-    if res.status != "completed":
-        raise RuntimeError(f"reference run of '{scene.name}' {res.status}: {res.message}")
-    impacts = [float(i.t) for i in res.impacts]
-    agreement: dict[str, Any] = {}
-    acc_meta: dict[str, Any] = {}
+    def side(rt: float, at: float, method: str = solver, start: Any = None) -> Callable[[], refside.RunSummary]:
+        return lambda: refside.RunSummary.of(run(rt, at, None, method, start)[1])
+
+    jobs: dict[str, Callable[[], refside.RunSummary]] = {}
     if check:
-        # the independent check: IDA CHECK_FACTOR looser (for an ODE reference, also its loose run below)
-        _, chk = run(r * CHECK_FACTOR, a * CHECK_FACTOR, f"check of the reference: IDA rtol {r * CHECK_FACTOR:g}",
-                     REF_INTEGRATOR)
-        agreement = {"check": f"{REF_INTEGRATOR} rtol={r * CHECK_FACTOR:g} atol={a * CHECK_FACTOR:g}",
-                     "status": chk.status}
-        if chk.status == "completed":
-            acc = metrics.accuracy(chk.history, res.history, ref_impacts=impacts, declared=declared(scene.model))
-            agreement.update({k: v for k, v in acc.items() if k.endswith("_max")})
-            agreement.update(metrics.impact_time_errors([i.t for i in chk.impacts], impacts))
-        loose, f = chk, CHECK_FACTOR
+        # the independent check: IDA CHECK_FACTOR looser (for an ODE reference, also its loose run);
+        # the perturbed start; beside the reference run once it has stepped (refside: forked processes)
+        jobs["check"] = side(r * CHECK_FACTOR, a * CHECK_FACTOR, REF_INTEGRATOR)
         if solver != REF_INTEGRATOR:
-            f = accuracy.LOOSE_FACTOR
-            _, loose = run(r * f, a * f, f"accuracy of the reference: {solver} rtol {r * f:g}")
-        start = accuracy.perturbed_start(build_system(scene), r)
-        _, pert = run(r, a, f"accuracy of the reference: {solver} rtol {r:g}, perturbed start", start=start)
-        cols = list(scene["output.observables"]) or metrics.observable_columns(res.history)
-        acc_meta = accuracy.assess(res.history, impacts, loose.history, pert.history, cols, scene.t_end,
-                                   loose_factor=f)
-        acc_meta.update({"loose": loose.status, "perturbed": pert.status,
-                         "perturbed_impacts": len(pert.impacts), "loose_impacts": len(loose.impacts)})
+            jobs["loose"] = side(r * accuracy.LOOSE_FACTOR, a * accuracy.LOOSE_FACTOR)
+        jobs["perturbed"] = side(r, a, start=accuracy.perturbed_start(build_system(scene), r))
+    with refside.SideRuns(jobs, parallel=parallel) as runs:
+        integ, res = run(r, a, f"reference of {scene.name}: {solver} rtol {r:g}", tick=runs.start)
+        if res.status != "completed":
+            raise RuntimeError(f"reference run of '{scene.name}' {res.status}: {res.message}")
+        impacts = [float(i.t) for i in res.impacts]
+        agreement: dict[str, Any] = {}
+        acc_meta: dict[str, Any] = {}
+        if check:
+            got = runs.results()
+            chk = got["check"]
+            agreement = {"check": f"{REF_INTEGRATOR} rtol={r * CHECK_FACTOR:g} atol={a * CHECK_FACTOR:g}",
+                         "status": chk.status}
+            if chk.status == "completed":
+                acc = metrics.accuracy(chk.history, res.history, ref_impacts=impacts, declared=declared(scene.model))
+                agreement.update({k: v for k, v in acc.items() if k.endswith("_max")})
+                agreement.update(metrics.impact_time_errors(chk.impacts, impacts))
+            loose, f = (got["loose"], accuracy.LOOSE_FACTOR) if "loose" in got else (chk, CHECK_FACTOR)
+            pert = got["perturbed"]
+            cols = list(scene["output.observables"]) or metrics.observable_columns(res.history)
+            acc_meta = accuracy.assess(res.history, impacts, loose.history, pert.history, cols, scene.t_end,
+                                       loose_factor=f)
+            acc_meta.update({"loose": loose.status, "perturbed": pert.status,
+                             "perturbed_impacts": len(pert.impacts), "loose_impacts": len(loose.impacts)})
     return _store(scene, dense_scene, integ, res, agreement, acc_meta, {"kind": "ida"})
 
 
 def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: dict[str, Any],
            acc_meta: dict[str, Any], extra: dict[str, Any]) -> Reference:
-    """Write the reference's history and sidecar atomically (module docstring)."""
+    """Write the reference's history and sidecar atomically (module docstring), with the
+    model probe (:mod:`daebench.harness.modelprobe`)."""
     impacts = [float(i.t) for i in res.impacts]
     path = reference_path(scene)
     hist = res.history
@@ -346,12 +415,16 @@ def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: di
         if f.is_dir():
             raise ReferenceDamaged(f"the cached reference {f} is a folder, not a file; remove it (`rm -r {f}`) "
                                    f"and run {_fix(scene)}")
-    guards.atomic_write(path, lambda p: hist.to_parquet(p, index=False), "the reference", kept)
+    floats = [c for c in hist.columns if hist[c].dtype.kind == "f"]
+    guards.atomic_write(path, lambda p: hist.to_parquet(p, index=False, compression="zstd", compression_level=9,
+                                                         use_dictionary=False, use_byte_stream_split=floats),
+                        "the reference", kept)
     meta = {"scene": scene.name, "scene_hash": scene.hash, "scene_values": scene.values,
             "integrator": integ.name, "settings": integ.to_config(), "wall_s": res.wall_s,
             "counters": res.counters, "impacts": impacts, "output_dt": dense_scene["output.dt"], "agreement": agreement,
             "accuracy": acc_meta,
-            "energy_residual_max": res.energy_residual, **extra, "sha256": sha256(path), "rows": len(hist),
+            "energy_residual_max": res.energy_residual, "model_probe": modelprobe.record(build_system(scene)),
+            **extra, "sha256": sha256(path), "rows": len(hist),
             "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}
     guards.atomic_write(path.with_suffix(".json"),
                         lambda p: provenance.write_sidecar(p, provenance.collect([scene]), **meta),

@@ -73,7 +73,13 @@ compiled C callbacks and :meth:`IDA.advance` runs its quiet steps in one compile
 ``backend = "sksundae"`` goes through scikit-sundae's Python interface (Python callbacks,
 one Python call per step). Both make the same SUNDIALS calls with the same residual and
 Jacobian entries, so their histories agree to the last digit (tests/test_ida_native.py);
-the run record names the backend among the settings.
+the run record names the backend among the settings. A model written in Python (its
+kernels call Python through ``numba.objmode``: :class:`daebench.core.kernels.PyModel`)
+always runs through scikit-sundae: inside a C callback numba cannot hand an exception the
+model raises back to Python (it prints "Exception ignored" and IDA goes on with a stale
+residual; a compiled ``try`` around the call leaves the exception pending instead, and
+Python then fails with ``SystemError``), whereas scikit-sundae's Python callbacks end the
+run with the model's own message. Such a model costs ~10 µs per kernel call anyway.
 
 Dense output
 ------------
@@ -111,6 +117,7 @@ Problems in Differential-Algebraic Equations*, SIAM, 1996.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 from sksundae.ida import IDA as _SundaeIDA
@@ -129,12 +136,22 @@ from daebench.stepping import ida_native as _native
 from daebench.stepping.ida_native import ggl_residual
 from daebench.stepping import watch as _watch
 from daebench.stepping.methods import StateArrays
+from daebench.core.kernels import PyModel
 from daebench.core.system import State
 
 MAX_NUM_STEPS = 500  # IDA's limit per call; one call = one internal step here
 ALG_ATOL_DEFAULT = 1e10  # absolute tolerance of λ, μ: takes them out of the error test
 DENSE_EDGE = 1e-10  # relative distance to the step end below which dense() returns the end state
 MAX_STEPS_PER_CALL = 2000  # advance(): keeps the driver responsive
+MAX_OUTPUT_ROWS = 4096  # advance(): output rows written per call at most
+
+
+@dataclass
+class RecordedAdvance(Advance):
+    """An :class:`Advance` with the (output time, state there) of the output times its quiet
+    steps passed (:meth:`IDA.advance` given the output times; the driver writes their rows)."""
+
+    outputs: list[tuple[float, State]] = field(default_factory=list)
 
 
 class IDA(Integrator):
@@ -189,14 +206,15 @@ class IDA(Integrator):
         Setting("jacobian", str, "analytic", "iteration matrix: assembled or IDA's finite differences",
                 choices=("analytic", "fd")),
         Setting("backend", str, "native",
-                "native: SUNDIALS called directly with compiled callbacks and a compiled step loop; "
+                "native: SUNDIALS called directly with compiled callbacks and a compiled step loop "
+                "(a model written in Python runs through sksundae); "
                 "sksundae: through scikit-sundae's Python interface (same numbers, slower)",
                 choices=("native", "sksundae")),
     )
 
     def __init__(self, **settings) -> None:
         super().__init__(**settings)
-        self._solvers: dict[tuple[int, int], _SundaeIDA | _native.NativeIDA] = {}
+        self._solvers: dict[tuple[int, int, bool], _SundaeIDA | _native.NativeIDA] = {}
         self._solver: _SundaeIDA | _native.NativeIDA | None = None
         self._n = self._m = 0
         self._nfev = self._njev = 0
@@ -244,7 +262,7 @@ class IDA(Integrator):
     def _solver_for(self, n: int, m: int) -> _SundaeIDA | _native.NativeIDA:
         """One scikit-sundae solver per system size, reused across phases (IDAReInit)."""
         cache = self._solvers
-        key = (n, m)
+        key = (n, m, isinstance(self.problem.kernel.model, PyModel))
         if key not in cache:
             s = self.settings
             N = 2 * n + 2 * m
@@ -255,7 +273,7 @@ class IDA(Integrator):
                 max_order=s["max_order"], max_num_steps=MAX_NUM_STEPS, linsolver="dense",
                 algebraic_idx=list(range(2 * n, N)) if m else None,
             )
-            if s["backend"] == "native":
+            if s["backend"] == "native" and not isinstance(self.problem.kernel.model, PyModel):
                 del opts["linsolver"]
                 cache[key] = _native.NativeIDA(N, n, m, analytic_jacobian=s["jacobian"] == "analytic", **opts)
                 return cache[key]
@@ -339,10 +357,16 @@ class IDA(Integrator):
         return self._unpack(t_new, y, yp)
 
     # -- many steps per call (the driver's fast path) ---------------------------------
-    def advance(self, t_stop: float, watch: _watch.Watch | None = None) -> Advance:
+    records_outputs = True  # advance() takes the output times and writes their rows (native backend)
+
+    def advance(self, t_stop: float, watch: _watch.Watch | None = None,
+                outputs: np.ndarray | None = None) -> Advance:
         """Take IDA steps until one the driver must see (:func:`daebench.stepping.watch.quiet`):
         the quiet steps' checks, re-arming and constraint maxima run compiled. Same steps,
-        same states as stepping through the driver one at a time."""
+        same states as stepping through the driver one at a time. With ``outputs`` (the
+        output times from the watch's next one on; native backend) a step whose only news
+        is an output time is kept: the states at its output times (those :meth:`dense`
+        gives) come back in ``RecordedAdvance.outputs``."""
         if watch is None:
             return super().advance(t_stop, None)
         n, m = self._n, self._m
@@ -350,7 +374,7 @@ class IDA(Integrator):
                          watch.t_out_next, watch.t_end)
         C, Cq, Ct, gam = np.empty(m), np.empty((m, n)), np.empty(m), np.empty(m)
         if isinstance(self._solver, _native.NativeIDA):
-            return self._advance_native(float(t_stop), w, C, Cq, Ct, gam)
+            return self._advance_native(float(t_stop), w, C, Cq, Ct, gam, outputs=outputs)
         t_end_tol = 1e-15 * max(1.0, float(t_stop))
         prev = self.state
         for k in range(1, MAX_STEPS_PER_CALL + 1):
@@ -362,18 +386,20 @@ class IDA(Integrator):
         return Advance(prev, self.state, k, w.armed, w.cmax, self._take_events())
 
     def _advance_native(self, t_stop: float, w: _watch.Watch, C, Cq, Ct, gam,
-                        budget: int = MAX_STEPS_PER_CALL) -> Advance:
-        """:meth:`advance` with the step loop compiled (:func:`daebench.stepping.ida_native.advance_loop`):
+                        budget: int = MAX_STEPS_PER_CALL, outputs: np.ndarray | None = None) -> Advance:
+        """:meth:`advance` with the step loop compiled (:func:`daebench.stepping.ida_advance.advance_loop`):
         the same IDA calls and checks as :meth:`_step_impl` and :func:`daebench.stepping.watch.quiet`."""
         if t_stop <= self.state.t:
             raise ValueError(f"t_stop = {t_stop} is not after t = {self.state.t}")
         N = 2 * self._n + 2 * self._m
         start = self.state
-        k, code, flag, ida_t, prev, cur, nfev, njev = self._solver.advance(
-            float(start.t), self._ida_t, t_stop, budget, w, C, Cq, Ct, gam)
+        buf = None if outputs is None or not len(outputs) else np.empty((min(len(outputs), MAX_OUTPUT_ROWS), 2 + 2 * N))
+        k, code, flag, ida_t, prev, cur, nfev, njev, rows, used = self._solver.advance(
+            float(start.t), self._ida_t, t_stop, budget, w, C, Cq, Ct, gam, outputs, buf)
         self.counters.newton_iterations += nfev - self._nfev
         self.counters.lu_factorizations += njev - self._njev
         self._nfev, self._njev = nfev, njev
+        recorded = [(float(r[0]), self._unpack(r[1], r[2:2 + N], r[2 + N:])) for r in rows]
         if k:
             self._ida_t = ida_t
             self.prev = start if k == 1 else self._unpack(prev[0], prev[1:1 + N], prev[1 + N:])
@@ -388,6 +414,9 @@ class IDA(Integrator):
         if code == _native.ADV_NONFINITE:
             raise StepFailure(f"IDA produced non-finite values after t = {t_now:.9g}")
         prev_state = self.prev if k else start
+        if used:
+            w = w._replace(t_out_next=float(outputs[used]) if used < len(outputs) else math.inf)
+            outputs = outputs[used:]
         if code == _native.ADV_PYTHON:  # the Taylor step of _step_impl, then the loop's own check
             prev_state = self.state
             new = self.step(t_stop)
@@ -396,9 +425,10 @@ class IDA(Integrator):
             if new.t < t_stop - t_end_tol and _watch.quiet(
                     self.problem.kernel, w, float(new.t), StateArrays(new.q, new.v, new.a, new.lam), C, Cq, Ct,
                     gam) and k < budget:
-                more = self._advance_native(t_stop, w, C, Cq, Ct, gam, budget - k)
-                return Advance(more.prev, more.new, k + more.steps, more.armed, more.cmax, more.events)
-        return Advance(prev_state, self.state, k, w.armed, w.cmax, self._take_events())
+                more = self._advance_native(t_stop, w, C, Cq, Ct, gam, budget - k, outputs)
+                return RecordedAdvance(more.prev, more.new, k + more.steps, more.armed, more.cmax, more.events,
+                                       outputs=recorded + more.outputs)
+        return RecordedAdvance(prev_state, self.state, k, w.armed, w.cmax, self._take_events(), outputs=recorded)
 
     def dense(self, t: float) -> State:
         """State at t within the last step from IDA's own interpolating polynomial

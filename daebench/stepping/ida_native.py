@@ -9,7 +9,8 @@ residual and Jacobian are numba ``cfunc`` s, one per phase-data type, which IDA 
 with ``user_data`` pointing at a slot (fixed for the solver's life: IDA hands the
 Jacobian the ``user_data`` it saw at its first step) that holds the address of the
 compiled entry's own copy of a context tuple (phase data, scratch arrays, counters): the
-callbacks run only inside the compiled entries of this module, which fill the slot first.
+callbacks run only inside the compiled entries (:mod:`daebench.stepping.ida_advance`), which
+fill the slot first.
 
 The numbers are those of the scikit-sundae path (:mod:`daebench.integrators.ida`): the
 same SUNDIALS calls in the same order (``IDASetStopTime`` / ``IDASolve(IDA_ONE_STEP)``
@@ -27,14 +28,12 @@ import numpy as np
 from numba import carray, cfunc, njit, types, typeof
 
 from daebench.core import phase
-from daebench.stepping import watch as _watch
-from daebench.stepping.methods import StateArrays
-from daebench.stepping.sundials_c import (A_CLEAR, A_MATDATA, A_NVDATA, A_SOLVE, A_STOP, NativeUnavailable,
-                                          address_of, as_int, ccall, deref, double_ptr, lib, message)
+from daebench.stepping.ida_advance import (ADV_FAIL, ADV_MAX, ADV_NONFINITE, ADV_PYTHON, ADV_STOP,  # noqa: F401
+                                           ADV_STUCK, IDA_NORMAL, IDA_ONE_STEP, advance_loop, solve)
+from daebench.stepping.sundials_c import (A_MATDATA, A_NVDATA, NativeUnavailable, as_int, ccall, deref, double_ptr,
+                                          lib, message)
 
 __all__ = ["NativeIDA", "NativeUnavailable", "ggl_residual", "ggl_jacobian", "advance_loop", "solve"]
-
-IDA_NORMAL, IDA_ONE_STEP = 1, 2
 
 # -- the residual and the Jacobian, compiled ---------------------------------------------------------
 class Context(NamedTuple):
@@ -179,79 +178,6 @@ def callbacks(ctx_type):
     return res, jac
 
 
-# -- the compiled entries (they set user_data, then call IDA) ----------------------------------------
-@njit(cache=True)
-def solve(cx, mem, yy, yp, tout, tstop, itask, tret, slot):
-    """One ``IDASolve`` (with ``IDASetStopTime(tstop)`` / ``IDAClearStopTime`` around it
-    when tstop is finite), as scikit-sundae's ``step`` does it. Returns IDA's flag."""
-    a = cx.addr
-    slot[0] = address_of(cx)
-    stop = math.isfinite(tstop)
-    if stop:
-        flag = ccall(types.int32, a[A_STOP], (mem, tstop))
-        if flag < 0:
-            return flag
-    flag = ccall(types.int32, a[A_SOLVE], (mem, tout, tret.ctypes.data, yy, yp, np.int32(itask)))
-    if stop:
-        ccall(types.int32, a[A_CLEAR], (mem,))
-    return flag
-
-
-ADV_STOP, ADV_MAX, ADV_PYTHON, ADV_FAIL, ADV_STUCK, ADV_NONFINITE = range(6)
-
-
-@njit(cache=True)
-def advance_loop(cx, mem, yy, yp, y, ypd, t_cur, ida_t, t_stop, max_steps, w, prev, cur, tret, slot, C, Cq, Ct,
-                 gam):
-    """IDA one-step calls toward ``t_stop`` until a step the driver must see
-    (:func:`daebench.stepping.watch.quiet`), the step budget, or a step the Python path
-    must take (a step too close to IDA's time: ``code`` ADV_PYTHON). ``cur``/``prev``
-    hold (t, y, ẏ) of the last step's end and start. Returns (steps, code, flag, ida_t)."""
-    n = cx.M.shape[0]
-    m = cx.m
-    N = y.shape[0]
-    scale = max(1.0, abs(t_stop))
-    t_end_tol = 1e-15 * max(1.0, t_stop)
-    k = 0
-    code = ADV_MAX
-    flag = 0
-    while k < max_steps:
-        if t_stop - ida_t <= 1e-13 * scale:
-            code = ADV_PYTHON
-            break
-        moved = False
-        for _ in range(3):
-            flag = solve(cx, mem, yy, yp, t_stop, t_stop, IDA_ONE_STEP, tret, slot)
-            if flag < 0:
-                return k, ADV_FAIL, flag, ida_t
-            if tret[0] > t_cur:
-                moved = True
-                break
-        if not moved:
-            return k, ADV_STUCK, flag, ida_t
-        t_new = tret[0]
-        for i in range(N):
-            if not (math.isfinite(y[i]) and math.isfinite(ypd[i])):
-                return k, ADV_NONFINITE, flag, ida_t
-        for i in range(cur.shape[0]):
-            prev[i] = cur[i]
-        cur[0] = t_new
-        for i in range(N):
-            cur[1 + i] = y[i]
-            cur[1 + N + i] = ypd[i]
-        ida_t = t_new
-        t_cur = t_new
-        k += 1
-        if t_new >= t_stop - t_end_tol:
-            code = ADV_STOP
-            break
-        if not _watch.quiet(cx.ph, w, t_new, StateArrays(y[:n], y[n:2 * n], ypd[n:2 * n], y[2 * n:2 * n + m]),
-                            C, Cq, Ct, gam):
-            code = ADV_STOP
-            break
-    return k, code, flag, ida_t
-
-
 # -- the solver object -------------------------------------------------------------------------------
 class StepResult(NamedTuple):
     """What one call returns (the fields of scikit-sundae's ``IDAResult`` that
@@ -316,6 +242,8 @@ class NativeIDA:
         L.SUNContext_ClearErrHandlers(ctx)  # failures come back as flags (reported by the caller)
         self.yy, self.yp = L.N_VNew_Serial(N, ctx), L.N_VNew_Serial(N, ctx)
         self.nv_atol, self.nv_id = L.N_VNew_Serial(N, ctx), L.N_VNew_Serial(N, ctx)
+        self.nv_yd, self.nv_ypd = L.N_VNew_Serial(N, ctx), L.N_VNew_Serial(N, ctx)  # dense output rows
+        self.yd, self.ypd_d = self._array(self.nv_yd), self._array(self.nv_ypd)
         self.y = self._array(self.yy)
         self.ypd = self._array(self.yp)
         self.y[:] = y0
@@ -326,7 +254,7 @@ class NativeIDA:
         ident[self.alg] = 0.0
         self.A = L.SUNDenseMatrix(N, N, ctx)
         self.LS = L.SUNLinSol_Dense(self.yy, self.A, ctx)
-        if not (self.yy and self.yp and self.A and self.LS):
+        if not (self.yy and self.yp and self.nv_yd and self.nv_ypd and self.A and self.LS):
             raise MemoryError("SUNDIALS could not allocate the IDA vectors or the dense solver")
         self.mem = L.IDACreate(ctx)
         self._check(L.IDASetUserData(self.mem, self.slot.ctypes.data), "IDASetUserData")
@@ -395,20 +323,25 @@ class NativeIDA:
         return StepResult(flag >= 0, flag, message(flag), float(self.tret[0]), self.y.copy(), self.ypd.copy(),
                           nfev, njev)
 
-    def advance(self, t_cur: float, ida_t: float, t_stop: float, max_steps: int, w, C, Cq, Ct, gam):
-        """The compiled loop :func:`advance_loop`; returns (steps, code, flag, ida_t, prev, cur, nfev, njev)
-        with prev/cur the (t, y, ẏ) rows of the last step's start and end."""
+    def advance(self, t_cur: float, ida_t: float, t_stop: float, max_steps: int, w, C, Cq, Ct, gam,
+                t_out: np.ndarray | None = None, out: np.ndarray | None = None):
+        """The compiled loop :func:`advance_loop`; returns (steps, code, flag, ida_t, prev, cur, nfev, njev,
+        rows, consumed) with prev/cur the (t, y, ẏ) rows of the last step's start and end and ``rows``
+        the first rows of ``out`` written (output times ``t_out[:consumed]``; none without ``t_out``)."""
         N = self.size
         prev, cur = np.empty(1 + 2 * N), np.empty(1 + 2 * N)
         cur[0] = t_cur
         cur[1:1 + N] = self.y
         cur[1 + N:] = self.ypd
-        k, code, flag, ida_t = advance_loop(self.cx, _ptr(self.mem), _ptr(self.yy), _ptr(self.yp), self.y,
-                                            self.ypd, float(t_cur), float(ida_t), float(t_stop), int(max_steps),
-                                            w, prev, cur, self.tret, self.slot, C, Cq, Ct, gam)
+        if t_out is None or out is None:
+            t_out, out = _NO_TIMES, np.empty((0, 2 + 2 * N))
+        k, code, flag, ida_t, nrow, oi = advance_loop(
+            self.cx, _ptr(self.mem), _ptr(self.yy), _ptr(self.yp), self.y, self.ypd, float(t_cur), float(ida_t),
+            float(t_stop), int(max_steps), w, prev, cur, self.tret, self.slot, C, Cq, Ct, gam,
+            np.ascontiguousarray(t_out, dtype=float), out, self.yd, self.ypd_d, _ptr(self.nv_yd), _ptr(self.nv_ypd))
         self._book()
         nfev, njev = self._stats()
-        return int(k), int(code), int(flag), float(ida_t), prev, cur, nfev, njev
+        return int(k), int(code), int(flag), float(ida_t), prev, cur, nfev, njev, out[:nrow], int(oi)
 
     def __del__(self) -> None:
         L = self.lib
@@ -416,12 +349,15 @@ class NativeIDA:
             return
         mem = ctypes.c_void_p(self.mem)
         L.IDAFree(ctypes.byref(mem))
-        for nv in (self.yy, self.yp, self.nv_atol, self.nv_id):
+        for nv in (self.yy, self.yp, self.nv_atol, self.nv_id, self.nv_yd, self.nv_ypd):
             L.N_VDestroy(nv)
         L.SUNMatDestroy(self.A)
         L.SUNLinSolFree(self.LS)
         L.SUNContext_Free(ctypes.byref(self.ctx))
         self.mem = None
+
+
+_NO_TIMES = np.zeros(0)
 
 
 def _ptr(p) -> int:

@@ -99,14 +99,14 @@ _FUNCS = {  # name: (library stem, restype, argtypes); P = pointer
     "IDASetMaxStep": ("ida", "i", "Pd"), "IDASetMaxOrd": ("ida", "i", "Pi"),
     "IDASetMaxNumSteps": ("ida", "i", "Pl"), "IDASetStopTime": ("ida", "i", "Pd"),
     "IDAClearStopTime": ("ida", "i", "P"), "IDASolve": ("ida", "i", "PdPPPi"),
-    "IDAGetNumResEvals": ("ida", "i", "PP"), "IDAGetNumJacEvals": ("ida", "i", "PP"),
+    "IDAGetNumResEvals": ("ida", "i", "PP"), "IDAGetSolution": ("ida", "i", "PdPP"), "IDAGetNumJacEvals": ("ida", "i", "PP"),
     "IDAFree": ("ida", "v", "P"),
 }
 _CT = {"i": ctypes.c_int, "P": ctypes.c_void_p, "d": ctypes.c_double, "l": ctypes.c_long, "v": None}
 # addresses handed to compiled code, by index
 _ADDR_NAMES = ("IDASetStopTime", "IDASolve", "IDAClearStopTime", "N_VGetArrayPointer", "SUNDenseMatrix_Data",
-               "IDASetUserData", "IDAGetNumResEvals", "IDAGetNumJacEvals")
-A_STOP, A_SOLVE, A_CLEAR, A_NVDATA, A_MATDATA, A_USERDATA, A_NRES, A_NJAC = range(len(_ADDR_NAMES))
+               "IDASetUserData", "IDAGetNumResEvals", "IDAGetNumJacEvals", "IDAGetSolution")
+A_STOP, A_SOLVE, A_CLEAR, A_NVDATA, A_MATDATA, A_USERDATA, A_NRES, A_NJAC, A_GETSOL = range(len(_ADDR_NAMES))
 
 
 def library_dir() -> str:

@@ -62,9 +62,10 @@ def reached(t, t_next, t_end):
 
 
 @njit(cache=True)
-def quiet(ph, w, t, cur, C, Cq, Ct, gam):
-    """Whether the step that ended in ``cur`` (at t) needs no driver attention; re-arms
-    gaps that left the band and, for a quiet step, raises the constraint maxima."""
+def events(ph, w, t, cur):
+    """Whether the step that ended in ``cur`` (at t) has an event the driver must handle:
+    a non-finite state, an open contact closing, a closed one turning tensile. Re-arms
+    gaps that left the band (every step: the driver's rule)."""
     q, v = cur.q, cur.v
     n = q.shape[0]
     stop = False
@@ -81,11 +82,25 @@ def quiet(ph, w, t, cur, C, Cq, Ct, gam):
     for r in w.lam_rows:
         if cur.lam[r] < 0.0:
             stop = True
-    if stop or reached(t, w.t_out_next, w.t_end):
-        return False
+    return stop
+
+
+@njit(cache=True)
+def track(ph, w, t, cur, C, Cq, Ct, gam):
+    """Raise the running maxima of |C|, |Ċ|, |C̈| by the step that ended in ``cur``."""
     if w.track and C.shape[0]:
-        c0, c1, c2 = phase.constraint_residuals(ph, t, q, v, cur.a, C, Cq, Ct, gam)
+        c0, c1, c2 = phase.constraint_residuals(ph, t, cur.q, cur.v, cur.a, C, Cq, Ct, gam)
         w.cmax[0] = max(w.cmax[0], c0)
         w.cmax[1] = max(w.cmax[1], c1)
         w.cmax[2] = max(w.cmax[2], c2)
+
+
+@njit(cache=True)
+def quiet(ph, w, t, cur, C, Cq, Ct, gam):
+    """Whether the step that ended in ``cur`` (at t) needs no driver attention (no
+    :func:`events`, no output or end time reached); re-arms gaps that left the band and,
+    for a quiet step, raises the constraint maxima (:func:`track`)."""
+    if events(ph, w, t, cur) or reached(t, w.t_out_next, w.t_end):
+        return False
+    track(ph, w, t, cur, C, Cq, Ct, gam)
     return True
