@@ -160,21 +160,9 @@ def test_rod_wall_penalty_hht_banded_equals_dense():
     checked against the declared structure before the bordered-banded factorization: the
     same history as dense LU to round-off, and the rod is pushed back (the law acts)."""
     from daebench import api
-    from daebench.driver.simulate import simulate
-    from daebench.harness.runner import make_integrator
-    from daebench.models import build_system
 
     scene = api.load_scene("rod-wall", {"rod.elements": 20, "t_end": 1.2e-5, "contact.law": "penalty"})
-    runs = {}
-    for mode in ("banded", "dense"):
-        system = build_system(scene)
-        if mode == "dense":
-            system.sparsity = None
-        res = simulate(system, make_integrator("hht", {"h": 1e-7}), scene.t_end, scene["output.dt"],
-                       record_states=True)
-        assert res.status == "completed"
-        runs[mode] = res
-    a, b = runs["banded"], runs["dense"]
+    a, b = _banded_and_dense(scene, 1e-7)
     scale = np.abs(b.states["v"]).max()
     assert np.max(np.abs(a.states["v"] - b.states["v"])) <= 1e-12 * scale
     assert np.max(np.abs(a.states["q"] - b.states["q"])) <= 1e-12 * np.abs(b.states["q"]).max()
@@ -204,8 +192,6 @@ def test_corotational_frame_declares_a_band_and_hht_agrees_with_dense():
     end coordinates) declares a band a few DOFs wide; hht through it gives the dense LU's
     history to round-off. The default double pendulum (50 DOFs) declares none (dense LU)."""
     from daebench import api
-    from daebench.driver.simulate import simulate
-    from daebench.harness.runner import make_integrator
     from daebench.models import build_system
 
     assert build_system(api.load_scene("double-pendulum")).sparsity() is None
@@ -213,16 +199,25 @@ def test_corotational_frame_declares_a_band_and_hht_agrees_with_dense():
     system = build_system(scene)
     sp = system.sparsity()
     assert system.n == 134 and sp.n_banded == 134 and sp.kl == sp.ku <= 8 and sp.mass_band == 0
-    runs = {}
-    for mode in ("banded", "dense"):
-        system = build_system(scene)
-        if mode == "dense":
-            system.sparsity = None
-        res = simulate(system, make_integrator("hht", {"h": 1e-4}), scene.t_end, scene["output.dt"],
-                       record_states=True)
-        assert res.status == "completed"
-        runs[mode] = res
-    a, b = runs["banded"], runs["dense"]
+    a, b = _banded_and_dense(scene, 1e-4)
     for key in ("q", "v"):
         assert np.max(np.abs(a.states[key] - b.states[key])) <= 1e-12 * np.abs(b.states[key]).max()
     assert np.max(np.abs(b.states["v"][-1])) > 1e-3      # it moved (falls under gravity)
+
+
+def _banded_and_dense(scene, h):
+    """hht runs of ``scene`` through the declared structure and with it removed (dense LU)."""
+    from daebench.driver.simulate import simulate
+    from daebench.harness.runner import make_integrator
+    from daebench.models import build_system
+
+    runs = []
+    for dense in (False, True):
+        system = build_system(scene)
+        if dense:
+            system.sparsity = None
+        res = simulate(system, make_integrator("hht", {"h": h}), scene.t_end, scene["output.dt"],
+                       record_states=True)
+        assert res.status == "completed"
+        runs.append(res)
+    return runs
