@@ -108,6 +108,13 @@ def test_a_kernel_that_raises_raises_through_the_handle_and_data_is_read_in_plac
         kernels.mass_force(h, 0.0, np.array([2.0]), np.zeros(1), M, Q)
 
 
+def test_a_handle_is_not_pickled():
+    import pickle
+
+    with pytest.raises(TypeError, match="memory addresses"):
+        pickle.dumps(handles.handle(Stiff(1.0, np.ones(1), 1.0)))
+
+
 @pytest.mark.parametrize("bad, what", [(np.ones((4, 4))[:, 1], "C-contiguous"),
                                        (np.array(["a"]), "float64, int64 or bool"),
                                        ("text", "not a kernel value")])

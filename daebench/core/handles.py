@@ -20,9 +20,10 @@ the kernel the model registered; model code does not change, and a plugin model 
 registers kernels only. The rebuilding code is generated once per data layout (field
 kinds, dtypes, array ranks — not sizes, so every mesh of a model shares it) into a small
 module under the numba cache directory (``NUMBA_CACHE_DIR``, else ``~/.cache/daebench``),
-named by daebench's source stamp (and a plugin model's version), so it caches on disk
-like the rest (:func:`_generated_module`). A handle holds only numbers: passing it from
-Python costs what passing three arrays costs.
+named by daebench's source stamp, a plugin model's version and the code of the kernels the
+model registered, so it caches on disk like the rest (:func:`_generated_module`). A handle
+holds only numbers: passing it from Python costs what passing three arrays costs; it
+cannot be pickled (its addresses mean nothing in another process).
 
 The handle keeps the model data alive and reads its arrays in place: a later in-place
 change (the interactive-mode method's held contact force) is seen by the kernels.
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import marshal
 import os
 import sys
 import tempfile
@@ -80,6 +82,10 @@ class ModelHandle(NamedTuple):
     fns: np.ndarray     # int64: the six compiled kernels' entry addresses, in kernels.KERNELS order
     f: np.ndarray       # float64: the data's float scalars
     i: np.ndarray       # int64: the data's int and bool scalars, every array's address and shape
+
+    def __reduce__(self):
+        raise TypeError("a ModelHandle holds memory addresses of this process and cannot be pickled; "
+                        "send the scene or the system and make the handle where it runs")
 
 
 def _pointer_at(dtype):
@@ -218,8 +224,15 @@ def _generated_module(layout: _Layout, expr: str) -> Any:
     from daebench.core import numba_cache
 
     top = layout.classes[0].__module__.split(".")[0]
+    # the registered kernels' own code is part of the name: a plugin (or a notebook's model)
+    # edited without a version bump must not load another kernel's cached machine code
+    code = [marshal.dumps(getattr(getattr(kernels, k).implementation(layout.classes[0]), "py_func",
+                                  getattr(kernels, k).implementation(layout.classes[0])).__code__)
+            for k in kernels.KERNELS]
     digest = hashlib.sha256("|".join([_LAYOUT_VERSION, numba_cache.source_stamp(),
                                       numba_cache._plugin_packages().get(top, ""), *layout.key]).encode())
+    for c in code:
+        digest.update(c)
     name = f"_daebench_handle_{layout.classes[0].__name__.lower()}_{digest.hexdigest()[:16]}"
     if name in _MODULES:
         return _MODULES[name]
