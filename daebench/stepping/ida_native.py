@@ -344,7 +344,7 @@ class NativeIDA:
         return int(k), int(code), int(flag), float(ida_t), prev, cur, nfev, njev, out[:nrow], int(oi)
 
     def __del__(self) -> None:
-        L = self.lib
+        L = getattr(self, "lib", None)  # None: __init__ failed before loading the library
         if getattr(self, "mem", None) is None or L is None:
             return
         mem = ctypes.c_void_p(self.mem)
