@@ -40,7 +40,6 @@ import marshal
 import os
 import sys
 import tempfile
-import warnings
 import weakref
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -48,7 +47,6 @@ from typing import Any, NamedTuple
 import numba
 import numpy as np
 from numba import njit, types
-from numba.core.errors import NumbaExperimentalFeatureWarning
 from numba.core import cgutils
 from numba.core.extending import intrinsic
 
@@ -217,25 +215,25 @@ def _directory() -> Path:
                   "set NUMBA_CACHE_DIR to a writable directory")
 
 
-_MODULES: dict[str, Any] = {}
+_MODULES: dict[tuple, Any] = {}
 
 
 def _generated_module(layout: _Layout, expr: str) -> Any:
     from daebench.core import numba_cache
 
-    top = layout.classes[0].__module__.split(".")[0]
+    cls = layout.classes[0]
+    impls = tuple(getattr(kernels, k).implementation(cls) for k in kernels.KERNELS)
+    made = (cls, impls, *layout.key)  # a kernel registered anew in this process makes a new module
+    if made in _MODULES:
+        return _MODULES[made]
     # the registered kernels' own code is part of the name: a plugin (or a notebook's model)
     # edited without a version bump must not load another kernel's cached machine code
-    code = [marshal.dumps(getattr(getattr(kernels, k).implementation(layout.classes[0]), "py_func",
-                                  getattr(kernels, k).implementation(layout.classes[0])).__code__)
-            for k in kernels.KERNELS]
     digest = hashlib.sha256("|".join([_LAYOUT_VERSION, numba_cache.source_stamp(),
-                                      numba_cache._plugin_packages().get(top, ""), *layout.key]).encode())
-    for c in code:
-        digest.update(c)
-    name = f"_daebench_handle_{layout.classes[0].__name__.lower()}_{digest.hexdigest()[:16]}"
-    if name in _MODULES:
-        return _MODULES[name]
+                                      numba_cache._plugin_packages().get(cls.__module__.split(".")[0], ""),
+                                      *layout.key]).encode())
+    for f in impls:
+        digest.update(marshal.dumps(getattr(f, "py_func", f).__code__))
+    name = f"_daebench_handle_{cls.__name__.lower()}_{digest.hexdigest()[:16]}"
     path = _directory() / f"{name}.py"
     if not path.exists():
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
@@ -244,13 +242,11 @@ def _generated_module(layout: _Layout, expr: str) -> Any:
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-        spec.loader.exec_module(module)
+    spec.loader.exec_module(module)
     module.__daebench_fns__ = np.array([_jit_address(getattr(module, k), SIGNATURES[k]) for k in kernels.KERNELS],
                                        dtype=np.int64)
     module.__daebench_fns__.flags.writeable = False
-    _MODULES[name] = module
+    _MODULES[made] = module
     return module
 
 
