@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from daebench.core.borrow import borrow
 from daebench.stepping import control, methods, watch
 from daebench.stepping.methods import N_COUNTERS
 
@@ -38,6 +39,8 @@ def run_phase(meth, ws, ph, ctl, w, t, t_stop, h_next, cur, new, prev, max_steps
     Returns (status, steps taken, t before the last step, t now, next step size, size
     of the failed step, method status behind an underflow, local error behind one).
     """
+    # the caller holds every argument for the whole call: no reference counting inside
+    meth, ws, ph, ctl, w, cur, new, prev, cnt = borrow((meth, ws, ph, ctl, w, cur, new, prev, cnt))
     n = cur.q.shape[0]
     m = cur.lam.shape[0]
     C, Ct, gam = np.empty(m), np.empty(m), np.empty(m)

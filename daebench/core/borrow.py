@@ -1,0 +1,60 @@
+"""Borrowed views: the hot loops' arrays without numba's reference counting.
+
+numba counts references to every array it moves: extracting an array from a tuple,
+passing it to a function that is not inlined, slicing it — each is an atomic increment
+and a matching decrement of the array's owner record (its *meminfo*). In the stepping
+loop the arrays travel inside tuples (method, workspace, phase, states) through several
+layers of calls on every Newton iteration: on the 2-coordinate pendulum 42 % of the
+samples of a run sat on these atomic instructions (``perf record``, 1 000 s simulated).
+
+:func:`borrow` returns the same value with every array's owner record set to null (and
+its Python parent dropped): numba's increment and decrement test for null and return, so
+the counting costs a predictable branch instead of a locked instruction. This is sound
+only while the original value is alive and only inside the call that borrowed it: the
+caller of the compiled loop holds the originals for the whole call, and a borrowed array
+must never be returned to Python or stored beyond the call (numba could not keep its
+memory alive). :func:`daebench.stepping.runner.run_phase` borrows its arguments on entry
+and returns scalars only.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+
+def _has_array(ty: types.Type) -> bool:
+    if isinstance(ty, types.Array):
+        return True
+    if isinstance(ty, types.BaseTuple):
+        return any(_has_array(t) for t in ty.types)
+    return False
+
+
+def _borrowed(context: Any, builder: Any, ty: types.Type, value: Any) -> Any:
+    if isinstance(ty, types.Array):
+        ary = context.make_array(ty)(context, builder, value)
+        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+        ary.parent = cgutils.get_null_value(ary.parent.type)
+        return ary._getvalue()
+    if isinstance(ty, types.BaseTuple):
+        for k, member in enumerate(ty.types):
+            if _has_array(member):
+                inner = _borrowed(context, builder, member, builder.extract_value(value, k))
+                value = builder.insert_value(value, inner, k)
+    return value
+
+
+@intrinsic
+def borrow(typingctx, value):
+    """``value`` (an array, or a tuple/NamedTuple holding arrays at any depth) with every
+    array's owner reference dropped: no reference counting on it (module docstring for when
+    this is sound). Scalars and array-free members pass through unchanged."""
+
+    def codegen(context, builder, signature, args):
+        return _borrowed(context, builder, signature.args[0], args[0])
+
+    return value(value), codegen
