@@ -23,7 +23,7 @@ from typing import Any
 
 from numba import types
 from numba.core import cgutils
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
 
 def _has_array(ty: types.Type) -> bool:
@@ -48,13 +48,22 @@ def _borrowed(context: Any, builder: Any, ty: types.Type, value: Any) -> Any:
     return value
 
 
-@intrinsic
-def borrow(typingctx, value):
+def borrow(value: Any) -> Any:
     """``value`` (an array, or a tuple/NamedTuple holding arrays at any depth) with every
-    array's owner reference dropped: no reference counting on it (module docstring for when
-    this is sound). Scalars and array-free members pass through unchanged."""
+    array's owner reference dropped in compiled code: no reference counting on it (module
+    docstring for when this is sound). Scalars and array-free members pass through
+    unchanged; called from Python (and under ``DAEBENCH_COMPILED=0``) it returns ``value``."""
+    return value
 
+
+@intrinsic
+def _borrow(typingctx, value):
     def codegen(context, builder, signature, args):
         return _borrowed(context, builder, signature.args[0], args[0])
 
     return value(value), codegen
+
+
+@overload(borrow, inline="always")
+def _borrow_compiled(value):
+    return lambda value: _borrow(value)

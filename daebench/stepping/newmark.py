@@ -145,7 +145,6 @@ class NewmarkWork(NamedTuple):
     KM: np.ndarray
     KC: np.ndarray
     Cq: np.ndarray
-    Cq2: np.ndarray
     FDv: np.ndarray
     bw: BorderedWork    # factors through the model's declared structure (newmark_matrix.factor)
     sp: np.ndarray      # int64[3]: structure declared, mass half-bandwidth (−1 dense), constant mass
@@ -166,7 +165,7 @@ def workspace(n: int, m: int, ggl: bool, sparsity=None) -> NewmarkWork:
     return NewmarkWork(np.zeros(5), e((nx, nx)), np.zeros(nx, np.int64), e(n), e(n), e(n), e(m), np.zeros(n),
                        np.zeros(n), np.zeros(n), np.zeros(n), e(n), e(n), e(n), np.zeros(n), e(n), e(mm), e(mm),
                        e(mm), e(m), e(nx), e(nx), e(nx), e(nx), e((n, n)), e((n, n)), e((n, n)), e((n, n)),
-                       e((n, n)), e((mm, n)), e((mm, n)), e((mm, n)), bw, sp, np.zeros((0, n)), ij, pos,
+                       e((n, n)), e((mm, n)), e((mm, n)), bw, sp, np.zeros((0, n)), ij, pos,
                        np.zeros((n, 2 * max(int(sp[1]), 0) + 1)))
 
 
@@ -251,7 +250,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     qa, aa, va = new.q, ws.acc_new, new.v
     C, Ct, gam = ws.C, ws.Ct, ws.gam
     x0, x, r, dx = ws.x0, ws.x, ws.r, ws.dx
-    M, Cq, Cq2 = ws.M, ws.Cq, ws.Cq2
+    M, Cq = ws.M, ws.Cq
     st = ws.st
     tol = meth.tol
     maxiter = meth.maxiter
@@ -313,7 +312,8 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
                     ri += Cq[k, i] * x[n + k]
                 r[i] = ri
             if m:
-                phase.constraints(ph, t1, qa, va, C, Cq2, Ct, gam)
+                # C, C_q, C_t depend on (t, q) only and qa = x[:n]: the rows computed above
+                # serve (γ, the one row that needs v, is not used by the step)
                 for k in range(m):
                     r[n + k] = C[k]
                     if ggl:
@@ -370,7 +370,6 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
                 if m:
                     phase.constraints(ph, t1, x[:n], zeros, C, Cq, Ct, gam)
                     _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va)
-                    phase.constraints(ph, t1, qa, va, C, Cq2, Ct, gam)
                 if _constraints_ok(meth, n, m, h, tol, qscale, Cq, C, Ct, va):
                     converged = True
                     break
@@ -386,9 +385,9 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
         if attempts > 1 or (fresh and since >= 3):
             return 3, 0.0
         st[ST_LU] = 0.0
-    if m:
-        phase.constraints(ph, t1, x[:n], zeros, C, Cq, Ct, gam)
-    _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va)
+    # converged: with constraints the test above left C_q and (q, a, v) at the final x
+    if not m:
+        _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va)
     for k in range(m):
         new.lam[k] = x[n + k] / bh2
     # the state handed on: a (force averaging) or the true q̈ = w₁a + h_M (acceleration averaging)
