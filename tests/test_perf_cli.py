@@ -20,3 +20,9 @@ def test_perf_quick_writes_the_figures(tmp_path, monkeypatch):
     bound = data["adaptive"]["bound"]
     assert bound["available"] and bound["steps_lower_bound"] >= 0.0 and len(bound["windows"]) == 1
     assert "growth / N²" in res.output and "Steps per second" in res.output
+    floor = data["floor"]  # the model-kernel floor: a bound no run can beat
+    assert [(r["case"], r["integrator"]) for r in floor] == [("beam-impact", "hht"), ("pendulum", "hht"),
+                                                             ("pendulum", "genalpha")]
+    assert all(r["residual_evals_per_step"] >= 1.0 and 0.0 < r["kernel_share"] < 1.0
+               and r["bound_steps_per_s"] > r["steps_per_s"] for r in floor)
+    assert "model's own physics" in (tmp_path / "perf" / "perf.md").read_text()

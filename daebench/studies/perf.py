@@ -47,7 +47,7 @@ import numpy as np
 from daebench.harness import provenance
 from daebench.harness.runner import results_dir, run_scene
 from daebench.models.scenes import load_scene
-from daebench.studies import coldstart, eventcapture, friction_perf, perf_structure
+from daebench.studies import coldstart, eventcapture, friction_perf, perf_floor, perf_structure
 from daebench.studies.perf_bounds import adaptive, resolution_bound
 from daebench.studies.perf_common import PUBLISHED_TABLE1_TOTAL_S, PerfSettings, _timed
 from daebench.studies.perf_peers import compiled_plugin, exudyn_compare
@@ -125,6 +125,8 @@ def run_perf(s: PerfSettings, out: str | Path | None = None) -> dict[str, Any]:
 
     res["compile_s"] = compile_time()
     res["step_rates"] = step_rates(s)
+    save()
+    res["floor"] = [perf_floor.floor(*c) for c in perf_floor.cases(min(0.4, s.rates_t_end), s.pendulum_T)]  # issue 21
     save()
     res["table1"] = table1(s) if s.table else None
     save()

@@ -93,6 +93,16 @@ def markdown(r: dict[str, Any]) -> str:
     for x in r["step_rates"]:
         L.append(f"| {x['integrator']} | {x['status']} | {_f(x['t_final'])} | {x['steps']} | {_f(x['wall_s'])} | "
                  f"{_f(x['steps_per_s'], '.0f')} |")
+    if r.get("floor"):
+        L += ["", "## Per step beyond the model's own physics (issue 21; `python -m daebench.studies.perf_floor`)", "",
+              "The model kernel's time per call × the force evaluations per step is a floor under any "
+              "integrator's step; 1 / floor bounds steps/s.", "",
+              "| case | integrator | steps/s | µs/step | force evaluations/step | kernel µs/call | kernel share "
+              "| bound steps/s |", "|---|---|---|---|---|---|---|---|"]
+        for x in r["floor"]:
+            L.append(f"| {x['case']} | {x['integrator']} | {_f(x['steps_per_s'], '.0f')} | {_f(x['us_per_step'])} | "
+                     f"{_f(x['residual_evals_per_step'])} | {_f(x['kernel_us_per_call'])} | "
+                     f"{_f(100 * x['kernel_share'], '.0f')} % | {_f(x['bound_steps_per_s'], '.0f')} |")
     if t:
         L += ["", "## Table 1 runs", "", "| N | setting | status | wall [s] | steps | t_final |", "|---|---|---|---|---|---|"]
         for x in t["runs"]:
