@@ -52,7 +52,7 @@ import numpy as np
 from daebench.core.contact import Impact
 from daebench.core.params import Param, ParamError, did_you_mean
 from daebench.core.problem import Problem
-from daebench.stepping import control
+from daebench.stepping import control, dense as _dense
 from daebench.stepping.watch import Watch
 from daebench.core.system import State
 
@@ -308,28 +308,24 @@ class Advance:
     contact_work: tuple[float, ...] | None = None
 
 
+@dataclass
+class RecordedAdvance(Advance):
+    """An :class:`Advance` with the (output time, state there) of the output times its quiet
+    steps passed (``advance`` given the output times, by integrators with
+    ``records_outputs``; the driver writes their rows)."""
+
+    outputs: list[tuple[float, State]] = field(default_factory=list)
+
+
 def hermite_state(s0: State, s1: State, t: float) -> State:
-    """Cubic Hermite interpolation between two states (q with v, v with a)."""
-    h = s1.t - s0.t
-    if h <= 0.0:
+    """Cubic Hermite interpolation between two states (q with v, v with a; the one rule,
+    :func:`daebench.stepping.dense.hermite`, which the compiled runner's output rows use too)."""
+    if s1.t - s0.t <= 0.0:
         return s1.copy()
-    th = (t - s0.t) / h
-    h00 = 2 * th**3 - 3 * th**2 + 1
-    h10 = th**3 - 2 * th**2 + th
-    h01 = -2 * th**3 + 3 * th**2
-    h11 = th**3 - th**2
-    q = h00 * s0.q + h10 * h * s0.v + h01 * s1.q + h11 * h * s1.v
-    # derivative of the q-interpolant is a consistent velocity; use the v-Hermite when a is known
-    if s0.a.size == s0.q.size and s1.a.size == s1.q.size:
-        v = h00 * s0.v + h10 * h * s0.a + h01 * s1.v + h11 * h * s1.a
-    else:
-        d00 = (6 * th**2 - 6 * th) / h
-        d10 = 3 * th**2 - 4 * th + 1
-        d01 = (-6 * th**2 + 6 * th) / h
-        d11 = 3 * th**2 - 2 * th
-        v = d00 * s0.q + d10 * s0.v + d01 * s1.q + d11 * s1.v
-    a = (1 - th) * s0.a + th * s1.a if s0.a.size == s1.a.size else s1.a.copy()
-    lam = (1 - th) * s0.lam + th * s1.lam if s0.lam.size == s1.lam.size else s1.lam.copy()
+    q, v, a, lam = (np.empty(x.size) for x in (s1.q, s1.v, s1.a, s1.lam))
+    c = np.ascontiguousarray
+    _dense.hermite(float(s0.t), c(s0.q, float), c(s0.v, float), c(s0.a, float), c(s0.lam, float), float(s1.t),
+                   c(s1.q, float), c(s1.v, float), c(s1.a, float), c(s1.lam, float), float(t), q, v, a, lam)
     return State(float(t), q, v, a, lam)
 
 

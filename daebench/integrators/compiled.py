@@ -21,19 +21,24 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from daebench.integrators.base import Advance, Integrator, StepFailure
+from daebench.integrators.base import Advance, Integrator, RecordedAdvance, StepFailure
 from daebench.stepping import methods, runner, watch as _watch
 from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES, StateArrays
 from daebench.stepping.runner import C_REJECTED, UNDERFLOW_ERROR, UNDERFLOW_FAIL
 from daebench.core.system import State
 
 MAX_STEPS_PER_CALL = 2000  # keeps a caller (progress, wall-time caps) responsive
+MAX_OUTPUT_ROWS = 4096    # advance(): output rows written per call at most
+_NO_ROWS = np.zeros((0, 1))
+_NONE = (np.zeros(0), _NO_ROWS)  # (output times, rows): no rows recorded
 
 
 class CompiledIntegrator(Integrator):
     """Base of integrators with a compiled stepper (see the module docstring)."""
 
     fail_messages: ClassVar[dict[int, str]] = {}
+    _outputs: tuple[np.ndarray, np.ndarray] = _NONE
+    _rows = 0
 
     def method(self) -> Any:
         raise NotImplementedError
@@ -65,9 +70,10 @@ class CompiledIntegrator(Integrator):
     # -- stepping ----------------------------------------------------------------------------
     def _run(self, t_stop: float, w: _watch.Watch, max_steps: int) -> tuple[int, float, float]:
         t0 = self.state.t
-        status, k, t_prev, t_now, h_next, h_fail, inner, err = runner.run_phase(
+        t_out, out = self._outputs  # set by advance() for the one call that records output rows
+        status, k, t_prev, t_now, h_next, h_fail, inner, err, self._rows, _ = runner.run_phase(
             self._meth, self._ws, self.problem.kernel, self._ctl, w, float(t0), float(t_stop), float(self._h_next),
-            self._cur, self._new, self._prev, int(max_steps), self._cnt)
+            self._cur, self._new, self._prev, int(max_steps), self._cnt, t_out, out)
         self._sync()
         self._h_next = h_next
         if k:
@@ -87,17 +93,42 @@ class CompiledIntegrator(Integrator):
         self._run(t_stop, self._blind, 1)
         return self.state
 
-    def advance(self, t_stop: float, watch: _watch.Watch | None = None) -> Advance:
-        """Many steps in one compiled call, stopping after the first the driver must see."""
+    @property
+    def records_outputs(self) -> bool:
+        """Whether :meth:`advance` takes the output times: when the subclass keeps the Hermite
+        :meth:`dense` the runner writes (:mod:`daebench.stepping.dense`) and this
+        :meth:`advance` (one that books contact work of its own hands every step back)."""
+        own = getattr(self.advance, "__func__", None)  # an instance-level wrapper is not this advance
+        return type(self).dense is Integrator.dense and own is CompiledIntegrator.advance
+
+
+    def advance(self, t_stop: float, watch: _watch.Watch | None = None,
+                outputs: np.ndarray | None = None) -> Advance:
+        """Many steps in one compiled call, stopping after the first the driver must see.
+        With ``outputs`` (the output times from the watch's next one on) a step whose only
+        news is an output time is kept: the states at its output times (those :meth:`dense`
+        gives) come back in ``RecordedAdvance.outputs``."""
         if t_stop <= self.state.t:
             raise ValueError(f"t_stop = {t_stop} is not after t = {self.state.t}")
         if watch is None:
             return super().advance(t_stop, None)
         w = _watch.Watch(watch.inactive, watch.lam_rows, watch.armed.copy(), watch.track, watch.cmax.copy(),
                          watch.t_out_next, watch.t_end)
-        k, _, _ = self._run(t_stop, w, MAX_STEPS_PER_CALL)
+        n, m = self.problem.n, self.problem.m
+        out = _NO_ROWS
+        if outputs is not None and len(outputs):
+            t_out = np.ascontiguousarray(outputs[:MAX_OUTPUT_ROWS], dtype=float)
+            out = np.empty((t_out.size, 2 + 3 * n + m))
+            self._outputs = (t_out, out)
+        try:
+            k, _, _ = self._run(t_stop, w, MAX_STEPS_PER_CALL)
+        finally:
+            self._outputs = _NONE
         self.counters.steps += 1
-        return Advance(self.prev, self.state, k, w.armed, w.cmax, self._take_events())
+        recorded = [(float(r[0]), State(float(r[1]), r[2:2 + n].copy(), r[2 + n:2 + 2 * n].copy(),
+                                        r[2 + 2 * n:2 + 3 * n].copy(), r[2 + 3 * n:].copy()))
+                    for r in out[:self._rows]]
+        return RecordedAdvance(self.prev, self.state, k, w.armed, w.cmax, self._take_events(), outputs=recorded)
 
     # -- helpers ----------------------------------------------------------------------------------
     def _state(self, t: float, arrays: StateArrays) -> State:

@@ -117,7 +117,6 @@ Problems in Differential-Algebraic Equations*, SIAM, 1996.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 from sksundae.ida import IDA as _SundaeIDA
@@ -128,6 +127,7 @@ from daebench.integrators.base import (
     Capabilities,
     Integrator,
     IntegratorError,
+    RecordedAdvance,
     Setting,
     StepFailure,
     hermite_state,
@@ -144,14 +144,6 @@ ALG_ATOL_DEFAULT = 1e10  # absolute tolerance of λ, μ: takes them out of the e
 DENSE_EDGE = 1e-10  # relative distance to the step end below which dense() returns the end state
 MAX_STEPS_PER_CALL = 2000  # advance(): keeps the driver responsive
 MAX_OUTPUT_ROWS = 4096  # advance(): output rows written per call at most
-
-
-@dataclass
-class RecordedAdvance(Advance):
-    """An :class:`Advance` with the (output time, state there) of the output times its quiet
-    steps passed (:meth:`IDA.advance` given the output times; the driver writes their rows)."""
-
-    outputs: list[tuple[float, State]] = field(default_factory=list)
 
 
 class IDA(Integrator):

@@ -136,9 +136,9 @@ class PhaseTimer:
         self.contact_steps = 0
         inner = integ.advance
 
-        def advance(t_stop, watch=None):
+        def advance(t_stop, watch=None, **kw):
             c0 = time.process_time()
-            adv = inner(t_stop, watch)
+            adv = inner(t_stop, watch, **kw)
             dt = time.process_time() - c0
             self.total_s += dt
             if self._in_contact():
