@@ -20,6 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
+from daebench.core import kernels as _kernels
+
 # Reassociation and fused multiply-add only (SIMD reductions); no "no-NaN/no-inf"
 # assumptions, so a diverging run still shows NaN/inf instead of garbage.
 FASTMATH = {"reassoc", "contract"}
@@ -274,8 +276,8 @@ ENERGY_TERMS = ("kinetic", "elastic", "gravity")
 
 
 @njit(cache=True)
-def output_rows(t, qs, vs, prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy_bar, Hbar, work,
-                tip, phx_t, phy_t, H_t, xp, phx_p, phy_p, H_p, gap_on, modes, obs, energy):
+def output_rows(t, qs, vs, md, prm, fore, K1, K2, phx_bar, phy_bar, Hbar, tip, phx_t, phy_t, H_t, gap_on, modes,
+                obs, energy):
     """Observables and energy terms of the states ``qs[r]``, ``vs[r]`` (one row each):
     the model's only formulas for them (:meth:`daebench.models.hubbeam.HubBeam.output_rows`;
     its ``energy`` and ``observables`` are one row of it).
@@ -284,10 +286,14 @@ def output_rows(t, qs, vs, prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, 
     deflection w2(L) = Φy(L)·B, then the gap (``gap_on``) and the modal participations
     W_i = Φy_i(L) B_i / Σ_j |Φy_j(L) B_j| (``modes``). ``energy[r]``: T = ½ q̇ᵀM(q)q̇,
     U = ½(AᵀK1A + BᵀK2B), V_g = g (sinθ P1 + cosθ P2) with P1 = ∫ρS p1 =
-    ∫ρS (a + x) + Φ̄x·A − ½ BᵀH̄B, P2 = Φ̄y·B. Tables and scratch as for
-    :func:`mass_force`; the tip's (``tip``, ``phx_t``, ``phy_t``, ``H_t``) and the contact
-    point's as for :func:`point_kinematics`. Compiled without fast-math: the
-    observables are those of the earlier Python formulas to the last bit.
+    ∫ρS (a + x) + Φ̄x·A − ½ BᵀH̄B, P2 = Φ̄y·B. M(q) and the gap come from the model's
+    registered kernels through its handle ``md`` (:func:`daebench.core.kernels.mass_force`,
+    :func:`~daebench.core.kernels.gap`: the same compiled code as every other caller's,
+    called through its address, so this function does not compile them again — it did,
+    at 6.9 s of CPU, when it called :func:`mass_force` directly); the tip's tables
+    (``tip``, ``phx_t``, ``phy_t``, ``H_t``) as for :func:`point_kinematics`. Compiled
+    without fast-math: the observables are those of the earlier Python formulas to the
+    last bit.
     """
     n = qs.shape[1]
     nA = phx_t.shape[0]
@@ -318,7 +324,7 @@ def output_rows(t, qs, vs, prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, 
         o[4] = w2
         col = 5
         if gap_on:
-            gp, _ = gap_kernel(q, zeros, prm, fore, xp, phx_p, phy_p, H_p, G0, G1)
+            gp, _ = _kernels.gap(md, 0, q, zeros, G0)
             o[col] = gp
             col += 1
         if modes:
@@ -328,8 +334,7 @@ def output_rows(t, qs, vs, prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, 
             for i in range(nB):
                 o[col + i] = phy_t[i] * q[iB + i] / total if total > 0.0 else 0.0
         # -- energy terms ----------------------------------------------------------------------
-        mass_force(0.0, q, zeros, prm, fore, xs, wm, phx, phy, H, Mc, K1, K2, phx_bar, phy_bar, Hbar, True, M,
-                   Q, work)
+        _kernels.mass_force(md, 0.0, q, zeros, M, Q)
         kin = 0.0
         for i in range(n):
             mv = 0.0

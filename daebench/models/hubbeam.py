@@ -331,9 +331,8 @@ class HubBeam(KernelSystem):
         en = np.empty((q.shape[0], len(kern.ENERGY_TERMS)))
         d = self.data
         xt, phx_t, phy_t, H_t = self._pt[0]
-        kern.output_rows(np.asarray(t, dtype=float), q, v, d.prm, d.fore, d.xs, d.wm, d.phx, d.phy, d.H, d.Mc, d.K1,
-                         d.K2, d.phx_bar, d.phy_bar, d.Hbar, d.work, xt, phx_t, phy_t, H_t, d.xp, d.phx_p, d.phy_p,
-                         d.H_p, self.n_contacts > 0, self.kind == "modes", obs, en)
+        kern.output_rows(np.asarray(t, dtype=float), q, v, self.kernel_handle(), d.prm, d.fore, d.K1, d.K2, d.phx_bar,
+                         d.phy_bar, d.Hbar, xt, phx_t, phy_t, H_t, self.n_contacts > 0, self.kind == "modes", obs, en)
         terms = {k: en[:, j] for j, k in enumerate(kern.ENERGY_TERMS)}
         law = self.contact_law
         if law is not None and law.continuous and self.n_contacts:
