@@ -268,6 +268,18 @@ def gap_kernel(q, v, prm, fore, xp, phx_p, phy_p, H_p, gq, G1):
     return g, gamma
 
 
+@njit(cache=True)
+def _quadratic(K, x, off, k):
+    """xᵀKx over x[off:off + k] (the sum over i of x_i times row i of K times x)."""
+    s = 0.0
+    for i in range(k):
+        r = 0.0
+        for j in range(k):
+            r += K[i, j] * x[off + j]
+        s += x[off + i] * r
+    return s
+
+
 #: the observables :func:`output_rows` writes, by column (then ``gap`` with a contact, then
 #: W1 … WnB with cantilever modes)
 OBS_FIXED = ("theta_deg", "omega", "tip_x", "tip_y", "tip_w2")
@@ -335,39 +347,16 @@ def output_rows(t, qs, vs, md, prm, fore, K1, K2, phx_bar, phy_bar, Hbar, tip, p
                 o[col + i] = phy_t[i] * q[iB + i] / total if total > 0.0 else 0.0
         # -- energy terms ----------------------------------------------------------------------
         _kernels.mass_force(md, 0.0, q, zeros, M, Q)
-        kin = 0.0
-        for i in range(n):
-            mv = 0.0
-            for j in range(n):
-                mv += M[i, j] * v[j]
-            kin += v[i] * mv
-        ela = 0.0
-        for i in range(nA):
-            s1 = 0.0
-            for j in range(nA):
-                s1 += K1[i, j] * q[iA + j]
-            ela += q[iA + i] * s1
-        for i in range(nB):
-            s1 = 0.0
-            for j in range(nB):
-                s1 += K2[i, j] * q[iB + j]
-            ela += q[iB + i] * s1
         e = energy[r]
-        e[0] = 0.5 * kin
-        e[1] = 0.5 * ela
+        e[0] = 0.5 * _quadratic(M, v, 0, n)
+        e[1] = 0.5 * (_quadratic(K1, q, iA, nA) + _quadratic(K2, q, iB, nB))
         e[2] = 0.0
         if g != 0.0:
             P1 = prm[P_M1]
             for i in range(nA):
                 P1 += phx_bar[i] * q[iA + i]
             if fore:
-                bhb = 0.0
-                for i in range(nB):
-                    s1 = 0.0
-                    for j in range(nB):
-                        s1 += Hbar[i, j] * q[iB + j]
-                    bhb += q[iB + i] * s1
-                P1 -= 0.5 * bhb
+                P1 -= 0.5 * _quadratic(Hbar, q, iB, nB)
             P2 = 0.0
             for i in range(nB):
                 P2 += phy_bar[i] * q[iB + i]
