@@ -142,6 +142,11 @@ class MechanicalSystem:
         """Named scalar outputs written to the history and scored by metrics."""
         return {}
 
+    #: optional: ``output_rows(t, q, v) -> (observables, energy terms)``, each {name: column}, of
+    #: the states q[r], v[r] at t[r] in one call (the driver's rows of many output times; the
+    #: model's :meth:`observables` and :meth:`energy` must be one row of it)
+    output_rows: Any = None
+
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q0, v0) at t = 0, consistent with the bilateral constraints."""
         raise NotImplementedError

@@ -281,9 +281,9 @@ class Driver:
             adv = self.integ.advance(self.t_end, watch, outputs=self.t_out[self.out_i:])
         else:
             adv = self.integ.advance(self.t_end, watch)
-        for to, s in getattr(adv, "outputs", ()):  # rows of the output times its quiet steps passed
-            # (integrators with records_outputs, e.g. IDA; a power-free phase: the work is unchanged)
-            self._row(to, s, dict(self.work), self._current)
+        # rows of the output times its quiet steps passed (integrators with records_outputs, e.g. IDA;
+        # a power-free phase: the work is unchanged)
+        self._rows(getattr(adv, "outputs", ()), self._current)
         if watch is not None:
             if cs.armed.size:
                 cs.armed = np.asarray(adv.armed, dtype=bool)[:cs.armed.size].copy()
@@ -346,14 +346,31 @@ class Driver:
                     work[k] = base.get(k, 0.0) + 0.5 * (to - prev.t) * (p0.get(k, 0.0) + pk)
             self._row(to, s, work, problem)
 
-    def _row(self, to: float, s: State, work: dict[str, float], problem: Problem) -> None:
+    def _rows(self, outputs: list[tuple[float, State]], problem: Problem) -> None:
+        """:meth:`_row` of (output time, state) pairs, the work unchanged between them; the
+        model's ``output_rows`` (:class:`~daebench.core.system.MechanicalSystem`), if any, in one call."""
+        batch = getattr(self.system, "output_rows", None)
+        if batch is None or len(outputs) < 2:
+            for to, s in outputs:
+                self._row(to, s, dict(self.work), problem)
+            return
+        t = np.array([to for to, _ in outputs])
+        obs, terms = batch(t, np.array([s.q for _, s in outputs]), np.array([s.v for _, s in outputs]))
+        obs_cols, term_cols = ({k: c.tolist() for k, c in d.items()} for d in (obs, terms))
+        for i, (to, s) in enumerate(outputs):
+            self._row(to, s, dict(self.work), problem, {k: c[i] for k, c in obs_cols.items()},
+                      {k: c[i] for k, c in term_cols.items()})
+
+    def _row(self, to: float, s: State, work: dict[str, float], problem: Problem,
+             obs: dict[str, float] | None = None, terms: dict[str, float] | None = None) -> None:
         """Write the history row of output time ``to`` from the state ``s`` there and the
-        work booked until then; the next output time is the following one."""
+        work booked until then (``obs``, ``terms``: the model's observables and energy
+        terms there, when already computed); the next output time is the following one."""
         sys_, cs = self.system, self.contacts
         row: dict[str, float] = {"t": to}
-        obs = sys_.observables(to, s.q, s.v)
+        obs = sys_.observables(to, s.q, s.v) if obs is None else obs
         row.update(obs if self.observables is None else {k: obs[k] for k in self.observables if k in obs})
-        terms = sys_.energy(s.q, s.v)
+        terms = sys_.energy(s.q, s.v) if terms is None else terms
         E = float(sum(terms.values()))
         row.update({f"E_{k}": float(x) for k, x in terms.items()})
         row["E"] = E

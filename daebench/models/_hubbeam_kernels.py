@@ -20,6 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
+from daebench.core import kernels as _kernels
+
 # Reassociation and fused multiply-add only (SIMD reductions); no "no-NaN/no-inf"
 # assumptions, so a diverging run still shows NaN/inf instead of garbage.
 FASTMATH = {"reassoc", "contract"}
@@ -264,3 +266,98 @@ def gap_kernel(q, v, prm, fore, xp, phx_p, phy_p, H_p, gq, G1):
     g = st * p1 + ct * p2 + prm[P_H0]
     gamma = -(st * c0 + ct * c1)
     return g, gamma
+
+
+@njit(cache=True)
+def _quadratic(K, x, off, k):
+    """xᵀKx over x[off:off + k] (the sum over i of x_i times row i of K times x)."""
+    s = 0.0
+    for i in range(k):
+        r = 0.0
+        for j in range(k):
+            r += K[i, j] * x[off + j]
+        s += x[off + i] * r
+    return s
+
+
+#: the observables :func:`output_rows` writes, by column (then ``gap`` with a contact, then
+#: W1 … WnB with cantilever modes)
+OBS_FIXED = ("theta_deg", "omega", "tip_x", "tip_y", "tip_w2")
+#: the energy terms it writes, by column (the contact potential is the contact law's)
+ENERGY_TERMS = ("kinetic", "elastic", "gravity")
+
+
+@njit(cache=True)
+def output_rows(t, qs, vs, md, prm, fore, K1, K2, phx_bar, phy_bar, Hbar, tip, phx_t, phy_t, H_t, gap_on, modes,
+                obs, energy):
+    """Observables and energy terms of the states ``qs[r]``, ``vs[r]`` (one row each):
+    the model's only formulas for them (:meth:`daebench.models.hubbeam.HubBeam.output_rows`;
+    its ``energy`` and ``observables`` are one row of it).
+
+    ``obs[r]``: θ in degrees, θ̇, the tip's inertial position r(L) = R(θ) p(L), its
+    deflection w2(L) = Φy(L)·B, then the gap (``gap_on``) and the modal participations
+    W_i = Φy_i(L) B_i / Σ_j |Φy_j(L) B_j| (``modes``). ``energy[r]``: T = ½ q̇ᵀM(q)q̇,
+    U = ½(AᵀK1A + BᵀK2B), V_g = g (sinθ P1 + cosθ P2) with P1 = ∫ρS p1 =
+    ∫ρS (a + x) + Φ̄x·A − ½ BᵀH̄B, P2 = Φ̄y·B. M(q) and the gap come from the model's
+    registered kernels through its handle ``md`` (:func:`daebench.core.kernels.mass_force`,
+    :func:`~daebench.core.kernels.gap`: the same compiled code as every other caller's,
+    called through its address, so this function does not compile them again — it did,
+    at 6.9 s of CPU, when it called :func:`mass_force` directly); the tip's tables
+    (``tip``, ``phx_t``, ``phy_t``, ``H_t``) as for :func:`point_kinematics`. Compiled
+    without fast-math: the observables are those of the earlier Python formulas to the
+    last bit.
+    """
+    n = qs.shape[1]
+    nA = phx_t.shape[0]
+    nB = phy_t.shape[0]
+    iA = 1
+    iB = 1 + nA
+    M = np.empty((n, n))
+    Q = np.empty(n)
+    G0 = np.empty(n)
+    G1 = np.empty(n)
+    zeros = np.zeros(n)
+    g = prm[P_G]
+    for r in range(qs.shape[0]):
+        q = qs[r]
+        v = vs[r]
+        o = obs[r]
+        th = q[0]
+        o[0] = math.degrees(th)
+        o[1] = v[0]
+        p1, p2, _, _, _, _ = point_kinematics(q, zeros, prm, fore, tip, phx_t, phy_t, H_t, G0, G1)
+        c = math.cos(th)
+        s = math.sin(th)
+        o[2] = c * p1 - s * p2
+        o[3] = s * p1 + c * p2
+        w2 = 0.0
+        for i in range(nB):
+            w2 += phy_t[i] * q[iB + i]
+        o[4] = w2
+        col = 5
+        if gap_on:
+            gp, _ = _kernels.gap(md, 0, q, zeros, G0)
+            o[col] = gp
+            col += 1
+        if modes:
+            total = 0.0
+            for i in range(nB):
+                total += abs(phy_t[i] * q[iB + i])
+            for i in range(nB):
+                o[col + i] = phy_t[i] * q[iB + i] / total if total > 0.0 else 0.0
+        # -- energy terms ----------------------------------------------------------------------
+        _kernels.mass_force(md, 0.0, q, zeros, M, Q)
+        e = energy[r]
+        e[0] = 0.5 * _quadratic(M, v, 0, n)
+        e[1] = 0.5 * (_quadratic(K1, q, iA, nA) + _quadratic(K2, q, iB, nB))
+        e[2] = 0.0
+        if g != 0.0:
+            P1 = prm[P_M1]
+            for i in range(nA):
+                P1 += phx_bar[i] * q[iA + i]
+            if fore:
+                P1 -= 0.5 * _quadratic(Hbar, q, iB, nB)
+            P2 = 0.0
+            for i in range(nB):
+                P2 += phy_bar[i] * q[iB + i]
+            e[2] = g * (s * P1 + c * P2)

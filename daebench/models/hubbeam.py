@@ -312,34 +312,43 @@ class HubBeam(KernelSystem):
 
     # -- bookkeeping ----------------------------------------------------------------
     def tip_position(self, q: np.ndarray) -> tuple[float, float]:
-        """Inertial tip position r(L) = R(θ) p(L)."""
-        G0 = np.empty(self.n)
-        xp, phx, phy, Hp = self._pt[0]
-        p1, p2, *_ = kern.point_kinematics(np.asarray(q, dtype=float), np.zeros(self.n), self.prm, self.fore,
-                                           xp, phx, phy, Hp, G0, np.empty(self.n))
-        c, s = math.cos(q[0]), math.sin(q[0])
-        return c * p1 - s * p2, s * p1 + c * p2
+        """Inertial tip position r(L) = R(θ) p(L) (the observables tip_x, tip_y)."""
+        o = self.observables(0.0, q, np.zeros(self.n))
+        return o["tip_x"], o["tip_y"]
+
+    def output_rows(self, t: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[dict[str, np.ndarray],
+                                                                              dict[str, np.ndarray]]:
+        """(observables, energy terms) of the states ``q[r]``, ``v[r]`` at times ``t[r]``, as
+        columns: one compiled pass over the rows (:func:`daebench.models._hubbeam_kernels.output_rows`,
+        the model's one place for these formulas), the continuous contact law's potential
+        added (:meth:`contact_potential`). :meth:`energy` and :meth:`observables` are one row of it."""
+        q = np.ascontiguousarray(q, dtype=float).reshape(-1, self.n)
+        v = np.ascontiguousarray(v, dtype=float).reshape(-1, self.n)
+        if v.shape != q.shape or np.size(t) != q.shape[0]:
+            raise ValueError(f"output_rows: {np.size(t)} times, q {q.shape}, v {v.shape}: one row each")
+        names = self._obs_names
+        obs = np.empty((q.shape[0], len(names)))
+        en = np.empty((q.shape[0], len(kern.ENERGY_TERMS)))
+        d = self.data
+        xt, phx_t, phy_t, H_t = self._pt[0]
+        kern.output_rows(np.asarray(t, dtype=float), q, v, self.kernel_handle(), d.prm, d.fore, d.K1, d.K2, d.phx_bar,
+                         d.phy_bar, d.Hbar, xt, phx_t, phy_t, H_t, self.n_contacts > 0, self.kind == "modes", obs, en)
+        terms = {k: en[:, j] for j, k in enumerate(kern.ENERGY_TERMS)}
+        law = self.contact_law
+        if law is not None and law.continuous and self.n_contacts:
+            terms["contact"] = np.array([float(law.potential(obs[r, 5:6])) for r in range(q.shape[0])])
+        else:
+            terms["contact"] = np.zeros(q.shape[0])
+        return {k: obs[:, j] for j, k in enumerate(names)}, terms
+
+    @property
+    def _obs_names(self) -> tuple[str, ...]:
+        """The columns of :meth:`output_rows`' observables (kern.output_rows writes them in this order)."""
+        return (kern.OBS_FIXED + (("gap",) if self.n_contacts else ())
+                + (tuple(f"W{i + 1}" for i in range(self.nB)) if self.kind == "modes" else ()))
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
-        q = np.asarray(q, dtype=float)
-        v = np.asarray(v, dtype=float)
-        M = self.mass(q)
-        A, B = q[self.iA], q[self.iB]
-        out = {
-            "kinetic": 0.5 * float(v @ M @ v),
-            "elastic": 0.5 * float(A @ self.K1 @ A + B @ self.K2 @ B),
-            "gravity": 0.0,
-            "contact": self.contact_potential(q),
-        }
-        g = self.prm[kern.P_G]
-        if g != 0.0:
-            d = self.data
-            P1 = self.prm[kern.P_M1] + float(d.phx_bar @ A)
-            if self.fore:
-                P1 -= 0.5 * float(B @ d.Hbar @ B)
-            P2 = float(d.phy_bar @ B)
-            out["gravity"] = g * (math.sin(q[0]) * P1 + math.cos(q[0]) * P2)
-        return out
+        return {k: float(x[0]) for k, x in self.output_rows(np.zeros(1), q, v)[1].items()}
 
     @property
     def power_free(self) -> bool:
@@ -355,23 +364,7 @@ class HubBeam(KernelSystem):
         return out
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
-        x, y = self.tip_position(q)
-        B = q[self.iB]
-        out = {
-            "theta_deg": math.degrees(q[0]),
-            "omega": float(v[0]),
-            "tip_x": x,
-            "tip_y": y,
-            "tip_w2": float(self._pt[0][2] @ B),
-        }
-        if self.n_contacts:
-            out["gap"] = float(self.gap(q)[0])
-        if self.kind == "modes":
-            part = self._pt[0][2] * B
-            total = float(np.sum(np.abs(part)))
-            for i, pi in enumerate(part):
-                out[f"W{i + 1}"] = float(pi / total) if total > 0.0 else 0.0
-        return out
+        return {k: float(x[0]) for k, x in self.output_rows(np.full(1, float(t)), q, v)[0].items()}
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         q0 = np.zeros(self.n)

@@ -30,8 +30,8 @@ from numba import carray, cfunc, njit, types, typeof
 from daebench.core import phase
 from daebench.stepping.ida_advance import (ADV_FAIL, ADV_MAX, ADV_NONFINITE, ADV_PYTHON, ADV_STOP,  # noqa: F401
                                            ADV_STUCK, IDA_NORMAL, IDA_ONE_STEP, advance_loop, solve)
-from daebench.stepping.sundials_c import (A_MATDATA, A_NVDATA, NativeUnavailable, as_int, ccall, deref, double_ptr,
-                                          lib, message)
+from daebench.stepping.sundials_c import (A_MATDATA, A_NVDATA, NativeUnavailable, as_int, ccall, deref_key,
+                                          double_ptr, lib, message, type_key)
 
 __all__ = ["NativeIDA", "NativeUnavailable", "ggl_residual", "ggl_jacobian", "advance_loop", "solve"]
 
@@ -149,15 +149,15 @@ def _vec(cx, nv, size):
 
 def callbacks(ctx_type):
     """(residual, Jacobian) cfuncs for one context type (compiled once per phase-data type,
-    cached on disk)."""
+    cached on disk: they close over the type's text, :func:`daebench.stepping.sundials_c.type_key`)."""
     got = _CALLBACKS.get(ctx_type)
     if got is not None:
         return got
-    CTX = ctx_type
+    CTX = type_key(ctx_type)
 
     @cfunc(_RES_SIG, cache=True)
     def res(t, yy, yp, rr, ud):
-        cx = deref(ud, CTX)
+        cx = deref_key(ud, CTX)
         size = 2 * cx.M.shape[0] + 2 * cx.m
         cx.counts[0] += 1
         ggl_residual(cx.ph, cx.m, t, _vec(cx, yy, size), _vec(cx, yp, size), _vec(cx, rr, size),
@@ -166,7 +166,7 @@ def callbacks(ctx_type):
 
     @cfunc(_JAC_SIG, cache=True)
     def jac(t, cj, yy, yp, rr, JJ, ud, t1, t2, t3):
-        cx = deref(ud, CTX)
+        cx = deref_key(ud, CTX)
         size = 2 * cx.M.shape[0] + 2 * cx.m
         cx.counts[1] += 1
         data = ccall(types.int64, cx.addr[A_MATDATA], (as_int(JJ),))

@@ -62,11 +62,32 @@ def double_ptr(typingctx, addr):
     return types.CPointer(types.float64)(addr), codegen
 
 
+#: numba types that :func:`deref_key` reads, by their :func:`type_key`
+_KEYED_TYPES: dict[str, types.Type] = {}
+
+
+def type_key(ty: types.Type) -> str:
+    """A text naming the numba type ``ty`` (its full structure), registered for
+    :func:`deref_key`. A compiled C callback that closes over this text instead of the
+    type caches on disk: numba keys a cached closure by the pickle of its closure
+    variables, and the pickle of a numba type differs from one process to the next (a
+    callback closing over the type was compiled — 1.9 s — and saved again by every
+    process, its cache file growing by one entry each time)."""
+    key = f"{type(ty).__module__}.{type(ty).__qualname__}:{ty}"
+    known = _KEYED_TYPES.setdefault(key, ty)
+    if known != ty:
+        raise RuntimeError(f"two numba types share the key {key!r}")
+    return key
+
+
 @intrinsic
-def deref(typingctx, ptr, tyref):
-    """The value of numba type ``tyref`` at ``**ptr`` (``ptr`` a ``void*`` to the int64
-    address of the value); increfs what it returns."""
-    ty = tyref.instance_type
+def deref_key(typingctx, ptr, key):
+    """The value of the numba type registered under the literal text ``key``
+    (:func:`type_key`) at ``**ptr`` (``ptr`` a ``void*`` to the int64 address of the
+    value); increfs what it returns."""
+    if not isinstance(key, types.StringLiteral):
+        return None
+    ty = _KEYED_TYPES[key.literal_value]
 
     def codegen(context, builder, sig, args):
         llty = context.get_value_type(ty)
@@ -75,7 +96,7 @@ def deref(typingctx, ptr, tyref):
         context.nrt.incref(builder, ty, val)
         return val
 
-    return ty(types.voidptr, tyref), codegen
+    return ty(types.voidptr, key), codegen
 
 
 # -- the libraries --------------------------------------------------------------------------------
