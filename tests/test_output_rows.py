@@ -49,3 +49,30 @@ def test_hermite_rule_reproduces_a_cubic_and_its_derivative():
     np.testing.assert_allclose(s.v, v(0.55), rtol=1e-14)
     np.testing.assert_allclose(s.a, a(0.55), rtol=1e-14)
     np.testing.assert_allclose(s.lam, [2.0], rtol=1e-14)
+
+
+def test_a_failing_call_keeps_the_rows_its_quiet_steps_wrote(monkeypatch):
+    """A step that fails after quiet steps passed output times: those rows stay in the history
+    (the runner's buffer travels with the StepFailure), equal to the completed run's rows."""
+    from daebench.stepping import runner
+
+    sc = load_scene("pendulum", ["t_end=3.0", "output.dt=0.01"])  # > 2000 steps: two compiled calls
+    _, ok = run_scene(sc, "hht", {"h": 1e-3}, write=False)
+    real = runner.run_phase
+    calls = []
+
+    def failing_second_call(*args):
+        res = real(*args)
+        calls.append(res)
+        return (3, *res[1:]) if len(calls) == 2 else res  # "Newton did not converge" after its steps
+
+    monkeypatch.setattr(runner, "run_phase", failing_second_call)
+    _, bad = run_scene(sc, "hht", {"h": 1e-3}, write=False)
+    assert bad.status == "failed" and "did not converge" in bad.message
+    written = calls[1][8]
+    assert written > 10  # the failing call had written rows before the failure was reported
+    n = len(bad.history)
+    # the failing call ran from t = 2 s (2 000 steps) to the end and wrote the rows up to 3.0 s;
+    # without them the history would stop at 2.0 s
+    assert bad.history["t"].iloc[-1] == pytest.approx(3.0, abs=1e-12)
+    pd.testing.assert_frame_equal(bad.history, ok.history.iloc[:n], check_exact=True)

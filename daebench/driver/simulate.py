@@ -277,10 +277,14 @@ class Driver:
         """One call of the integrator; adopt its quiet steps' bookkeeping and the contact
         episodes it resolved itself."""
         cs = self.contacts
-        if watch is not None and getattr(self.integ, "records_outputs", False):
-            adv = self.integ.advance(self.t_end, watch, outputs=self.t_out[self.out_i:])
-        else:
-            adv = self.integ.advance(self.t_end, watch)
+        try:
+            if watch is not None and getattr(self.integ, "records_outputs", False):
+                adv = self.integ.advance(self.t_end, watch, outputs=self.t_out[self.out_i:])
+            else:
+                adv = self.integ.advance(self.t_end, watch)
+        except StepFailure as exc:  # the rows of the quiet steps before the failing one are kept
+            self._rows(getattr(exc, "outputs", ()), self._current)
+            raise
         # rows of the output times its quiet steps passed (integrators with records_outputs, e.g. IDA;
         # a power-free phase: the work is unchanged)
         self._rows(getattr(adv, "outputs", ()), self._current)

@@ -38,7 +38,7 @@ class CompiledIntegrator(Integrator):
 
     fail_messages: ClassVar[dict[int, str]] = {}
     _outputs: tuple[np.ndarray, np.ndarray] = _NONE
-    _rows = 0
+    _n_recorded = 0
 
     def method(self) -> Any:
         raise NotImplementedError
@@ -71,7 +71,7 @@ class CompiledIntegrator(Integrator):
     def _run(self, t_stop: float, w: _watch.Watch, max_steps: int) -> tuple[int, float, float]:
         t0 = self.state.t
         t_out, out = self._outputs  # set by advance() for the one call that records output rows
-        status, k, t_prev, t_now, h_next, h_fail, inner, err, self._rows, _ = runner.run_phase(
+        status, k, t_prev, t_now, h_next, h_fail, inner, err, self._n_recorded, _ = runner.run_phase(
             self._meth, self._ws, self.problem.kernel, self._ctl, w, float(t0), float(t_stop), float(self._h_next),
             self._cur, self._new, self._prev, int(max_steps), self._cnt, t_out, out)
         self._sync()
@@ -122,13 +122,20 @@ class CompiledIntegrator(Integrator):
             self._outputs = (t_out, out)
         try:
             k, _, _ = self._run(t_stop, w, MAX_STEPS_PER_CALL)
+        except StepFailure as exc:  # the driver writes the rows the quiet steps before it recorded
+            exc.outputs = self._recorded(out, n)
+            raise
         finally:
             self._outputs = _NONE
         self.counters.steps += 1
-        recorded = [(float(r[0]), State(float(r[1]), r[2:2 + n].copy(), r[2 + n:2 + 2 * n].copy(),
-                                        r[2 + 2 * n:2 + 3 * n].copy(), r[2 + 3 * n:].copy()))
-                    for r in out[:self._rows]]
-        return RecordedAdvance(self.prev, self.state, k, w.armed, w.cmax, self._take_events(), outputs=recorded)
+        return RecordedAdvance(self.prev, self.state, k, w.armed, w.cmax, self._take_events(),
+                               outputs=self._recorded(out, n))
+
+    def _recorded(self, out: np.ndarray, n: int) -> list[tuple[float, State]]:
+        """(output time, state) of the rows the last compiled call wrote to ``out``."""
+        return [(float(r[0]), State(float(r[1]), r[2:2 + n].copy(), r[2 + n:2 + 2 * n].copy(),
+                                    r[2 + 2 * n:2 + 3 * n].copy(), r[2 + 3 * n:].copy()))
+                for r in out[:self._n_recorded]]
 
     # -- helpers ----------------------------------------------------------------------------------
     def _state(self, t: float, arrays: StateArrays) -> State:
