@@ -74,7 +74,7 @@ _ARGS = {"mass_force": "t, q, v, M, Q", "force_jacobian": "t, q, v, Kq, Kv",
          "mass_jacobian_product": "q, a, K", "constraints": "t, q, v, C, Cq, Ct, gam",
          "gap": "idx, q, v, gq", "tangent": "idx, q, v, tq"}
 _DTYPES = {np.dtype(np.float64): "_f64_at", np.dtype(np.int64): "_i64_at", np.dtype(np.bool_): "_b1_at"}
-_LAYOUT_VERSION = "3"
+_LAYOUT_VERSION = "4"
 
 
 class ModelHandle(NamedTuple):
@@ -196,7 +196,12 @@ def _source(layout: _Layout, expr: str, names: tuple[str, ...]) -> str:
     lines += ["", "", "@njit(inline='always')", "def _unpack(f, i):", f"    return {expr}", ""]
     for name in names:
         args = _ARGS[name]
-        lines += [f"_{name} = getattr(_kernels, {name!r}).implementation(_C0)", "", "",
+        impl = getattr(kernels, name).implementation(layout.classes[0])
+        # the registered kernel's code is inlined into the entry (one compile instead of two, no
+        # second optimisation of linked code); a fastmath kernel keeps its own compile and flags
+        inline = not getattr(impl, "targetoptions", {}).get("fastmath")
+        lines += [f"_{name} = getattr(_kernels, {name!r}).implementation(_C0)"
+                  + (f"\n_{name} = njit(inline='always')(_{name}.py_func)" if inline else ""), "", "",
                   f"@njit(_S[{name!r}], cache=True)", f"def {name}(f, i, {args}):",
                   f"    return _{name}(_unpack(f, i), {args})", "", ""]
     return "\n".join(lines).rstrip() + "\n"
