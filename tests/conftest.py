@@ -13,6 +13,8 @@ Beyond the warm-up, in any xdist run, a function cached on disk is compiled unde
 per (function, signature) shared by the workers (:func:`_one_compile_at_a_time`): the
 second worker to need it waits and loads it instead of compiling it again.
 
+``DAEBENCH_TEST_SHARE_COMPILE=0`` turns both off (to measure what they save).
+
 ``DAEBENCH_TEST_COMPILE_LOG=<folder>``: every worker appends each numba compile (test,
 function, signature, own seconds) to ``<folder>/<worker>.jsonl`` — where a cold suite's
 time goes (:mod:`daebench.studies.compile_census` records them).
@@ -123,7 +125,8 @@ def _one_compile_at_a_time(folder: Path) -> None:
 def _in_a_worker() -> bool:
     import numba
 
-    return "PYTEST_XDIST_WORKER" in os.environ and not numba.config.DISABLE_JIT
+    return ("PYTEST_XDIST_WORKER" in os.environ and not numba.config.DISABLE_JIT
+            and os.environ.get("DAEBENCH_TEST_SHARE_COMPILE", "1") != "0")
 
 
 def pytest_configure(config: pytest.Config) -> None:
