@@ -108,6 +108,46 @@ def test_a_kernel_that_raises_raises_through_the_handle_and_data_is_read_in_plac
         kernels.mass_force(h, 0.0, np.array([2.0]), np.zeros(1), M, Q)
 
 
+class Soft(NamedTuple):
+    k: float
+
+
+def _soft_mass_force(md, t, q, v, M, Q):
+    M[:, :] = 0.0
+    for i in range(q.shape[0]):
+        M[i, i] = 1.0 + q[i] * q[i]
+        Q[i] = -md.k * q[i] ** 3 - 0.3 * v[i] * abs(v[i])
+
+
+kernels.register(Soft, mass_force=_soft_mass_force)
+
+
+def test_default_kernels_are_compiled_once_for_every_model_and_give_the_models_own():
+    """A kernel a model leaves to the defaults is one shared compiled entry (a new model
+    compiles only its own kernels), and it gives bit for bit what the default of
+    core.kernels gives on the model's own data (the same differences of the same function)."""
+    soft, stiff = handles.handle(Soft(2.0)), handles.handle(Stiff(3.0, np.array([2.0]), 1.0))
+    assert soft.fns[1] == stiff.fns[1] and soft.fns[3:].tolist() == stiff.fns[3:].tolist()
+    assert soft.fns[0] != stiff.fns[0] and soft.fns[2] != stiff.fns[2]  # constant_mass vs differences
+    module = handles._MODULES[next(k for k in handles._MODULES if k[0] is Soft)]
+    assert hasattr(module, "mass_force") and not hasattr(module, "force_jacobian")
+    q, v, a = np.array([0.3, -1.2, 2.5]), np.array([1.5, -0.2, 0.0]), np.array([0.7, 0.1, -2.0])
+    md, n = Soft(2.0), q.shape[0]
+    direct = [np.empty((n, n)) for _ in range(3)]
+    through = [np.empty((n, n)) for _ in range(3)]
+    # the defaults run as Python on the model's own data (a compiled default specialised
+    # on a class of this test file would be cached with an older copy of its kernel)
+    kernels._fd_force_jacobian.py_func(md, 0.5, q, v, direct[0], direct[1])
+    kernels.force_jacobian(soft, 0.5, q, v, through[0], through[1])
+    kernels._fd_mass_jacobian_product.py_func(md, q, a, direct[2])
+    kernels.mass_jacobian_product(soft, q, a, through[2])
+    for d, t in zip(direct, through):
+        np.testing.assert_array_equal(t, d)
+    assert through[0][0, 0] == pytest.approx(-3.0 * 2.0 * q[0] ** 2, rel=1e-7)  # ∂Q/∂q, closed form
+    assert through[1][1, 1] == pytest.approx(-0.6 * abs(v[1]), rel=1e-7)
+    assert through[2][2, 2] == pytest.approx(2.0 * q[2] * a[2], rel=1e-7)  # ∂(M a)/∂q
+
+
 def test_a_handle_is_not_pickled():
     import pickle
 

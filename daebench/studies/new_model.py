@@ -26,7 +26,7 @@ import resource
 import subprocess
 import sys
 import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Sequence
 
 INTEGRATORS = ("hht", "newmark", "genalpha", "baumgarte", "ida", "moreau", "nsgenalpha")
@@ -34,16 +34,18 @@ _CHILD = """
 import json, sys
 from daebench import api
 from daebench.core.params import ParamError
+from daebench.studies.compile_census import recording
 cases, t_end, names = sys.argv[1].split(","), sys.argv[2], sys.argv[3].split(",")
 ran = {}
-for case in cases:
-    for name in names:
-        try:
-            step = {} if name == "ida" else {"h": 1e-3}  # IDA chooses its own steps
-            ran[name] = api.run(case, name, overrides=[f"t_end={t_end}"], **step).status
-        except ParamError as exc:  # the integrator does not apply to this case (friction, contacts …)
-            ran[name] = "refused: " + str(exc).splitlines()[0][:80]
-print(json.dumps(ran))
+with recording() as rec:
+    for case in cases:
+        for name in names:
+            try:
+                step = {} if name == "ida" else {"h": 1e-3}  # IDA chooses its own steps
+                ran[name] = api.run(case, name, overrides=[f"t_end={t_end}"], **step).status
+            except ParamError as exc:  # the integrator does not apply to this case (friction, contacts …)
+                ran[name] = "refused: " + str(exc).splitlines()[0][:80]
+print(json.dumps({"ran": ran, "compiled": rec["functions"]}))
 """
 
 
@@ -58,9 +60,10 @@ class NewModelCost:
     again_cpu_s: float
     new_model_compile_cpu_s: float
     runs: dict[str, str]
+    compiled: list[dict] = field(default_factory=list)  # the new stage's compiles (compile_census.Compiled)
 
 
-def _child_cpu(args: Sequence[str], env: dict[str, str], timeout: float) -> tuple[float, str]:
+def _child_cpu(args: Sequence[str], env: dict[str, str], timeout: float) -> tuple[float, dict]:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = subprocess.run([sys.executable, "-c", _CHILD, *args], env=env, capture_output=True, text=True,
                           timeout=timeout)
@@ -68,7 +71,7 @@ def _child_cpu(args: Sequence[str], env: dict[str, str], timeout: float) -> tupl
     if proc.returncode != 0:
         raise RuntimeError(f"new-model study child failed ({' '.join(args)}):\n{proc.stderr[-2000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return cpu, proc.stdout.strip().splitlines()[-1]
+    return cpu, json.loads(proc.stdout.strip().splitlines()[-1])
 
 
 def measure(first: str = "pendulum,ball", new: str = "crank", integrators: Sequence[str] = INTEGRATORS,
@@ -79,18 +82,22 @@ def measure(first: str = "pendulum,ball", new: str = "crank", integrators: Seque
         env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "cache"),
                    DAEBENCH_RESULTS=os.path.join(tmp, "results"))
         warm, _ = _child_cpu([first, str(t_end), names], env, timeout)
-        fresh, runs = _child_cpu([new, str(t_end), names], env, timeout)
+        fresh, out = _child_cpu([new, str(t_end), names], env, timeout)
         again, _ = _child_cpu([new, str(t_end), names], env, timeout)
-    return NewModelCost(first, new, warm, fresh, again, fresh - again, json.loads(runs))
+    compiled = sorted(out["compiled"], key=lambda f: -f["own_s"])
+    return NewModelCost(first, new, warm, fresh, again, fresh - again, out["ran"], compiled)
 
 
-def markdown(r: NewModelCost) -> str:
+def markdown(r: NewModelCost, top: int = 25) -> str:
     ran = [k for k, v in r.runs.items() if not v.startswith("refused")]
     return (f"| stage | CPU [s] |\n|---|---|\n| cold: `{r.first}` × {len(INTEGRATORS)} integrators | "
             f"{r.warmup_cpu_s:.1f} |\n| new model `{r.new}` (loops cached) | {r.new_cpu_s:.1f} |\n"
             f"| `{r.new}` again (all cached) | {r.again_cpu_s:.1f} |\n\n"
             f"New model's compile cost: **{r.new_model_compile_cpu_s:.1f} s CPU** for the {len(ran)} integrators "
-            f"that ran it ({', '.join(ran)}; target ≤ 10 s).\n")
+            f"that ran it ({', '.join(ran)}; target ≤ 10 s).\n\n"
+            f"What the new stage compiled ({len(r.compiled)} compiles, {sum(f['own_s'] for f in r.compiled):.1f} s "
+            f"wall inside them):\n\n| function | own [s] | signature |\n|---|---|---|\n"
+            + "".join(f"| {f['name']} | {f['own_s']:.2f} | {f['signature'][:70]} |\n" for f in r.compiled[:top]))
 
 
 if __name__ == "__main__":  # pragma: no cover
