@@ -382,7 +382,11 @@ class Driver:
             row[f"W_{k}"] = w
         row["D_impacts"] = cs.d_impacts
         row["energy_residual"] = E - self.E0 - sum(work.values()) + cs.d_impacts
-        self._check_divergence(to, row["energy_residual"], terms, work)
+        try:
+            self._check_divergence(to, row["energy_residual"], terms, work)
+        except _Diverged:  # a batch of rows (written in the integrator's loop): the run ends at this one
+            self._t_last, self._last_state = max(self._t_last, to), s
+            raise
         if cs.watched:
             row["n_active"] = len(cs.active) + len(cs.penetrating)
         if cs.continuous:
