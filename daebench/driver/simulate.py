@@ -277,11 +277,9 @@ class Driver:
         """One call of the integrator; adopt its quiet steps' bookkeeping and the contact
         episodes it resolved itself."""
         cs = self.contacts
+        recording = watch is not None and getattr(self.integ, "records_outputs", False)
         try:
-            if watch is not None and getattr(self.integ, "records_outputs", False):
-                adv = self.integ.advance(self.t_end, watch, outputs=self.t_out[self.out_i:])
-            else:
-                adv = self.integ.advance(self.t_end, watch)
+            adv = self.integ.advance(self.t_end, watch, **({"outputs": self.t_out[self.out_i:]} if recording else {}))
         except StepFailure as exc:  # the rows of the quiet steps before the failing one are kept
             self._rows(getattr(exc, "outputs", ()), self._current)
             raise
@@ -382,11 +380,7 @@ class Driver:
             row[f"W_{k}"] = w
         row["D_impacts"] = cs.d_impacts
         row["energy_residual"] = E - self.E0 - sum(work.values()) + cs.d_impacts
-        try:
-            self._check_divergence(to, row["energy_residual"], terms, work)
-        except _Diverged:  # a batch of rows (written in the integrator's loop): the run ends at this one
-            self._t_last, self._last_state = max(self._t_last, to), s
-            raise
+        self._check_divergence(to, s, row["energy_residual"], terms, work)
         if cs.watched:
             row["n_active"] = len(cs.active) + len(cs.penetrating)
         if cs.continuous:
@@ -436,12 +430,14 @@ class Driver:
         if not math.isfinite(float(s.q.sum()) + float(s.v.sum())):
             raise _Diverged(f"t = {s.t:.6g} s: the state became non-finite")
 
-    def _check_divergence(self, t: float, resid: float, terms: dict, work: dict) -> None:
+    def _check_divergence(self, t: float, s: State, resid: float, terms: dict, work: dict) -> None:
         """Called at each output time (where the energy is computed anyway). The scale is
         fixed by the start and the booked work — never by the current energy, which grows
-        with a blow-up."""
+        with a blow-up. A diverged row ends the run there (also one of a batch of rows the
+        integrator's loop wrote beyond it)."""
         scale = self.energy_scale + sum(abs(w) for w in work.values()) + self.contacts.d_impacts
         if not math.isfinite(resid) or abs(resid) > DIVERGENCE_ENERGY * scale:
+            self._t_last, self._last_state = max(self._t_last, t), s
             raise _Diverged(f"t = {t:.6g} s: energy residual {resid:.3g} J exceeds "
                             f"{DIVERGENCE_ENERGY:g} × the energy scale {scale:.3g} J")
 
