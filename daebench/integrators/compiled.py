@@ -101,7 +101,6 @@ class CompiledIntegrator(Integrator):
         own = getattr(self.advance, "__func__", None)  # an instance-level wrapper is not this advance
         return type(self).dense is Integrator.dense and own is CompiledIntegrator.advance
 
-
     def advance(self, t_stop: float, watch: _watch.Watch | None = None,
                 outputs: np.ndarray | None = None) -> Advance:
         """Many steps in one compiled call, stopping after the first the driver must see.
