@@ -45,9 +45,15 @@ from daebench.driver.events import ContactState, apply_event, find_event, impact
 from daebench.driver.stickslip import PAINLEVE_SLIP, FrictionPhase
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
+from daebench.stepping import dense as _dense, watch as _watch
 from daebench.stepping.watch import Watch
 from daebench.core.system import MechanicalSystem, State
 from daebench.core.energyscale import energy_scale
+
+# the compiled loops' own rules (which output times are due, which state serves one, the
+# end), called here as plain Python: one source, no dispatch per call
+_output_due, _source, _end_reached = (getattr(f, "py_func", f) for f in (_watch.output_due, _dense.source,
+                                                                          _watch.end_reached))
 
 DIVERGENCE_ENERGY = 10.0 # energy residual beyond this × energy scale means the run diverged (energy from nowhere)
 MAX_STALLED_PHASES = 100 # consecutive phases that do not advance time: the event logic is stuck
@@ -146,7 +152,7 @@ class Driver:
         phases = 0
         try:
             stalled = 0
-            while state.t < self.t_end - 1e-15 * max(1.0, self.t_end):
+            while not _end_reached(state.t, self.t_end):
                 phases += 1
                 t_before = state.t
                 state = self._phase(state)
@@ -222,7 +228,7 @@ class Driver:
             powers0 = powers1
             if event is not None:
                 return apply_event(cs, event, end, problem, self.work.get("contact", 0.0), h)
-            if new.t >= self.t_end - 1e-15 * max(1.0, self.t_end):
+            if _end_reached(new.t, self.t_end):
                 return new
 
     def _painleve(self, state: State, pulling: list[int]) -> None:
@@ -330,14 +336,10 @@ class Driver:
     def _record_until(self, prev: State, end: State, problem: Problem, dt: float,
                       base: dict | None = None, p0: dict | None = None, p1: dict | None = None) -> None:
         """Write history rows for the output times in (prev.t, end.t] (t = 0 included once)."""
-        while self.out_i < len(self.t_out) and self.t_out[self.out_i] <= end.t + 1e-12 * max(1.0, self.t_end):
+        while self.out_i < len(self.t_out) and _output_due(self.t_out[self.out_i], end.t, self.t_end):
             to = float(self.t_out[self.out_i])
-            if to >= end.t or dt == 0.0:
-                s = end
-            elif to <= prev.t:
-                s = prev
-            else:
-                s = self.integ.dense(to)
+            src = _source(to, prev.t, end.t)
+            s = end if src == _dense.END else prev if src == _dense.START else self.integ.dense(to)
             if base is None:
                 work = dict(self.work)
             else:

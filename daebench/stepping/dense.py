@@ -5,11 +5,42 @@ The driver asks an integrator for the state at an output time inside its last st
 of the output times its quiet steps pass itself (:func:`record_outputs`) instead of
 handing every such step back to Python. Both use :func:`hermite`, so a history does not
 depend on which of the two wrote a row.
+
+Which state serves an output time is one rule, :func:`outputs_due` and :func:`source`:
+the driver (for any integrator's own dense output), this runner's rows and native IDA's
+(:mod:`daebench.stepping.ida_advance`) all call it.
 """
 
 from __future__ import annotations
 
 from numba import njit
+
+from daebench.stepping.watch import output_due
+
+#: :func:`source` of an output time in a step: its end state, its start state, dense output inside
+END, START, INSIDE = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def outputs_due(t_out, oi, t1, t_end):
+    """The index past the output times from ``t_out[oi]`` on that are due at t1
+    (:func:`daebench.stepping.watch.output_due`): those a step ending at t1 writes."""
+    j = oi
+    while j < t_out.shape[0] and output_due(t_out[j], t1, t_end):
+        j += 1
+    return j
+
+
+@njit(cache=True, inline="always")
+def source(to, t0, t1):
+    """Which state of the step t0 → t1 serves output time ``to``: the end state at or after
+    the step's end (and for a step of no length), the start state at or before its start,
+    the dense output strictly inside."""
+    if to >= t1 or t1 <= t0:
+        return END
+    if to <= t0:
+        return START
+    return INSIDE
 
 
 @njit(cache=True)
@@ -60,17 +91,13 @@ def hermite(t0, q0, v0, a0, l0, t1, q1, v1, a1, l1, t, q, v, a, lam):
 def record_outputs(t0, s0, t1, s1, t_out, oi, t_end, out, nrow):
     """The driver's rows of the output times in the step (t0, s0) → (t1, s1)
     (:meth:`daebench.driver.simulate.Driver._record_until` with the Hermite
-    :meth:`~daebench.integrators.base.Integrator.dense`): the end state for an output time
-    at or after the step's end (within the driver's 1e-12 tolerance), the start state for
-    one at or before its start, :func:`hermite` inside. Rows (t_out, t of the state, q, v,
-    a, λ) go to ``out`` from row ``nrow``. Returns the next output index, or −1 (nothing
-    kept) when ``out`` has no room for them all."""
+    :meth:`~daebench.integrators.base.Integrator.dense`): the state :func:`source` names,
+    :func:`hermite` inside. Rows (t_out, t of the state, q, v, a, λ) go to ``out`` from
+    row ``nrow``. Returns the next output index, or −1 (nothing kept) when ``out`` has no
+    room for them all."""
     n = s1.q.shape[0]
     m = s1.lam.shape[0]
-    tol = 1e-12 * max(1.0, t_end)
-    j = oi
-    while j < t_out.shape[0] and t_out[j] <= t1 + tol:
-        j += 1
+    j = outputs_due(t_out, oi, t1, t_end)
     if nrow + (j - oi) > out.shape[0]:
         return -1
     for r, i in enumerate(range(oi, j)):
@@ -78,15 +105,15 @@ def record_outputs(t0, s0, t1, s1, t_out, oi, t_end, out, nrow):
         row = out[nrow + r]
         row[0] = to
         q, v, a, lam = row[2:2 + n], row[2 + n:2 + 2 * n], row[2 + 2 * n:2 + 3 * n], row[2 + 3 * n:2 + 3 * n + m]
-        if to >= t1 or t1 <= t0 or to <= t0:
-            at_end = to >= t1 or t1 <= t0
-            s = s1 if at_end else s0
-            row[1] = t1 if at_end else t0
+        src = source(to, t0, t1)
+        if src == INSIDE:
+            row[1] = to
+            hermite(t0, s0.q, s0.v, s0.a, s0.lam, t1, s1.q, s1.v, s1.a, s1.lam, to, q, v, a, lam)
+        else:
+            s = s1 if src == END else s0
+            row[1] = t1 if src == END else t0
             q[:] = s.q
             v[:] = s.v
             a[:] = s.a
             lam[:] = s.lam
-        else:
-            row[1] = to
-            hermite(t0, s0.q, s0.v, s0.a, s0.lam, t1, s1.q, s1.v, s1.a, s1.lam, to, q, v, a, lam)
     return j

@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit, types
 
 from daebench.stepping import watch as _watch
+from daebench.stepping.dense import END, INSIDE, START, outputs_due, source
 from daebench.stepping.methods import StateArrays
 from daebench.stepping.sundials_c import A_CLEAR, A_GETSOL, A_SOLVE, A_STOP, address_of, ccall
 
@@ -55,21 +56,19 @@ def record_outputs(cx, mem, prev, cur, t_out, oi, t_end, out, nrow, yd, ypd_d, n
     written then that the caller keeps."""
     N = yd.shape[0]
     t0, t1 = prev[0], cur[0]
-    tol = 1e-12 * max(1.0, t_end)
     edge = t1 - DENSE_EDGE * (t1 - t0)
-    j = oi
-    while j < t_out.shape[0] and t_out[j] <= t1 + tol:
-        to = t_out[j]
-        if to <= t0 or (to < t1 and to >= edge):
+    j = outputs_due(t_out, oi, t1, t_end)
+    for i in range(oi, j):
+        src = source(t_out[i], t0, t1)
+        if src == START or (src == INSIDE and t_out[i] >= edge):
             return -1
-        j += 1
     if nrow + (j - oi) > out.shape[0]:
         return -1
     r = nrow
     for i in range(oi, j):
         to = t_out[i]
         out[r, 0] = to
-        if to >= t1:
+        if source(to, t0, t1) == END:
             out[r, 1] = t1
             out[r, 2:] = cur[1:]
         else:

@@ -56,9 +56,21 @@ def gap_event(g, armed):
 
 
 @njit(cache=True, inline="always")
+def output_due(t_next, t, t_end):
+    """Whether the output time ``t_next`` is due at t: reached within 1e-12·max(1, t_end)."""
+    return t_next <= t + 1e-12 * max(1.0, t_end)
+
+
+@njit(cache=True, inline="always")
+def end_reached(t, t_end):
+    """Whether t is the end time (within 1e-15·max(1, t_end))."""
+    return t >= t_end - 1e-15 * max(1.0, t_end)
+
+
+@njit(cache=True, inline="always")
 def reached(t, t_next, t_end):
-    """Whether an output time or the end was reached at t (with the driver's tolerances)."""
-    return t_next <= t + 1e-12 * max(1.0, t_end) or t >= t_end - 1e-15 * max(1.0, t_end)
+    """Whether an output time or the end was reached at t (the driver's tolerances)."""
+    return output_due(t_next, t, t_end) or end_reached(t, t_end)
 
 
 @njit(cache=True)
