@@ -136,8 +136,8 @@ def _mass_force(md, t, q, v, M, Q):
     m1, m2, m3, l1, l2, j1, j2, rho, grav = md.prm[0], md.prm[1], md.prm[2], md.prm[3], md.prm[4], \
         md.prm[5], md.prm[6], md.prm[7], md.prm[8]
     MQ, KQ, BQ, c1, c2, c12, c21 = md.MQ, md.KQ, md.BQ, md.c1, md.c2, md.c12, md.c21
-    e = q[3:]
-    ed = v[3:]
+    e = q[3:].copy()   # contiguous: the kernel is called with strided ('A') views, '@' wants contiguous
+    ed = v[3:].copy()
     v1, v2 = v[0], v[1]
     cp1, cp2, sp2 = math.cos(q[0]), math.cos(q[1]), math.sin(q[1])
     c12_, s12 = math.cos(q[0] - q[1]), math.sin(q[0] - q[1])
