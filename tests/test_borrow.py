@@ -73,3 +73,88 @@ def test_borrowed_arrays_have_no_owner_record():
     data = Outer(np.zeros(3), Inner(np.ones(2), 1), 1.0, np.eye(2))
     own, *borrowed = _owners(data)
     assert own != 0 and borrowed == [0, 0, 0]
+
+
+# -- uncounted: compiled without reference counting ----------------------------------------------
+import pytest  # noqa: E402
+from numba.core.errors import TypingError  # noqa: E402
+
+from daebench.core.borrow import copy_to, uncounted  # noqa: E402
+from daebench.core.dispatch import generic  # noqa: E402
+
+
+def _scaled_sum(data, out):
+    v = data.x[1:]
+    s = 0.0
+    for i in range(v.shape[0]):
+        s += data.h * v[i] * data.inner.a[i % data.inner.a.shape[0]]
+    out[0] = s
+
+
+def _nrt_calls(dispatcher) -> int:
+    asm = dispatcher.inspect_asm(dispatcher.signatures[0])
+    return sum(1 for line in asm.splitlines() if "NRT_incref" in line or "NRT_decref" in line)
+
+
+def test_uncounted_function_has_no_reference_counting_and_the_same_result():
+    counted, free = njit(_scaled_sum), uncounted(_scaled_sum, cache=False)  # cached code cannot be inspected
+    data = Outer(np.arange(5.0), Inner(np.array([1.0, -2.0]), 1), 0.5, np.eye(2))
+    out_c, out_f = np.zeros(1), np.zeros(1)
+    counted(data, out_c)
+    free(data, out_f)
+    assert out_f[0] == out_c[0] == 0.5 * (1 * 1 - 2 * 2 + 3 * 1 - 4 * 2)
+    assert _nrt_calls(counted) > 0      # numba counts the tuple's arrays and the view
+    assert _nrt_calls(free) == 0
+
+
+def test_uncounted_function_refuses_to_allocate_at_compile_time():
+    @uncounted
+    def allocates(n):
+        return np.zeros(n).sum()
+
+    with pytest.raises(TypingError):
+        allocates(3)
+
+
+def test_copy_to_copies_elementwise():
+    @uncounted
+    def f(dst, src):
+        copy_to(dst[1:], src)
+
+    dst = np.zeros(4)
+    f(dst, np.array([1.0, 2.0, 3.0]))
+    np.testing.assert_array_equal(dst, [0.0, 1.0, 2.0, 3.0])
+
+
+class _Counted(NamedTuple):
+    n: int
+
+
+class _Free(NamedTuple):
+    n: int
+
+
+@generic
+def _total(data):
+    """Sum of ones of length data.n."""
+
+
+def _allocating_total(data):
+    return np.ones(data.n).sum()
+
+
+_total.register(_Counted, njit(_allocating_total))
+_total.register(_Free, uncounted(_allocating_total))
+
+
+@njit
+def _call_total(data):
+    return _total(data)
+
+
+def test_dispatch_compiles_each_implementation_with_its_own_counting():
+    # the same body: with reference counting it compiles and runs; registered uncounted it is
+    # compiled without (so its allocation is refused) — the registration's option reaches numba
+    assert _call_total(_Counted(4)) == 4.0
+    with pytest.raises(TypingError):
+        _call_total(_Free(4))

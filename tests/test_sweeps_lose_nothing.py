@@ -166,8 +166,10 @@ def test_damaged_reference_is_caught_in_every_mode(plugins, pendulum, damage):
 
 
 # ---- the command line, in real processes ------------------------------------------------------
+# slow enough that a signal sent after the first rows lands while later ones run: 1e6 steps a
+# row, ≈ 2–4 s at 2–4 µs a step (t_end=2 stopped being enough when the step got faster)
 SLOW_SWEEP = ["bench", "pendulum", "-i", "hht", "--steps", "1e-5", "--grid", "alpha=0,-0.05,-0.1,-0.15,-0.2",
-              "--set", "t_end=2", "--reference", "none"]
+              "--set", "t_end=10", "--reference", "none"]
 
 
 def daebench(*args: str, results: Path) -> subprocess.Popen:

@@ -15,13 +15,25 @@ caller of the compiled loop holds the originals for the whole call, and a borrow
 must never be returned to Python or stored beyond the call (numba could not keep its
 memory alive). :func:`daebench.stepping.runner.run_phase` borrows its arguments on entry
 and returns scalars only.
+
+Borrowing leaves the calls themselves: a function that is not inlined still increments
+every array of its arguments on entry (each array inside a workspace tuple too) and
+decrements it on exit, one call to numba's ``NRT_incref``/``NRT_decref`` each — 30 of them
+around one evaluation of a 2-coordinate pendulum's constraints. :func:`uncounted` compiles
+a function without reference counting at all (numba's ``_nrt=False``): for functions that
+allocate nothing and return no array, which is what the per-step functions below the runner
+are. numba refuses to compile an allocation in such a function, so the rule is checked
+where it matters, at compile time. numba compiles a callee that does not say otherwise with
+its caller's setting: a function an uncounted one calls must allocate nothing and return no
+array either (or be compiled with ``_nrt=True`` explicitly, as the counted implementations
+of :mod:`daebench.core.dispatch` are).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from numba import types
+from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
@@ -67,3 +79,20 @@ def _borrow(typingctx, value):
 @overload(borrow, inline="always")
 def _borrow_compiled(value):
     return lambda value: _borrow(value)
+
+
+def uncounted(fn: Any = None, **options: Any) -> Any:
+    """``njit(cache=True, _nrt=False, **options)``: a compiled function without reference
+    counting (module docstring) — for a function that allocates nothing and returns no array;
+    numba rejects an allocation in it when it compiles. Registered as a stepper's or a kernel's
+    implementation (:mod:`daebench.core.dispatch`) it is compiled so too."""
+    deco = njit(**{"cache": True, **options, "_nrt": False})
+    return deco if fn is None else deco(fn)
+
+
+@njit(inline="always")
+def copy_to(dst, src):
+    """``dst[:] = src`` in an :func:`uncounted` function: numba's slice assignment checks the
+    two for overlap and may copy through a temporary (an allocation); an element loop cannot."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]

@@ -50,6 +50,7 @@ def generic(template: Callable) -> Callable:
     name = template.__name__
     impls: dict[type, Callable] = {}
     adapters: dict[type, Callable] = {}
+    uncounted: set[type] = set()  # implementations compiled without reference counting (core.borrow)
 
     @functools.wraps(template)
     def function(*args):
@@ -58,10 +59,15 @@ def generic(template: Callable) -> Callable:
             raise DispatchError(f"{name}: nothing registered for {type(args[0]).__name__}")
         return fn(*args)
 
-    def typer(*args):
-        return adapters.get(_data_class(args[0]))  # None: numba reports the typing error
+    def typer_for(counted: bool) -> Callable:
+        def typer(*args):
+            cls = _data_class(args[0])
+            if (cls in uncounted) == counted:
+                return None
+            return adapters.get(cls)  # None: numba reports the typing error
 
-    typer.__signature__ = sig
+        typer.__signature__ = sig
+        return typer
 
     def register(data_class: type, implementation: Callable) -> None:
         if not _is_named_tuple_class(data_class):
@@ -75,9 +81,18 @@ def generic(template: Callable) -> Callable:
         # function when its parameters carry the generic's names (one compile), else an
         # adapter that calls it
         adapters[data_class] = py if same else _adapter(name, params, implementation)
+        if getattr(implementation, "targetoptions", {}).get("_nrt", True) is False:
+            uncounted.add(data_class)
+        else:
+            uncounted.discard(data_class)
 
     function.register = register
     function.registered = lambda data_class: data_class in impls
     function.implementation = lambda data_class: impls[data_class]
-    overload(function)(typer)
+    # numba compiles an overload's implementation with the overload's options: one overload
+    # for implementations with reference counting, one for those without — both explicit, or
+    # numba would inherit the caller's (an object-mode Python kernel needs counting even when
+    # an uncounted phase function calls it)
+    overload(function, jit_options={"_nrt": True})(typer_for(True))
+    overload(function, jit_options={"_nrt": False})(typer_for(False))
     return function

@@ -15,10 +15,11 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+
+from daebench.core.borrow import uncounted
 
 
-@njit(cache=True)
+@uncounted
 def lu_factor(A, piv):
     """In-place LU with partial pivoting (LAPACK dgetf2 pivot rule); returns info (0 = ok,
     k + 1 = exactly zero pivot in column k)."""
@@ -52,7 +53,7 @@ def lu_factor(A, piv):
     return info
 
 
-@njit(cache=True)
+@uncounted
 def lu_solve(A, piv, b):
     """Solve in place with the factors of :func:`lu_factor`."""
     n = A.shape[0]
@@ -74,7 +75,7 @@ def lu_solve(A, piv, b):
         b[i] = s / A[i, i]
 
 
-@njit(cache=True)
+@uncounted
 def factor_flagged(A, piv, st, h):
     """LU-factor ``A`` in place and keep its state in ``st``: st[0] = 1 and st[1] = h (the
     step the factor belongs to) when it worked, st[0] = 0 when ``A`` is singular. Returns
@@ -91,7 +92,7 @@ def factor_flagged(A, piv, st, h):
 # Band storage (LAPACK's dgbtrf layout): A[i, j] (|i − j| within the band) lives in
 # AB[kl + ku + i − j, j]; AB has 2·kl + ku + 1 rows, the first kl of them room for the
 # fill-in that row interchanges bring into U.
-@njit(cache=True)
+@uncounted
 def band_from_dense(A, order, nb, kl, ku, AB):
     """Copy the band of the leading ``nb`` × ``nb`` block of A[order][:, order] into ``AB``
     (zeros elsewhere)."""
@@ -103,7 +104,7 @@ def band_from_dense(A, order, nb, kl, ku, AB):
             AB[kv + i - j, j] = A[order[i], cj]
 
 
-@njit(cache=True)
+@uncounted
 def band_lu_factor(AB, kl, ku, piv):
     """In-place banded LU with partial pivoting (LAPACK dgbtf2); returns info (0 = ok,
     k + 1 = exactly zero pivot in column k). ``AB`` in band storage, fill-in rows included."""
@@ -144,7 +145,7 @@ def band_lu_factor(AB, kl, ku, piv):
     return info
 
 
-@njit(cache=True)
+@uncounted
 def band_lu_solve(AB, kl, ku, piv, b):
     """Solve in place with the factors of :func:`band_lu_factor` (LAPACK dgbtrs, no transpose)."""
     n = AB.shape[1]
@@ -192,7 +193,7 @@ def bordered_work(order: np.ndarray, nb: int, kl: int, ku: int) -> BorderedWork:
                         np.zeros((max(k, 1), max(k, 1))), np.zeros(max(k, 1), np.int64), np.zeros(nx))
 
 
-@njit(cache=True)
+@uncounted
 def bordered_factor(A, bw):
     """Factorize the leading nx × nx block of the dense ``A`` (nx = len(bw.order)) through
     its declared bordered-banded structure; entries of the banded block outside the band
@@ -225,7 +226,7 @@ def bordered_factor(A, bw):
     return nb + info if info else 0
 
 
-@njit(cache=True)
+@uncounted
 def bordered_solve(bw, b):
     """Solve A x = b in place (``b`` of length nx) with :func:`bordered_factor`'s factors."""
     order = bw.order
@@ -255,7 +256,7 @@ def bordered_solve(bw, b):
         b[order[i]] = y[i]
 
 
-@njit(cache=True)
+@uncounted
 def bordered_fits(A, bw):
     """Whether the banded block of A (through ``bw.order``) has no nonzero outside its band."""
     order, kl, ku = bw.order, bw.kl, bw.ku
@@ -268,7 +269,7 @@ def bordered_fits(A, bw):
     return True
 
 
-@njit(cache=True)
+@uncounted
 def half_bandwidths(A, nb):
     """(kl, ku): the largest i − j and j − i over the nonzeros of A's leading nb × nb block
     (each row scanned from both ends to its first nonzero)."""

@@ -45,6 +45,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from daebench.core.borrow import copy_to, uncounted
 from daebench.core import kernels
 from daebench.core.kernels import fd_step
 from daebench.core.linalg import lu_factor, lu_solve
@@ -64,7 +65,7 @@ class PhaseData(NamedTuple):
 
 
 # -- contact laws ------------------------------------------------------------------------
-@njit(cache=True)
+@uncounted
 def law_force(law, engaged, chi, g, gdot):
     """Normal force F ≥ 0 of a continuous law at gap g and gap rate ġ."""
     kind = law[0]
@@ -78,7 +79,7 @@ def law_force(law, engaged, chi, g, gdot):
     return 0.0
 
 
-@njit(cache=True)
+@uncounted
 def law_elastic(law, engaged, g):
     """The conservative part of the force (its potential is :func:`law_potential`)."""
     if not engaged:
@@ -91,7 +92,7 @@ def law_elastic(law, engaged, g):
     return 0.0
 
 
-@njit(cache=True)
+@uncounted
 def law_potential(law, g):
     """Energy stored in the contact spring at gap g."""
     delta = max(-g, 0.0)
@@ -102,7 +103,7 @@ def law_potential(law, g):
     return 0.0
 
 
-@njit(cache=True)
+@uncounted
 def friction_force(law, mu, fn, vt):
     """Tangential force F_T = −μ F_N tanh(v_T / v_ε) of the regularised Coulomb law at
     normal force F_N ≥ 0 and slip velocity v_T (module docstring); 0 for μ = 0."""
@@ -112,7 +113,7 @@ def friction_force(law, mu, fn, vt):
 
 
 # -- forces ---------------------------------------------------------------------------------
-@njit(cache=True)
+@uncounted
 def _contact_force(ph, i, q, v, gq, tq, fric=True):
     """(g_i, F_N,i, F_T,i) at (q, v); g_q,i left in gq, the tangent row in tq (zero
     without friction; with ``fric`` False the tangent kernel is not called, tq not
@@ -133,7 +134,7 @@ def _contact_force(ph, i, q, v, gq, tq, fric=True):
     return g, fn, friction_force(ph.law, mu, fn, vt)
 
 
-@njit(cache=True)
+@uncounted
 def mass_force(ph, t, q, v, M, Q):
     """M(q) and the phase's force Q (model force + engaged contact forces g_qᵀF_N + t_qᵀF_T)."""
     kernels.mass_force(ph.model, t, q, v, M, Q)
@@ -148,7 +149,7 @@ def mass_force(ph, t, q, v, M, Q):
                         Q[j] += gq[j] * F + tq[j] * FT
 
 
-@njit(cache=True)
+@uncounted
 def friction_power(ph, q, v):
     """Σ F_T,i v_T,i ≤ 0: the power of the regularised friction forces (the friction
     work's rate, booked with the contact dissipation)."""
@@ -166,7 +167,7 @@ def friction_power(ph, q, v):
     return P
 
 
-@njit(cache=True)
+@uncounted
 def force_jacobian(ph, t, q, v, Kq, Kv):
     """∂Q/∂q, ∂Q/∂v of the phase's force: the model's kernel plus central differences of
     each engaged, penetrating contact force g_iᵀF_N,i + t_iᵀF_T,i."""
@@ -188,7 +189,7 @@ def force_jacobian(ph, t, q, v, Kq, Kv):
             K = Kv if wrt_v else Kq
             for j in range(n):
                 dx = fd_step(x[j])
-                xp[:] = x
+                copy_to(xp, x)
                 xp[j] = x[j] + dx
                 g1, F1, T1 = _contact_force(ph, i, q if wrt_v else xp, xp if wrt_v else v, gp, tp, fric)
                 xp[j] = x[j] - dx
@@ -199,13 +200,13 @@ def force_jacobian(ph, t, q, v, Kq, Kv):
                     K[r, j] = K[r, j] + (fp - fm) / (2.0 * dx)
 
 
-@njit(cache=True)
+@uncounted
 def mass_jacobian_product(ph, q, a, K):
     kernels.mass_jacobian_product(ph.model, q, a, K)
 
 
 # -- constraints ----------------------------------------------------------------------------
-@njit(cache=True)
+@uncounted
 def constraints(ph, t, q, v, C, Cq, Ct, gam):
     """Rows of the active constraints: bilateral, then C = −g of each closed contact."""
     kernels.constraints(ph.model, t, q, v, C, Cq, Ct, gam)
@@ -221,13 +222,13 @@ def constraints(ph, t, q, v, C, Cq, Ct, gam):
         r += 1
 
 
-@njit(cache=True)
+@uncounted
 def constraint_jacobian(ph, t, q, Cq, scratch_m, zeros_n):
     """C_q only (``scratch_m``: length ≥ m, ``zeros_n``: a zero velocity)."""
     constraints(ph, t, q, zeros_n, scratch_m, Cq, scratch_m, scratch_m)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)  # allocates its scratch
 def constraint_force_jacobian(ph, t, q, lam, K):
     """∂(C_qᵀλ)/∂q at fixed λ, by central differences (n × n)."""
     n = q.shape[0]
@@ -255,7 +256,7 @@ def constraint_force_jacobian(ph, t, q, lam, K):
         x[j] = q[j]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)  # allocates its scratch
 def velocity_constraint_jacobian(ph, t, q, v, K):
     """∂(C_q v + C_t)/∂q at fixed v, by central differences (m × n)."""
     n = q.shape[0]
@@ -280,7 +281,7 @@ def velocity_constraint_jacobian(ph, t, q, v, K):
         x[j] = q[j]
 
 
-@njit(cache=True)
+@uncounted
 def constraint_residuals(ph, t, q, v, a, C, Cq, Ct, gam):
     """(max|C|, max|C_q v + C_t|, max|C_q a − γ|) of the active constraints (NaN for the
     last when ``a`` is empty)."""
@@ -323,7 +324,7 @@ def augmented_work(n, m):
                          np.empty(n + m), np.empty(mm), np.empty((mm, n)), np.empty(mm), np.empty(mm))
 
 
-@njit(cache=True)
+@uncounted
 def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
     """q̈ and λ from [[M, C_qᵀ], [C_q, 0]] [q̈; λ] = [Q; γ − 2δ(C_q v + C_t) − ε²C];
     δ = ε = 0 gives the consistent acceleration of the phase. Returns the LU info
@@ -368,7 +369,7 @@ def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
 
 
 # -- gaps --------------------------------------------------------------------------------------
-@njit(cache=True)
+@uncounted
 def gaps(ph, q, v, g, G, gam):
     """Every contact's gap, Jacobian row and γ_g (for the Python protocol)."""
     for i in range(g.shape[0]):

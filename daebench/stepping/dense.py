@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from numba import njit
 
+from daebench.core.borrow import copy_to, uncounted
 from daebench.stepping.watch import output_due
 
 #: :func:`source` of an output time in a step: its end state, its start state, dense output inside
@@ -43,7 +44,7 @@ def source(to, t0, t1):
     return INSIDE
 
 
-@njit(cache=True)
+@uncounted
 def hermite(t0, q0, v0, a0, l0, t1, q1, v1, a1, l1, t, q, v, a, lam):
     """The state at t in the step (t0, …) → (t1, …) into (q, v, a, lam): cubic Hermite in
     q (with v), in v (with a, when both ends have it; else the derivative of the
@@ -51,10 +52,10 @@ def hermite(t0, q0, v0, a0, l0, t1, q1, v1, a1, l1, t, q, v, a, lam):
     n = q0.shape[0]
     h = t1 - t0
     if h <= 0.0:
-        q[:] = q1
-        v[:] = v1
-        a[:] = a1
-        lam[:] = l1
+        copy_to(q, q1)
+        copy_to(v, v1)
+        copy_to(a, a1)
+        copy_to(lam, l1)
         return
     th = (t - t0) / h
     th2 = th * th
@@ -79,15 +80,15 @@ def hermite(t0, q0, v0, a0, l0, t1, q1, v1, a1, l1, t, q, v, a, lam):
         for i in range(a1.shape[0]):
             a[i] = (1.0 - th) * a0[i] + th * a1[i]
     else:
-        a[:] = a1
+        copy_to(a, a1)
     if l0.shape[0] == l1.shape[0]:
         for i in range(l1.shape[0]):
             lam[i] = (1.0 - th) * l0[i] + th * l1[i]
     else:
-        lam[:] = l1
+        copy_to(lam, l1)
 
 
-@njit(cache=True)
+@uncounted
 def record_outputs(t0, s0, t1, s1, t_out, oi, t_end, out, nrow):
     """The driver's rows of the output times in the step (t0, s0) → (t1, s1)
     (:meth:`daebench.driver.simulate.Driver._record_until` with the Hermite
@@ -112,8 +113,8 @@ def record_outputs(t0, s0, t1, s1, t_out, oi, t_end, out, nrow):
         else:
             s = s1 if src == END else s0
             row[1] = t1 if src == END else t0
-            q[:] = s.q
-            v[:] = s.v
-            a[:] = s.a
-            lam[:] = s.lam
+            copy_to(q, s.q)
+            copy_to(v, s.v)
+            copy_to(a, s.a)
+            copy_to(lam, s.lam)
     return j

@@ -78,6 +78,7 @@ import numpy as np
 from numba import njit
 
 from daebench.core import phase
+from daebench.core.borrow import copy_to, uncounted
 from daebench.core.linalg import BorderedWork, bordered_solve, lu_solve
 from daebench.stepping import control, methods
 from daebench.stepping.methods import C_NEWTON, C_RES
@@ -169,13 +170,13 @@ def workspace(n: int, m: int, ggl: bool, sparsity=None) -> NewmarkWork:
                        np.zeros((n, 2 * max(int(sp[1]), 0) + 1)))
 
 
-@njit(cache=True)
+@uncounted
 def _start(meth, ws, ph, t, cur, cnt):
     """Forget the history; h_M, h_F (and F_n) from the consistent start state."""
     n = cur.q.shape[0]
     w1, wm, wf = weights(meth)
     ws.st[:] = 0.0
-    ws.acc[:] = cur.a
+    copy_to(ws.acc, cur.a)
     if ws.sp[2]:  # constant M: filled once here, the iterations ask for the force only
         phase.mass_force(ph, t, cur.q, cur.v, ws.M, ws.Q)
         band_mass(ws.M, ws.sp[1], ws.Mb)
@@ -198,7 +199,7 @@ def _start(meth, ws, ph, t, cur, cnt):
     return 0
 
 
-@njit(cache=True, no_cpython_wrapper=True)
+@uncounted(no_cpython_wrapper=True)
 def _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va):
     """q, a, v of the iterate x (GGL: a = (q − q̂ − C_qᵀμ)/βh²)."""
     for i in range(n):
@@ -211,7 +212,7 @@ def _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va):
         va[i] = v_hat[i] + gah * aa[i]
 
 
-@njit(cache=True, no_cpython_wrapper=True)
+@uncounted(no_cpython_wrapper=True)
 def _constraints_ok(meth, n, m, h, tol, qscale, Cq, C, Ct, va):
     """The constraint part of the convergence test, on C, C_q, C_t at the iterate."""
     if m == 0:
@@ -239,7 +240,7 @@ def _constraints_ok(meth, n, m, h, tol, qscale, Cq, C, Ct, va):
     return True
 
 
-@njit(cache=True, no_cpython_wrapper=True)
+@uncounted(no_cpython_wrapper=True)
 def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     """One step t → t + h (module docstring); returns (status, local error estimate)."""
     n = cur.q.shape[0]
@@ -285,7 +286,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     attempts = 0
     while True:
         attempts += 1
-        x[:nx] = x0[:nx]
+        copy_to(x[:nx], x0[:nx])
         fresh = False
         since = 0
         d_prev = 0.0
@@ -332,7 +333,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
                     return status, 0.0
                 fresh = True
                 since = 0
-            dx[:nx] = r[:nx]
+            copy_to(dx[:nx], r[:nx])
             if st[ST_BAND] != 0.0:
                 bordered_solve(ws.bw, dx[:nx])
             else:
@@ -417,7 +418,7 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
     return 0, err
 
 
-@njit(cache=True, no_cpython_wrapper=True)
+@uncounted(no_cpython_wrapper=True)
 def _accept(meth, ws, h, prev, cur):
     n = cur.q.shape[0]
     w1, wm, wf = weights(meth)
@@ -429,7 +430,7 @@ def _accept(meth, ws, h, prev, cur):
         elif meth.alpha_m != 0.0:
             ws.hM[i] = wm * ws.acc_new[i]
         ws.acc[i] = ws.acc_new[i]
-    ws.l_old[:] = prev.lam
+    copy_to(ws.l_old, prev.lam)
     if meth.alpha_f != 0.0 and not meth.accel_avg:
         for i in range(n):
             ws.F[i] = ws.F_new[i]

@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit
 
 from daebench.core import phase
+from daebench.core.borrow import uncounted
 from daebench.core.linalg import Sparsity, bordered_factor, bordered_fits, bordered_work, lu_factor
 from daebench.stepping.methods import C_JAC, C_LU
 
@@ -50,7 +51,7 @@ def mass_row(mb, i, n):
     return max(0, i - mb), min(n, i + mb + 1)
 
 
-@njit(cache=True)
+@uncounted
 def band_mass(M, mb, Mb):
     """Copy the band of a declared banded M (half-bandwidth mb ≥ 0) into band storage
     Mb[i, j − i + mb]; nothing for a dense M (mb < 0)."""
@@ -100,7 +101,7 @@ def structure(sparsity: Sparsity | None, n: int, nx: int) -> tuple:
     return bw, sp, np.ascontiguousarray(ij, dtype=np.int64), pos
 
 
-@njit(cache=True)
+@uncounted
 def _rows_fit(ws, n, m):
     """Whether ∂(C_qᵀλ)/∂q keeps to the declared structure: every pair of DOFs in the
     support of one constraint row of ws.Cq is within the band or on the border."""
@@ -124,7 +125,7 @@ def _entry(ws, i, j, w1, bh2, gah, km):
     return w1 * ws.M[i, j] + bh2 * (w1 * kmij - ws.Kq[i, j]) - gah * ws.Kv[i, j]
 
 
-@njit(cache=True, no_cpython_wrapper=True)
+@uncounted(no_cpython_wrapper=True)
 def factor(meth, ws, ph, n, m, nx, t1, h, q, v, a, lt, bh2, cnt):
     """Build and factorize the scaled iteration matrix J; returns a status."""
     M, Kq, Kv, KM, KC, Cq = ws.M, ws.Kq, ws.Kv, ws.KM, ws.KC, ws.Cq

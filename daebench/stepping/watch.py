@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from daebench.core.borrow import uncounted
 from daebench.core import kernels, phase
 
 GAP_BAND = 1e-9  # m
@@ -73,7 +74,7 @@ def reached(t, t_next, t_end):
     return output_due(t_next, t, t_end) or end_reached(t, t_end)
 
 
-@njit(cache=True)
+@uncounted
 def events(ph, w, t, cur):
     """Whether the step that ended in ``cur`` (at t) has an event the driver must handle:
     a non-finite state, an open contact closing, a closed one turning tensile. Re-arms
@@ -97,7 +98,7 @@ def events(ph, w, t, cur):
     return stop
 
 
-@njit(cache=True)
+@uncounted
 def track(ph, w, t, cur, C, Cq, Ct, gam):
     """Raise the running maxima of |C|, |Ċ|, |C̈| by the step that ended in ``cur``."""
     if w.track and C.shape[0]:
@@ -107,7 +108,7 @@ def track(ph, w, t, cur, C, Cq, Ct, gam):
         w.cmax[2] = max(w.cmax[2], c2)
 
 
-@njit(cache=True)
+@uncounted
 def quiet(ph, w, t, cur, C, Cq, Ct, gam):
     """Whether the step that ended in ``cur`` (at t) needs no driver attention (no
     :func:`events`, no output or end time reached); re-arms gaps that left the band and,
