@@ -370,6 +370,14 @@ _SHARED = {("force_jacobian", kernels._fd_force_jacobian): _default_force_jacobi
            ("tangent", kernels._no_friction): _default_tangent}
 
 
+def compile_shared_defaults() -> None:
+    """Compile (or load from the cache) every shared default entry: library code, paid once
+    per cache by the first model that leaves a kernel to its default (the new-model study
+    warms them with the loops, so that a new model's figure is its own code)."""
+    for (name, _), entry in _SHARED.items():
+        _jit_address(entry, SIGNATURES[name])
+
+
 def _shared(name: str, implementation: Any) -> Any:
     """The shared compiled entry of kernel ``name`` when ``implementation`` is one of the
     defaults of :mod:`daebench.core.kernels`, else None (the model's own kernel)."""

@@ -141,7 +141,8 @@ def _fd_force_jacobian(md, t, q, v, Kq, Kv):
         K = Kv if wrt_v else Kq
         for j in range(n):
             dx = fd_step(base[j])
-            x[:] = base
+            for i in range(n):  # not x[:] = base: its shape check compiles an error message (3 s)
+                x[i] = base[i]
             x[j] = base[j] + dx
             if wrt_v:
                 mass_force(md, t, q, x, M, Qp)
