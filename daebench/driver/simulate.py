@@ -42,6 +42,7 @@ import pandas as pd
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
 from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name
+from daebench.driver.history import DIVERGENCE_ENERGY, Block, block, diverging, frame, state_row, states_arrays
 from daebench.driver.stickslip import PAINLEVE_SLIP, FrictionPhase
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
@@ -55,7 +56,6 @@ from daebench.core.energyscale import energy_scale
 _output_due, _source, _end_reached = (getattr(f, "py_func", f) for f in (_watch.output_due, _dense.source,
                                                                           _watch.end_reached))
 
-DIVERGENCE_ENERGY = 10.0 # energy residual beyond this × energy scale means the run diverged (energy from nowhere)
 MAX_STALLED_PHASES = 100 # consecutive phases that do not advance time: the event logic is stuck
 PROGRESS_EVERY = 0.25    # s of wall time between two progress reports
 
@@ -131,7 +131,7 @@ class Driver:
         v = np.asarray(v, float)
         cs = self.contacts = ContactState.start(Problem(sys_), q, self._constraint_contacts,
                                                 self._continuous_contacts, v)
-        self.rows: list[dict[str, float]] = []
+        self.rows: list[dict[str, float] | Block] = []
         self._states: list[tuple] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
         self._current = cs.phase(sys_)
@@ -170,11 +170,13 @@ class Driver:
             message = f"t = {self._t_last:.6g} s: {msg}"
         except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
             status, message = "failed", f"t = {self._t_last:.6g} s: {type(exc).__name__}: {exc}"
-        hist = pd.DataFrame(self.rows)
+        hist = frame(self.rows)
         res = float(np.nanmax(np.abs(hist["energy_residual"]))) if len(hist) else math.nan
         return RunResult(status, message, self._t_last, time.perf_counter() - wall0,
                          self.integ.counters_snapshot(), hist, cs.impacts, dict(self.cmax), res,
-                         self._last_state, phases, self._states_arrays(), impact_law_name(cs))
+                         self._last_state, phases,
+                         states_arrays(self._states, sys_.n, sys_.n_bilateral) if self.record_states else None,
+                         impact_law_name(cs))
 
     _t_last = 0.0
     _last_state: State | None = None
@@ -360,10 +362,27 @@ class Driver:
             return
         t = np.array([to for to, _ in outputs])
         obs, terms = batch(t, np.array([s.q for _, s in outputs]), np.array([s.v for _, s in outputs]))
-        obs_cols, term_cols = ({k: c.tolist() for k, c in d.items()} for d in (obs, terms))
-        for i, (to, s) in enumerate(outputs):
-            self._row(to, s, dict(self.work), problem, {k: c[i] for k, c in obs_cols.items()},
-                      {k: c[i] for k, c in term_cols.items()})
+        cs, sys_ = self.contacts, self.system
+        if cs.continuous or (problem.m and cs.active):  # per-row contact forces or constraint residuals
+            obs_cols, term_cols = ({k: c.tolist() for k, c in d.items()} for d in (obs, terms))
+            for i, (to, s) in enumerate(outputs):
+                self._row(to, s, dict(self.work), problem, {k: c[i] for k, c in obs_cols.items()},
+                          {k: c[i] for k, c in term_cols.items()})
+            return
+        # a stretch without events: the rows as one block of columns (driver.history)
+        b = block(t, obs, terms, self.work, self.E0, cs.d_impacts, self.observables,
+                  len(cs.active) + len(cs.penetrating) if cs.watched else None)
+        bad = diverging(b["energy_residual"], self._divergence_scale(self.work))
+        k = int(np.argmax(bad)) if bad.any() else len(outputs)
+        if k:
+            self.rows.append(b.head(k) if k < len(outputs) else b)
+            if self.record_states:
+                self._states.extend(state_row(to, s, sys_.n, sys_.n_bilateral) for to, s in outputs[:k])
+            self.out_i += k
+        if k < len(outputs):  # the first diverging row ends the run as the row path ends it
+            to, s = outputs[k]
+            self._row(to, s, dict(self.work), problem, {c: v[k] for c, v in obs.items()},
+                      {c: v[k] for c, v in terms.items()})
 
     def _row(self, to: float, s: State, work: dict[str, float], problem: Problem,
              obs: dict[str, float] | None = None, terms: dict[str, float] | None = None) -> None:
@@ -397,25 +416,8 @@ class Driver:
                 row[f"lambda_{c}"] = float(s.lam[k + j]) if s.lam.size > k + j else math.nan
         self.rows.append(row)
         if self.record_states:
-            self._states.append(self._state_row(to, s))
+            self._states.append(state_row(to, s, sys_.n, sys_.n_bilateral))
         self.out_i += 1
-
-    def _state_row(self, t: float, s: State) -> tuple:
-        """(t, q, v, a, λ of the bilateral constraints) of an output state; NaN where the
-        integrator's state does not carry a or λ."""
-        n, nb = self.system.n, self.system.n_bilateral
-        a = s.a if s.a.size == n else np.full(n, np.nan)
-        lam = s.lam[:nb] if s.lam.size >= nb else np.full(nb, np.nan)
-        return t, s.q.copy(), s.v.copy(), np.array(a, float), np.array(lam, float)
-
-    def _states_arrays(self) -> dict[str, np.ndarray] | None:
-        if not self.record_states:
-            return None
-        n, nb = self.system.n, self.system.n_bilateral
-        rows = self._states
-        return {"t": np.array([r[0] for r in rows]),
-                **{k: (np.array([r[j] for r in rows]) if rows else np.zeros((0, size)))
-                   for j, (k, size) in enumerate((("q", n), ("v", n), ("a", n), ("lam", nb)), start=1)}}
 
     def _track_constraints(self, s: State, problem: Problem) -> None:
         if problem.m == 0:
@@ -432,13 +434,16 @@ class Driver:
         if not math.isfinite(float(s.q.sum()) + float(s.v.sum())):
             raise _Diverged(f"t = {s.t:.6g} s: the state became non-finite")
 
+    def _divergence_scale(self, work: dict) -> float:
+        return self.energy_scale + sum(abs(w) for w in work.values()) + self.contacts.d_impacts
+
     def _check_divergence(self, t: float, s: State, resid: float, terms: dict, work: dict) -> None:
         """Called at each output time (where the energy is computed anyway). The scale is
         fixed by the start and the booked work — never by the current energy, which grows
         with a blow-up. A diverged row ends the run there (also one of a batch of rows the
         integrator's loop wrote beyond it)."""
-        scale = self.energy_scale + sum(abs(w) for w in work.values()) + self.contacts.d_impacts
-        if not math.isfinite(resid) or abs(resid) > DIVERGENCE_ENERGY * scale:
+        scale = self._divergence_scale(work)
+        if diverging(resid, scale):
             self._t_last, self._last_state = max(self._t_last, t), s
             raise _Diverged(f"t = {t:.6g} s: energy residual {resid:.3g} J exceeds "
                             f"{DIVERGENCE_ENERGY:g} × the energy scale {scale:.3g} J")

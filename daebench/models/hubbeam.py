@@ -52,7 +52,9 @@ W_i = Φy_i(L) B_i / Σ_j |Φy_j(L) B_j|.
 
 from __future__ import annotations
 
+import copy
 import math
+from collections import OrderedDict
 
 import numpy as np
 
@@ -67,7 +69,7 @@ from daebench.models import _hubbeam_kernels as kern
 from daebench.models.meshfree import (MAX_INFLUENCE, MAX_NODES, MESHFREE_CELL_GAUSS, MESHFREE_INFLUENCE,
                                        MIN_INFLUENCE, meshfree_basis)
 from daebench.models.shapes import (FEM_POINTS_PER_ELEMENT, MAX_ELEMENTS, MAX_MODES, MODE_PANELS,
-                                     MODE_POINTS_PER_PANEL, ShapeTables, fem_basis, modal_basis, tabulate)
+                                     MODE_POINTS_PER_PANEL, fem_basis, modal_basis, tabulate)
 from daebench.core.observables import Observable, Position
 from daebench.core.params import Param
 from daebench.core.scene import Scene, SceneError
@@ -75,6 +77,23 @@ from daebench.core.system import KernelSystem
 
 #: discretization.kind → shape builder (length, n, axial, **options) -> ShapeBasis
 BUILDERS = {"modes": modal_basis, "fem": fem_basis, "meshfree": meshfree_basis}
+_TABLES: OrderedDict = OrderedDict()  # the last few discretizations' (basis, quadrature tables)
+_TABLES_KEPT = 4
+
+
+def basis_tables(kind: str, L: float, n: int, axial: bool, opts: dict, points: tuple[float, ...],
+                 fore: bool) -> tuple:
+    """(basis, :func:`~daebench.models.shapes.tabulate` tables) of a discretization: computed
+    once per process for the last few (5 ms each for the modal N = 5 beam, a fifth of a short
+    run's set-up; a sweep builds the same scene again and again); each caller gets its own copy."""
+    key = (kind, L, n, axial, tuple(sorted(opts.items())), points, fore)
+    if key not in _TABLES:
+        basis = BUILDERS[kind](L, n, axial, **opts)
+        _TABLES[key] = (basis, tabulate(basis, np.array(points), foreshortening=fore))
+        while len(_TABLES) > _TABLES_KEPT:
+            _TABLES.popitem(last=False)
+    _TABLES.move_to_end(key)
+    return copy.deepcopy(_TABLES[key])
 #: extra scene keys ``discretization.<key>`` a builder takes as keyword arguments
 BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {"meshfree": ("influence", "cell_gauss")}
 
@@ -250,10 +269,10 @@ class HubBeam(KernelSystem):
         a = s["hub.radius"]
         fore = self.effects["foreshortening"]
         opts = {k: s[f"discretization.{k}"] for k in BUILDER_OPTIONS.get(self.kind, ())}
-        basis = BUILDERS[self.kind](L, s["discretization.n"], self.effects["axial"], **opts)
         self.x_contact = s["contact.point"] * L
         # extra material points: 0 = tip, 1 = contact point
-        tab: ShapeTables = tabulate(basis, np.array([L, self.x_contact]), foreshortening=fore)
+        basis, tab = basis_tables(self.kind, L, s["discretization.n"], self.effects["axial"], opts,
+                                  (L, self.x_contact), fore)
         self.tables = tab
         self.basis = basis
         nA, nB = basis.n_axial, basis.n_transverse

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from daebench.core.borrow import borrow
+from daebench.core.borrow import borrow, copy_to
 from daebench.stepping import control, dense, methods, watch
 from daebench.stepping.methods import N_COUNTERS
 
@@ -28,10 +28,10 @@ UNDERFLOW_FAIL, UNDERFLOW_ERROR = 100, 101  # statuses beyond the methods' own (
 
 @njit(cache=True, inline="always")
 def _copy(dst, src):
-    dst.q[:] = src.q
-    dst.v[:] = src.v
-    dst.a[:] = src.a
-    dst.lam[:] = src.lam
+    copy_to(dst.q, src.q)
+    copy_to(dst.v, src.v)
+    copy_to(dst.a, src.a)
+    copy_to(dst.lam, src.lam)
 
 
 @njit(cache=True)

@@ -1,0 +1,38 @@
+"""driver.history: blocks of rows join the table exactly as rows one by one would."""
+
+import numpy as np
+import pandas as pd
+
+from daebench.driver.history import Block, block, diverging, frame
+
+
+def _rows_of(b: Block) -> list[dict]:
+    n = len(b["t"])
+    return [{k: (v[i].item() if isinstance(v, np.ndarray) else v) for k, v in b.items()} for i in range(n)]
+
+
+def test_frame_of_rows_and_blocks_equals_the_frame_of_rows():
+    b1 = Block(t=np.array([0.1, 0.2]), x=np.array([1.5, -2.0]), n_active=np.array([0, 0]), W=3.0)
+    b2 = Block(t=np.array([0.5, 0.6, 0.7]), x=np.array([4.0, 5.0, 6.0]), y=np.array([1e-300, -0.0, 7.0]), W=3.5)
+    single = [{"t": 0.0, "x": 1.0, "n_active": 0, "W": 0.0}, {"t": 0.3, "x": 2.0, "z": 9.0, "W": 3.0}]
+    mixed = [single[0], b1, single[1], b2]
+    expected = pd.DataFrame([single[0], *_rows_of(b1), single[1], *_rows_of(b2)])
+    got = frame(mixed)
+    pd.testing.assert_frame_equal(got, expected, check_exact=True)
+    assert list(got.columns) == ["t", "x", "n_active", "W", "z", "y"]   # first seen first
+    assert frame([]).empty and frame([b1]).shape == (2, 4)
+
+
+def test_block_head_and_divergence_rule():
+    b = block(np.array([0.0, 1.0, 2.0]), {"theta": np.array([1.0, 2.0, 3.0])},
+              {"kinetic": np.array([1.0, 2.0, 50.0]), "potential": np.array([0.5, 0.5, 0.5])},
+              {"damping": -0.25}, E0=1.5, d_impacts=0.125, observables=None, n_active=None)
+    np.testing.assert_array_equal(b["E"], [1.5, 2.5, 50.5])
+    # E − E0 − ΣW + D, in the row's order of operations
+    np.testing.assert_array_equal(b["energy_residual"], [(1.5 - 1.5 + 0.25) + 0.125, (2.5 - 1.5 + 0.25) + 0.125,
+                                                        (50.5 - 1.5 + 0.25) + 0.125])
+    bad = diverging(b["energy_residual"], 1.0)
+    assert bad.tolist() == [False, False, True]                     # 49.4 > 10 × 1
+    assert diverging(float("nan"), 1.0) and not diverging(9.9, 1.0)
+    h = b.head(2)
+    assert len(h["t"]) == 2 and h["W_damping"] == -0.25 and "n_active" not in h
