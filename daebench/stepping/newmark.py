@@ -199,7 +199,7 @@ def _start(meth, ws, ph, t, cur, cnt):
     return 0
 
 
-@uncounted(no_cpython_wrapper=True)
+@uncounted(no_cpython_wrapper=True, inline="always")
 def _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va):
     """q, a, v of the iterate x (GGL: a = (q − q̂ − C_qᵀμ)/βh²)."""
     for i in range(n):
@@ -212,7 +212,7 @@ def _unpack(meth, n, m, x, Cq, q_hat, v_hat, bh2, gah, qa, aa, va):
         va[i] = v_hat[i] + gah * aa[i]
 
 
-@uncounted(no_cpython_wrapper=True)
+@uncounted(no_cpython_wrapper=True, inline="always")
 def _constraints_ok(meth, n, m, h, tol, qscale, Cq, C, Ct, va):
     """The constraint part of the convergence test, on C, C_q, C_t at the iterate."""
     if m == 0:

@@ -20,6 +20,7 @@ class PerfSettings:
     scaling_t_end: float = 0.3
     pendulum_T: float = 10.0
     pendulum_h: float = 1e-3
+    peer_rounds: int = 15          # interleaved rounds of ours vs Exudyn on the pendulum (median ratio)
     beam_T: float = 0.3
     beam_hs: tuple[float, ...] = (4e-4, 2e-4, 1e-4, 5e-5)
     beam_ref_h: float = 6.25e-6
@@ -40,7 +41,7 @@ class PerfSettings:
 
     @classmethod
     def quick(cls) -> "PerfSettings":
-        return cls(jobs=1, table=False, scaling_Ns=(3, 5), scaling_t_end=0.01, pendulum_T=0.1, beam_T=0.01,
+        return cls(jobs=1, table=False, scaling_Ns=(3, 5), scaling_t_end=0.01, pendulum_T=0.1, peer_rounds=2, beam_T=0.01,
                    beam_hs=(2e-4, 1e-4), beam_ref_h=2.5e-5, ancf_elements=2, adaptive_tols=(1e-6,),
                    adaptive_t_end=0.02, rates_t_end=0.005, bound_min_window=0.01,
                    capture=False, fe_elements=(10, 20), fe_t_end=2e-5)  # capture rates: tests/test_capture_beam.py (slow)

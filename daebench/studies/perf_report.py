@@ -13,6 +13,14 @@ def _f(x, fmt=".3g"):
     return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, fmt)
 
 
+def _pair(p: dict[str, Any]) -> str:
+    """A pendulum pair's ratio (studies.perf_peers._pendulum_pair): median of the rounds, range, µs."""
+    lo, hi = p.get("ratio_range", (math.nan, math.nan))
+    return (f"{_f(p['ratio_ours_over_exudyn'])} (median of {p.get('rounds', 1)} interleaved rounds, "
+            f"range {_f(lo)}–{_f(hi)}; slope between T/4 and T: {_f(p['ours_us_per_step'])} vs "
+            f"{_f(p['exudyn_us_per_step'])} µs; whole runs {_f(p.get('whole_run_ratio', math.nan))}")
+
+
 def markdown(r: dict[str, Any]) -> str:
     L = ["# daebench perf", ""]
     L.append(f"compile / cache load (first calls in the process): "
@@ -32,9 +40,8 @@ def markdown(r: dict[str, Any]) -> str:
     ex = r["exudyn"]
     if ex.get("available"):
         p, b = ex["pendulum"], ex["beam"]
-        L.append(f"3. vs Exudyn {ex['version']} generalized-α: pendulum per step ours/Exudyn = "
-                 f"{_f(p['ratio_ours_over_exudyn'])} ({_f(p['ours_us_per_step'])} vs {_f(p['exudyn_us_per_step'])} µs, "
-                 f"{_f(p.get('newton_per_step', math.nan))} Newton iterations/step); flexible beam, wall at equal "
+        L.append(f"3. vs Exudyn {ex['version']} generalized-α: pendulum hht per step ours/Exudyn = "
+                 f"{_pair(p)}, {_f(p.get('newton_per_step', math.nan))} Newton iterations/step); flexible beam, wall at equal "
                  f"tip-angle error vs {b['exudyn_model']}: "
                  + "; ".join(f"{b['models'][k]} = {_f(b[k]['ratio_ours_over_exudyn'])} (at {_f(b[k]['target_err'])} rad)"
                              for k in b["models"])
@@ -43,8 +50,7 @@ def markdown(r: dict[str, Any]) -> str:
         g = ex.get("genalpha")
         if g:
             L.append(f"   genalpha vs Exudyn generalized-α, pendulum, ρ∞ = {_f(g['rho_inf'])}, h = {g['h']:g} s, "
-                     f"T = {g['T']:g} s: per step ours/Exudyn = {_f(g['ratio_ours_over_exudyn'])} "
-                     f"({_f(g['ours_us_per_step'])} vs {_f(g['exudyn_us_per_step'])} µs); |θ(T) − exact| "
+                     f"T = {g['T']:g} s: per step ours/Exudyn = {_pair(g)}); |θ(T) − exact| "
                      f"ours {_f(g['ours_theta_err'])} rad, Exudyn {_f(g['exudyn_theta_err'])} rad "
                      f"(ratio {_f(g['error_ratio_ours_over_exudyn'])})")
     else:
