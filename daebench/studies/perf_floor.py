@@ -63,22 +63,25 @@ def kernel_time(scene: Any, calls: int = 20000, repeats: int = 5) -> float:
 
 
 def floor(case: str, sets: Sequence[str], integrator: str, options: dict[str, Any],
-          repeats: int = 3) -> dict[str, Any]:
-    """The run's steps/s beside the model-kernel floor (module docstring)."""
+          repeats: int = 15) -> dict[str, Any]:
+    """The run's steps/s beside the model-kernel floor (module docstring): the median of
+    ``repeats`` wall times of the whole ``run_scene`` (the best and the slowest beside it —
+    this machine's speed drifts by tens of per cent from one minute to the next)."""
     scene = load_scene(case, list(sets))
     run_scene(scene, integrator, options, write=False)  # compile / warm
-    best, rec = math.inf, None
+    walls, rec = [], None
     for _ in range(repeats):
         t0 = time.perf_counter()
         rec, _ = run_scene(scene, integrator, options, write=False)
-        best = min(best, time.perf_counter() - t0)
+        walls.append(time.perf_counter() - t0)
     steps = rec.counters["steps"]
     evals = rec.counters["residual_evals"] / steps
     t_kernel = kernel_time(scene)
-    per_step = best / steps
+    per_step = float(np.median(walls)) / steps
     kernel_per_step = evals * t_kernel
     return {"case": case, "settings": list(sets), "integrator": integrator, "options": options,
-            "steps": steps, "steps_per_s": steps / best, "us_per_step": 1e6 * per_step,
+            "steps": steps, "steps_per_s": 1.0 / per_step, "repeats": repeats,
+            "steps_per_s_range": [steps / max(walls), steps / min(walls)], "us_per_step": 1e6 * per_step,
             "residual_evals_per_step": evals, "kernel_us_per_call": 1e6 * t_kernel,
             "kernel_us_per_step": 1e6 * kernel_per_step, "bound_steps_per_s": 1.0 / kernel_per_step,
             "kernel_share": kernel_per_step / per_step}

@@ -101,12 +101,15 @@ def markdown(r: dict[str, Any]) -> str:
                  f"{_f(x['steps_per_s'], '.0f')} |")
     if r.get("floor"):
         L += ["", "## Per step beyond the model's own physics (issue 21; `python -m daebench.studies.perf_floor`)", "",
-              "The model kernel's time per call × the force evaluations per step is a floor under any "
-              "integrator's step; 1 / floor bounds steps/s.", "",
-              "| case | integrator | steps/s | µs/step | force evaluations/step | kernel µs/call | kernel share "
-              "| bound steps/s |", "|---|---|---|---|---|---|---|---|"]
+              "Whole `run_scene` calls (set-up, events, history table included); the median of the runs and "
+              "their range. The model kernel's time per call × the force evaluations per step is a floor under "
+              "any integrator's step; 1 / floor bounds steps/s.", "",
+              "| case | integrator | steps/s (median) | range | µs/step | force evaluations/step | kernel µs/call "
+              "| kernel share | bound steps/s |", "|---|---|---|---|---|---|---|---|---|"]
         for x in r["floor"]:
-            L.append(f"| {x['case']} | {x['integrator']} | {_f(x['steps_per_s'], '.0f')} | {_f(x['us_per_step'])} | "
+            lo, hi = x.get("steps_per_s_range", (math.nan, math.nan))
+            L.append(f"| {x['case']} | {x['integrator']} | {_f(x['steps_per_s'], '.0f')} | {_f(lo, '.0f')}–{_f(hi, '.0f')} "
+                     f"({x.get('repeats', 1)} runs) | {_f(x['us_per_step'])} | "
                      f"{_f(x['residual_evals_per_step'])} | {_f(x['kernel_us_per_call'])} | "
                      f"{_f(100 * x['kernel_share'], '.0f')} % | {_f(x['bound_steps_per_s'], '.0f')} |")
     if t:
