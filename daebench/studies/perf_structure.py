@@ -69,7 +69,7 @@ def _exponent(rows: list[dict[str, Any]], key: str) -> float:
 
 
 def fe_scaling(elements: tuple[int, ...] = (50, 100, 200, 400), t_end: float = 2e-4, h: float = 1e-7,
-               dense_up_to: int = 200, t_short: float = 1e-4, repeats: int = 2) -> dict[str, Any]:
+               dense_up_to: int = 200, t_short: float = 1e-4, repeats: int = 5) -> dict[str, Any]:
     """hht per-step CPU time on rod-wall, banded vs dense (module docstring).
 
     Per size: the whole run's CPU time over its steps (``ms_per_step``, what the targets
@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--elements", default="50,100,200,400", help="rod-wall sizes, comma-separated")
     ap.add_argument("--t-end", type=float, default=2e-4)
     ap.add_argument("--dense-up-to", type=int, default=200, help="largest size also run with dense LU")
-    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out", default=None)
     a = ap.parse_args(argv)
     try:
