@@ -36,25 +36,32 @@ def diverging(resid: float | np.ndarray, scale: float) -> bool | np.ndarray:
     return ~np.isfinite(resid) | (np.abs(resid) > DIVERGENCE_ENERGY * scale)
 
 
+def columns(t, obs: Mapping, terms: Mapping, work: Mapping[str, float], E0: float, d_impacts: float,
+            observables: Iterable[str] | None, n_active: int | None) -> dict:
+    """The history's own columns at output time ``t``: the model's observables (those asked
+    for) and energy terms there, E, the work booked and the impact loss so far, the energy
+    residual E − E0 − ΣW + D, the contacts in force. One rule for one row (scalars) and for a
+    block (arrays over t; work, loss and contacts constant): each value is the same to the bit."""
+    c = {"t": t}
+    c.update(obs if observables is None else {k: obs[k] for k in observables if k in obs})
+    c.update({f"E_{k}": x for k, x in terms.items()})
+    E = sum(terms.values())
+    c["E"] = E
+    for k, w in work.items():
+        c[f"W_{k}"] = w
+    c["D_impacts"] = d_impacts
+    c["energy_residual"] = E - E0 - sum(work.values()) + d_impacts
+    if n_active is not None:
+        c["n_active"] = n_active
+    return c
+
+
 def block(t: np.ndarray, obs: Mapping[str, np.ndarray], terms: Mapping[str, np.ndarray],
           work: Mapping[str, float], E0: float, d_impacts: float, observables: Iterable[str] | None,
           n_active: int | None) -> Block:
-    """The rows at output times ``t`` of one stretch without events: the model's observables
-    and energy terms there (arrays over t), the work booked and the impact loss so far
-    (constants) — the columns :meth:`daebench.driver.simulate.Driver._row` writes, in its order
-    and with its arithmetic (each sum in the same order, so each value equals the row's)."""
-    b = Block(t=np.asarray(t, dtype=float))
-    b.update(obs if observables is None else {k: obs[k] for k in observables if k in obs})
-    b.update({f"E_{k}": np.asarray(x, dtype=float) for k, x in terms.items()})
-    E = sum(np.asarray(x, dtype=float) for x in terms.values())
-    b["E"] = E
-    for k, w in work.items():
-        b[f"W_{k}"] = w
-    b["D_impacts"] = d_impacts
-    b["energy_residual"] = E - E0 - sum(work.values()) + d_impacts
-    if n_active is not None:
-        b["n_active"] = n_active
-    return b
+    """The rows at output times ``t`` of one stretch without events (:func:`columns` over arrays)."""
+    return Block(columns(np.asarray(t, dtype=float), obs, {k: np.asarray(x, dtype=float) for k, x in terms.items()},
+                         work, E0, d_impacts, observables, n_active))
 
 
 def frame(rows: list[dict | Block]) -> pd.DataFrame:

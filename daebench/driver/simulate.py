@@ -42,7 +42,8 @@ import pandas as pd
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
 from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name
-from daebench.driver.history import DIVERGENCE_ENERGY, Block, block, diverging, frame, state_row, states_arrays
+from daebench.driver.history import (DIVERGENCE_ENERGY, Block, block, columns, diverging, frame, state_row,
+                                     states_arrays)
 from daebench.driver.stickslip import PAINLEVE_SLIP, FrictionPhase
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
@@ -370,8 +371,7 @@ class Driver:
                           {k: c[i] for k, c in term_cols.items()})
             return
         # a stretch without events: the rows as one block of columns (driver.history)
-        b = block(t, obs, terms, self.work, self.E0, cs.d_impacts, self.observables,
-                  len(cs.active) + len(cs.penetrating) if cs.watched else None)
+        b = block(t, obs, terms, self.work, self.E0, cs.d_impacts, self.observables, self._n_active())
         bad = diverging(b["energy_residual"], self._divergence_scale(self.work))
         k = int(np.argmax(bad)) if bad.any() else len(outputs)
         if k:
@@ -390,20 +390,11 @@ class Driver:
         work booked until then (``obs``, ``terms``: the model's observables and energy
         terms there, when already computed); the next output time is the following one."""
         sys_, cs = self.system, self.contacts
-        row: dict[str, float] = {"t": to}
         obs = sys_.observables(to, s.q, s.v) if obs is None else obs
-        row.update(obs if self.observables is None else {k: obs[k] for k in self.observables if k in obs})
         terms = sys_.energy(s.q, s.v) if terms is None else terms
-        E = float(sum(terms.values()))
-        row.update({f"E_{k}": float(x) for k, x in terms.items()})
-        row["E"] = E
-        for k, w in work.items():
-            row[f"W_{k}"] = w
-        row["D_impacts"] = cs.d_impacts
-        row["energy_residual"] = E - self.E0 - sum(work.values()) + cs.d_impacts
+        row = columns(to, obs, {k: float(x) for k, x in terms.items()}, work, self.E0, cs.d_impacts,
+                      self.observables, self._n_active())
         self._check_divergence(to, s, row["energy_residual"], terms, work)
-        if cs.watched:
-            row["n_active"] = len(cs.active) + len(cs.penetrating)
         if cs.continuous:
             F = problem.contact_forces(s.q, s.v)
             for i in range(sys_.n_contacts):
@@ -433,6 +424,11 @@ class Driver:
         # anyway); a quarter of np.all(np.isfinite(...))'s cost, paid on every step
         if not math.isfinite(float(s.q.sum()) + float(s.v.sum())):
             raise _Diverged(f"t = {s.t:.6g} s: the state became non-finite")
+
+    def _n_active(self) -> int | None:
+        """The history's n_active: contacts in force (closed or penetrating), when watched."""
+        cs = self.contacts
+        return len(cs.active) + len(cs.penetrating) if cs.watched else None
 
     def _divergence_scale(self, work: dict) -> float:
         return self.energy_scale + sum(abs(w) for w in work.values()) + self.contacts.d_impacts

@@ -77,6 +77,9 @@ from daebench.core.system import KernelSystem
 
 #: discretization.kind → shape builder (length, n, axial, **options) -> ShapeBasis
 BUILDERS = {"modes": modal_basis, "fem": fem_basis, "meshfree": meshfree_basis}
+#: extra scene keys ``discretization.<key>`` a builder takes as keyword arguments
+BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {"meshfree": ("influence", "cell_gauss")}
+
 _TABLES: OrderedDict = OrderedDict()  # the last few discretizations' (basis, quadrature tables)
 _TABLES_KEPT = 4
 
@@ -94,8 +97,7 @@ def basis_tables(kind: str, L: float, n: int, axial: bool, opts: dict, points: t
             _TABLES.popitem(last=False)
     _TABLES.move_to_end(key)
     return copy.deepcopy(_TABLES[key])
-#: extra scene keys ``discretization.<key>`` a builder takes as keyword arguments
-BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {"meshfree": ("influence", "cell_gauss")}
+
 
 DESCRIPTION = "flexible beam on a turning hub (modes or FEM), gravity, torque, damping, contact with a plane"
 
