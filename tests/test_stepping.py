@@ -82,7 +82,8 @@ def test_adaptive_step_underflow_ends_with_its_reason():
     v0[0] = np.nan
     integ = HHT(adaptive=True)
     integ.start(problem, State(0.0, q0, v0, a0, lam0), 1e-3)
-    watch = W.Watch(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(1, bool), True, np.zeros(3), 1.0, 1.0)
+    watch = W.make(problem.n, problem.m, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(1, bool), True,
+                   np.zeros(3), 1.0, 1.0)
     with pytest.raises(StepFailure, match=r"^step size underflow after a failed step: non-finite .* \(t = 0\)$"):
         integ.advance(1.0, watch)
     assert integ.counters.rejected == 15 and integ.counters.steps == 0  # 1e-3 · 0.25^15 < 1e-12
@@ -98,7 +99,8 @@ def _abm_sequence(interleave: bool):
     integ = BaumgarteABM4(h=1e-3, delta=5.0, epsilon=5.0)
     integ.start(problem, State(0.0, q, v, a, lam), 1e-3)
     states = [integ.step(1.0), integ.step(1.0)]
-    out = W.Watch(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(1, bool), False, np.zeros(3), 0.009, 1.0)
+    out = W.make(problem.n, problem.m, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(1, bool), False,
+                 np.zeros(3), 0.009, 1.0)
     if interleave:
         adv = integ.advance(1.0, out)  # stops at the output time 0.009 (7 steps)
         assert adv.steps == 7

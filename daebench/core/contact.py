@@ -316,6 +316,8 @@ class Impact:
     min_gap: float = math.nan      # smallest gap during the episode (penetration < 0)
     impact_impulse: float = math.nan  # impulse of the impact itself: the map's Λ (driver), the first
                                       # step's of an episode (event-capturing; ``impulse`` is the episode's)
+    restitution: float = math.nan  # the restitution Newton's law applied (driver: the scene's, or 0 where
+                                   # the rebound was too slow or too short to resolve — Zeno's accumulation)
     q: np.ndarray | None = field(default=None, repr=False)        # configuration at the impact
     v_minus: np.ndarray | None = field(default=None, repr=False)  # velocities before / after
     v_plus: np.ndarray | None = field(default=None, repr=False)

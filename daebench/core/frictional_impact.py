@@ -1,5 +1,5 @@
-"""The impact law of the event-driven driver: Newton's law for several contacts at once,
-with planar Coulomb friction, as one linear complementarity problem.
+"""The impact law of the event-driven driver: Newton's law for one contact as for several at
+once, with planar Coulomb friction, as one linear complementarity problem.
 
 At an impact at (t, q) with velocities v⁻ the contacts taking part (rows G_N of their gap
 Jacobians, G_T of their tangent Jacobians) receive impulses P_N ≥ 0 (normal) and P_T
@@ -10,9 +10,10 @@ Jacobians, G_T of their tangent Jacobians) receive impulses P_N ≥ 0 (normal) a
 so that U⁺ = U⁻ + W P with the constrained Delassus matrix W = G M_B⁻¹ Gᵀ (G = [G_N; G_T],
 M_B⁻¹ the inverse of M on B v = 0, from the augmented system). The laws, per contact:
 
-* Newton (normal): 0 ≤ U_N⁺ + e U_N⁻ ⟂ P_N ≥ 0 — for several contacts at once the
-  *simultaneous* Newton law, whose LCP (matrix W_NN, a P-matrix for independent contacts)
-  is solved by Murty's method (:func:`daebench.core.lcp.solve_lcp`);
+* Newton (normal): 0 ≤ U_N⁺ + e U_N⁻ ⟂ P_N ≥ 0 — unilateral: a contact that separates
+  (U_N⁻ ≥ 0) receives no impulse; for several contacts at once the *simultaneous* Newton
+  law. Its LCP (matrix W_NN, a P-matrix for independent contacts) is solved by Murty's
+  method (:func:`daebench.core.lcp.solve_lcp`; one contact: P_N = max(0, −(1 + e) U_N⁻/W));
 * Coulomb (tangential, e_T = 0), at contacts with μ > 0, in the manner of Pfeiffer &
   Glocker (1996, §7.3): the planar friction cone |P_T| ≤ μ P_N is split into two
   complementarity rows. With the friction saturations λ_0R = μ P_N + P_T ≥ 0 (zero when
@@ -51,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from daebench.core.lcp import LCP_FAILURES, LCP_RAY, enumerate_lcp, lcp_work, lemke_work, solve_lcp, solve_lcp_lemke
+from daebench.core.lcp import LCP_FAILURES, LCP_RAY, enumerate_lcp, lcp, lemke_work, solve_lcp_lemke
 from daebench.core.linalg import solve_structured
 
 #: the names of the impact laws, as the run record gives them
@@ -99,10 +100,12 @@ def constrained_inverse(M: np.ndarray, B: np.ndarray, G: np.ndarray) -> np.ndarr
 
 
 def frictional_impact(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v_minus: np.ndarray,
-                      e: float, B: np.ndarray | None = None) -> FrictionalImpact:
-    """Newton's law with restitution ``e`` and planar Coulomb friction (coefficients ``mu``,
-    0: frictionless) at the contacts whose normal / tangent Jacobian rows are ``GN`` / ``GT``,
-    with bilateral velocity constraints ``B v = 0`` kept (module docstring)."""
+                      e: float | np.ndarray, B: np.ndarray | None = None) -> FrictionalImpact:
+    """Newton's law with restitution ``e`` (one for every contact, or one per contact) and
+    planar Coulomb friction (coefficients ``mu``, 0: frictionless) at the contacts whose
+    normal / tangent Jacobian rows are ``GN`` / ``GT``, with bilateral velocity constraints
+    ``B v = 0`` kept (module docstring). A contact that does not approach (U_N⁻ ≥ 0) gets
+    no impulse unless another contact's impulse pushes it into its surface."""
     n = M.shape[0]
     GN, GT = np.atleast_2d(GN), np.atleast_2d(GT)
     k = GN.shape[0]
@@ -115,11 +118,8 @@ def frictional_impact(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndar
     W = G @ X
     un, ut = GN @ v_minus, GT[F] @ v_minus
     if nf == 0:
-        A, b = W, (1.0 + e) * un
-        z, w = np.zeros(k), np.zeros(k)
-        status = int(solve_lcp(np.ascontiguousarray(A), np.ascontiguousarray(b), np.ones(k, np.bool_), z, w,
-                               lcp_work(k)))
-        pn, pt = z, np.zeros(0)
+        pn, status = lcp(W, (1.0 + e) * un)
+        pt = np.zeros(0)
     else:
         S = np.zeros((nf, k))
         S[np.arange(nf), F] = 1.0

@@ -2,20 +2,35 @@
 closes, a contact force turns tensile, a penetrating contact separates, a slipping contact
 stops or a sticking one's force leaves the friction cone — located on the integrator's
 dense output by Brent's method — and what each does to the state: the impact law of the
-``constraint`` law (closing the contact when the rebound is too slow to resolve), the
-start and end of a continuous-law episode, the switch between stick and slip
-(:mod:`daebench.driver.stickslip`), and the projection back onto the constraints of the
-phase that ends.
+``constraint`` law, the start and end of a continuous-law episode, the switch between
+stick and slip (:mod:`daebench.driver.stickslip`), and the projection back onto the
+constraints of the phase that ends.
+
+Contact physics is decided by complementarity, on the state, never by an integrator's
+internals:
+
+* **impacts** — Newton's law at velocity level, 0 ≤ ġ⁺ + e ġ⁻ ⟂ Λ ≥ 0, for one contact as
+  for many (:func:`daebench.core.frictional_impact.frictional_impact`; with planar Coulomb
+  friction in the manner of Pfeiffer & Glocker where μ > 0). A contact that does not
+  approach (ġ⁻ ≥ 0) receives no impulse and no impact is recorded; if its gap drifted below
+  zero, that is a position error of the integration, projected away (:func:`lift`);
+* **which contacts are closed** — the contact law at acceleration level on the current
+  state, 0 ≤ g̈ ⟂ λ_N ≥ 0 (:func:`settle`, :mod:`daebench.core.resting_contacts`), at the
+  start of every phase for the closed contacts and the open ones at rest on their surface
+  (after an impact, a release, or a grazing touch);
+* **releases** — a closed contact opens when its *consistent* force (the phase's
+  acceleration-level multiplier at the step's (t, q, v), :func:`contact_forces`) turns
+  tensile, located on the dense output. The multiplier an index-3 step returns is not
+  used: at small h it is dominated by the step's position correction (∝ C/(βh²)) and
+  changes sign from step to step.
 
 The impact law (scene key ``contact.impact_law``, named in the run record by
 :func:`impact_law_name`): where several contacts close at the same instant — the
 impacting one, the open contacts at g = 0 that do not separate, the closed ones — the
-``simultaneous`` law (the default) applies Newton's law to all of them at once, one LCP
-(:func:`daebench.core.frictional_impact.frictional_impact`, with planar Coulomb friction
-in the manner of Pfeiffer & Glocker where μ > 0); the ``sequential`` law applies it to
-the impacting contact alone, the closed contacts held, and the next contact's impact
-follows as its own event. A Newton's cradle of three balls leaves at (−1/3, 2/3, 2/3) v
-under the first and at (0, 0, 1) v under the second.
+``simultaneous`` law (the default) applies Newton's law to all of them at once, one LCP;
+the ``sequential`` law applies it to the impacting contact alone, the closed contacts
+held, and the next contact's impact follows as its own event. A Newton's cradle of three
+balls leaves at (−1/3, 2/3, 2/3) v under the first and at (0, 0, 1) v under the second.
 
 The driver's contact bookkeeping is one value, :class:`ContactState` (which contacts are
 closed, which penetrate, their episodes); the functions here take it and the phase's
@@ -32,26 +47,32 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.optimize import brentq
 
-from daebench.core.contact import Impact, impact_map
+from daebench.core import phase as _phase
+from daebench.core.contact import Impact
 from daebench.core.frictional_impact import failure_message, frictional_impact, law_name
 from daebench.core.kernels import friction_coefficients
 from daebench.core.linalg import solve_structured
 from daebench.core.problem import Problem
+from daebench.core.resting_contacts import failure_message as resting_failure, resting_lcp
 from daebench.core.system import MechanicalSystem, State
 from daebench.driver.stickslip import (CONE_TOL, PAINLEVE_SLIP, SLIP_MIN, FrictionPhase, stick_groups,
                                        tangent_row)
 from daebench.integrators.base import StepFailure
-from daebench.stepping.watch import GAP_BAND, gap_event
+from daebench.stepping.watch import GAP_BAND, gap_event, near
 
 EVENT_TOL = 1e-13        # event times located to this (seconds)
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
+ZENO_FLIGHT = 1e-9       # a rebound whose free flight would last less than this (s) is plastic too
 REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes it (Zeno)
 PROJECTION_ITERS = 3     # Newton iterations of the position projection onto C(q) = 0
+BAND_ROUNDOFF = 1e-6 * GAP_BAND  # a gap this close to a threshold is on it (a rebound located there)
+MAX_HALVINGS = 10        # an approach not resolved at 2⁻¹⁰ of the contact step closes at that step's end
+FLIGHT_SAMPLES = 40      # a rebound's return is searched down to 2⁻⁴⁰ of a step (≈ 1e-16 s at h = 1e-4)
 
 
 class Event(NamedTuple):
-    """An event located in a step: its time, its kind (close | open | separate | stop | slide)
-    and contact."""
+    """An event located in a step: its time, its kind (close | open | separate | stop | slide |
+    near | far | refine) and contact."""
 
     t: float
     kind: str
@@ -64,11 +85,7 @@ class ContactState:
 
     ``constraint`` / ``continuous``: the driver closes contacts as constraints (the
     ``constraint`` law) / books continuous-law episodes; neither when the integrator
-    resolves the contacts itself. ``hold``: contacts re-closed within the first step after
-    their release (the free motion went back into the plane faster than the step
-    resolves — unresolved chatter); they stay closed for one full step before the sign of
-    λ is read again, so every such cycle advances time by at least one step (a documented
-    regularization)."""
+    resolves the contacts itself."""
 
     constraint: bool
     continuous: bool
@@ -78,11 +95,18 @@ class ContactState:
     approach_speed: np.ndarray              # v₀ of each continuous-law episode
     active: list[int] = field(default_factory=list)        # closed (constraint law), in row order
     penetrating: set[int] = field(default_factory=set)     # continuous law: g < 0
-    hold: set[int] = field(default_factory=set)
     episode_start_W: dict[int, float] = field(default_factory=dict)  # contact work at first touch
     impacts: list[Impact] = field(default_factory=list)
     d_impacts: float = 0.0                  # kinetic energy removed by impact maps
     gap_cache: tuple | None = None          # (q, t, g(q)) of the last step's new state
+    force_cache: tuple | None = None        # (q, t, λ_N) of the last step's new state
+    near_h: float = 0.0                     # proximity time: NEAR_STEPS free steps (0: no contact step)
+    near: set[int] = field(default_factory=set)  # open contacts near their surface (stepping.watch.near)
+    halvings: int = 0                       # the contact step halved this often (unresolved approaches)
+    force_release_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per contact: its last
+                                            # release located where its consistent force crossed zero
+    changed_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per contact: when it last
+                                            # opened or closed
     impact_law: str = "simultaneous"        # contact.impact_law (constraint law)
     base: Problem | None = None             # the model's own problem (no contact closed)
     mu: np.ndarray = field(default_factory=lambda: np.zeros(0))   # Coulomb μ per contact
@@ -101,6 +125,8 @@ class ContactState:
         if continuous:
             cs.penetrating = {int(i) for i in np.flatnonzero(g < 0.0)}
         cs.base = problem
+        cs.force_release_t = np.full(max(nc, 1), -np.inf)
+        cs.changed_t = np.full(max(nc, 1), -np.inf)
         law = problem.contact_law
         cs.impact_law = getattr(law, "impact_law", "simultaneous")
         cs.mu = friction_coefficients(problem.kernel.model, nc, q, np.zeros_like(q) if v is None else v) \
@@ -152,13 +178,36 @@ class ContactState:
 
     @property
     def in_contact(self) -> bool:
-        return bool(self.active) or bool(self.penetrating)
+        """Whether the integrator takes its contact step: contacts closed, penetrating, or
+        open and near their surface (:func:`daebench.stepping.watch.near`)."""
+        return bool(self.active) or bool(self.penetrating) or bool(self.near)
+
+    def update_near(self, problem: Problem, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> None:
+        """The open contacts near their surface at (q, v) with acceleration a
+        (:func:`daebench.stepping.watch.near`)."""
+        if self.near_h <= 0.0 or not self.watched:
+            return
+        self.near = {i for i in range(problem.n_contacts) if i not in self.active and i not in self.penetrating
+                     and is_near(problem, q, v, a, i, self.near_h)}
+
+    def close(self, contacts: list[int], t: float) -> None:
+        """Close open contacts at t (they join the phase's constraints)."""
+        self.active += contacts
+        self.armed[contacts] = False
+        self.changed_t[contacts] = t
 
     def release(self, contacts: list[int], t: float, q: np.ndarray | None = None) -> None:
-        """Open closed contacts at t (a closed contact that would pull)."""
+        """Open closed contacts at t; their closed episodes end there."""
         self.active = [c for c in self.active if c not in contacts]
         self.armed[contacts] = False
         self.last_release_t[contacts] = t
+        self.changed_t[contacts] = t
+        for c in contacts:
+            for imp in reversed(self.impacts):  # the closed episode of contact c ends here
+                if imp.contact == c:
+                    if imp.closed and math.isnan(imp.t_end):
+                        imp.t_end = t
+                    break
         if q is not None and (self.stick or self.slip):
             self.regroup(t, q)
 
@@ -196,27 +245,80 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
                 continue
             closes, arms = gap_event(g1[i], cs.armed[i])
             off = 0.0 if cs.armed[i] else GAP_BAND
-            if closes and g0[i] >= -off:
+            if closes and g0[i] >= -off - BAND_ROUNDOFF:
                 # the band decides whether the contact closed; where is g = 0 when the
                 # step started on or above the plane
                 at = 0.0 if g0[i] >= 0.0 else off
-                cands.append(Event(_root(lambda t: problem.gap(dense(t).q)[i] + at, prev, new), "close", i))
+                tc = _closing_root(lambda t: problem.gap(dense(t).q)[i] + at, prev, new)
+                if tc < new.t and _normal_velocity(problem, dense(tc), i) > REBOUND_MIN:
+                    # the dense output's root separates: the step does not resolve where the gap
+                    # closed (a motion faster than the step). Take it again, finer (ContactState.halvings)
+                    if cs.near_h > 0.0 and cs.halvings < MAX_HALVINGS:
+                        cands.append(Event(prev.t, "refine", i))
+                        continue
+                    tc = new.t  # unresolved at the finest step: the closing is the step's end
+                cands.append(Event(tc, "close", i))
             elif closes:
                 # the step started already (numerically) closed — e.g. a grazing re-contact
                 # right after a separation: contact at its start
                 cands.append(Event(prev.t, "close", i))
             elif arms:
                 cs.armed[i] = True
+        if cs.near_h > 0.0 and not cands:
+            # proximity changes, at the step's end (only where no event came first)
+            for i in range(problem.n_contacts):
+                if i not in cs.active and i not in cs.penetrating and \
+                        is_near(problem, new.q, new.v, new.a, i, cs.near_h) != (i in cs.near):
+                    cands.append(Event(new.t, "far" if i in cs.near else "near", i))
     if cs.constraint and cs.active:
-        k = problem.n_bilateral
+        fc = cs.force_cache
+        f0 = fc[2] if fc is not None and fc[0] is prev.q and fc[1] == prev.t else contact_forces(problem, prev)
+        f1 = contact_forces(problem, new)
+        cs.force_cache = (new.q, new.t, f1)
         for j, c in enumerate(cs.active):
-            if new.lam[k + j] < 0.0 <= prev.lam[k + j]:
-                cands.append(Event(_root(lambda t: dense(t).lam[k + j], prev, new), "open", c))
-            elif new.lam[k + j] < 0.0 and c in cs.hold:
-                cands.append(Event(new.t, "open", c))  # still tensile after the held step
-        cs.hold.clear()
+            if f1[j] < 0.0:
+                at = _root(lambda t: contact_forces(problem, dense(t))[j], prev, new) if f0[j] >= 0.0 else prev.t
+                cands.append(Event(at, "open", c))
         cands += _friction_events(cs, prev, new, problem, dense)
+    # a contact's status changes once an instant: an event that would undo at the phase's start
+    # what was decided there (the state is degenerate: force and gap acceleration both zero)
+    # waits one step, so that every such cycle advances time
+    cands = [c for c in cands if not (c.t <= prev.t and cs.changed_t[c.contact] == prev.t
+                                      and c.kind in ("close", "open"))]
     return min(cands, key=lambda c: c.t) if cands else None
+
+
+def is_near(problem: Problem, q: np.ndarray, v: np.ndarray, a: np.ndarray, i: int, near_h: float) -> bool:
+    """:func:`daebench.stepping.watch.near` for contact i at (q, v, a) (a state without an
+    acceleration: its gap moving at constant ġ)."""
+    g, G, gam = problem.gap_rows(q, v)
+    gdd = float(G[i] @ a - gam[i]) if np.size(a) == q.shape[0] else 0.0
+    return bool(near(float(g[i]), float(G[i] @ v), gdd, near_h))
+
+
+def _normal_velocity(problem: Problem, s: State, i: int) -> float:
+    """ġ_i = g_q,i v at the state ``s``."""
+    return float(problem.gap_jacobian(s.q)[i] @ s.v)
+
+
+def contact_forces(problem: Problem, s: State) -> np.ndarray:
+    """The consistent normal forces λ_N ≥ 0 (compressive) of the phase's closed contacts at
+    the state ``s``: the multipliers of [[M, C_qᵀ], [C_q, 0]] [a; λ] = [Q; γ] at (t, q, v),
+    the acceleration-level law of the phase — whatever multiplier the integrator's step made."""
+    return consistent_multipliers(problem, s)[problem.n_bilateral:]
+
+
+def consistent_multipliers(problem: Problem, s: State) -> np.ndarray:
+    """Every multiplier λ of the phase's constraints at the state ``s`` (module docstring):
+    not counted as the integrator's work."""
+    n, m = problem.n, problem.m
+    acc, lam = np.empty(n), np.empty(m)
+    w = _phase.augmented_work(n, m)
+    if _phase.solve_augmented(problem.kernel, float(s.t), np.ascontiguousarray(s.q, float),
+                              np.ascontiguousarray(s.v, float), 0.0, 0.0, w, acc, lam):
+        raise StepFailure("singular augmented mass matrix at a contact-force evaluation (dependent constraints?)",
+                          s.t)
+    return lam
 
 
 def _friction_events(cs: ContactState, prev: State, new: State, problem: Problem,
@@ -232,13 +334,33 @@ def _friction_events(cs: ContactState, prev: State, new: State, problem: Problem
         u0, u1 = s * float(tangent_row(md, c, prev.q) @ prev.v), s * float(tangent_row(md, c, new.q) @ new.v)
         if u1 < 0.0:
             out.append(Event(_root(ut, prev, new) if u0 > 0.0 else prev.t, "stop", c))
-    if cs.groups and new.lam.size == problem.m:
-        m0, m1 = cs.cone_margins(problem, prev.lam), cs.cone_margins(problem, new.lam)
+    if cs.groups:
+        m0 = cs.cone_margins(problem, consistent_multipliers(problem, prev))
+        m1 = cs.cone_margins(problem, consistent_multipliers(problem, new))
         for c in cs.groups:
             if m1[c][0] < 0.0:
-                f = (lambda t, c=c: cs.cone_margins(problem, dense(t).lam)[c][0])
+                f = (lambda t, c=c: cs.cone_margins(problem, consistent_multipliers(problem, dense(t)))[c][0])
                 out.append(Event(_root(f, prev, new) if m0[c][0] >= 0.0 else prev.t, "slide", c))
     return out
+
+
+def _closing_root(f: Callable[[float], float], prev: State, new: State) -> float:
+    """Where f (a gap above its closing threshold) first turns negative in (prev.t, new.t].
+    A step that starts on the threshold (f = 0: the contact rebounded there) first rises:
+    the return is bracketed by sampling the dense output — at 2⁻ᵏ of the step for a flight
+    shorter than a step, then uniformly — so a rebound is never taken for a closing."""
+    if abs(f(prev.t)) > BAND_ROUNDOFF:
+        return _root(f, prev, new)
+    h = new.t - prev.t
+    taus = [h * 2.0 ** -k for k in range(FLIGHT_SAMPLES, 0, -1)] + [h * j / 16.0 for j in range(9, 17)]
+    last_up = None
+    for tau in taus:
+        t = prev.t + tau
+        if f(t) > 0.0:
+            last_up = t
+        elif last_up is not None:
+            return brentq(f, last_up, t, xtol=EVENT_TOL, rtol=4 * np.finfo(float).eps)
+    return prev.t if last_up is None else new.t
 
 
 def _root(f: Callable[[float], float], prev: State, new: State) -> float:
@@ -251,20 +373,22 @@ def _root(f: Callable[[float], float], prev: State, new: State) -> float:
     return brentq(f, prev.t, new.t, xtol=EVENT_TOL, rtol=4 * np.finfo(float).eps)
 
 
-def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, contact_work: float,
-                h: float) -> State:
+def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, contact_work: float) -> State:
     """Apply ``event`` to the contacts and to the state (on the dense output at the event
     time) of the phase ``problem`` that it ends; ``contact_work``: the continuous laws'
-    work booked so far, ``h``: the phase's step size (the hold rule)."""
+    work booked so far. Which contacts then stay closed is decided at the start of the
+    next phase (:func:`settle`)."""
     t, kind, i = event
     # the event state comes from the dense output: put it back on the constraints of
     # the phase it ends (closed contacts: g = 0, ġ = 0) before switching
     q, v = project(problem, t, state.q, state.v)
     system = cs.base.system if cs.base is not None else problem.system
+    if kind != "refine":
+        cs.halvings = 0  # any other event: the step the phase calls for again
     if kind == "close" and cs.constraint:
-        v = _impact(cs, problem, t, i, q, v)
-        if i in cs.active and t - cs.last_release_t[i] <= h:
-            cs.hold.add(i)
+        v, lifted = _impact(cs, problem, t, i, q, v)
+        if lifted:  # open contacts found below their surface: a position drift, not an impact
+            q = lift(cs, system, t, q, lifted)
         if cs.active:
             # the impact was located on g = 0 (or −GAP_BAND): start the closed phase on it
             q, v = project(cs.phase(system), t, q, v)
@@ -290,22 +414,18 @@ def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, 
                 cs.slip[c] = -s
             cs.regroup(t, q)
     elif kind == "slide":
-        lam_t = cs.cone_margins(problem, state.lam)[i][1]
+        lam_t = cs.cone_margins(problem, consistent_multipliers(problem, State(t, q, v)))[i][1]
         for c in cs.groups[i]:
             del cs.stick[c]
             cs.slip[c] = math.copysign(1.0, lam_t)
         cs.regroup(t, q)
     elif kind == "open":
-        cs.active.remove(i)
-        cs.armed[i] = False
-        cs.last_release_t[i] = t
-        if cs.stick or cs.slip:
-            cs.regroup(t, q)
-        for imp in reversed(cs.impacts):  # the closed episode of contact i ends here
-            if imp.contact == i:
-                if imp.closed and math.isnan(imp.t_end):
-                    imp.t_end = t
-                break
+        cs.release([i], t, q)
+        cs.force_release_t[i] = t
+    elif kind == "refine":
+        cs.halvings += 1  # the phase restarts here, at half the step that did not resolve the approach
+    elif kind in ("near", "far"):
+        cs.near.symmetric_difference_update({i})  # the phase restarts here, at the contact step or the free one
     elif kind == "close":  # continuous law: first touch
         vn = float(problem.gap_jacobian(q)[i] @ v)
         cs.approach_speed[i] = max(-vn, 1e-12)
@@ -325,21 +445,24 @@ def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, 
     return State(t, q, v)
 
 
-def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The impact law at contact i at (t, q, v⁻) with the law's restitution and the phase's
-    bilateral constraints kept (module docstring); books the impacts, closes the contacts
-    whose rebound is too slow to resolve and opens the closed ones that separate; returns v⁺."""
+def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray
+            ) -> tuple[np.ndarray, list[int]]:
+    """Newton's law at the closing of contact i at (t, q, v⁻), with the law's restitution and
+    the phase's bilateral constraints kept (module docstring). Books the impacts (contacts
+    that receive an impulse), closes the contacts left at rest (ġ⁺ below REBOUND_MIN: the
+    acceleration-level law decides at the next phase start whether they stay closed) and
+    opens the closed ones that separate. Returns v⁺ and the open contacts of the event that
+    lie below their surface by more than the band allows (to be lifted onto it)."""
     base = cs.base if cs.base is not None else problem
     M = base.mass(q)
     g, Gq, _ = base.gap_rows(q)
     B = base.constraint_jacobian(t, q)[:base.n_bilateral]
     e = problem.contact_law.restitution
-    # a re-impact within REIMPACT_MIN_DT (Zeno chatter) or a contact found already
-    # penetrating with a separating velocity closes plastically (the contact's own map)
-    zeno = t - cs.last_impact_t[i] < REIMPACT_MIN_DT or float(Gq[i] @ v) >= 0.0
+    # a re-impact within REIMPACT_MIN_DT (Zeno chatter) closes plastically
+    zeno = t - cs.last_impact_t[i] < REIMPACT_MIN_DT
     md = base.kernel.model
     T = np.array([tangent_row(md, c, q) for c in range(len(g))]) if cs.mu.any() else np.zeros_like(Gq)
-    if cs.impact_law == "simultaneous" and not zeno:
+    if cs.impact_law == "simultaneous":
         part = sorted({i, *cs.active} | {c for c in range(len(g)) if g[c] <= GAP_BAND and Gq[c] @ v <= 0.0
                                           and not (cs.continuous and c in cs.penetrating)})
         held = B
@@ -347,55 +470,92 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
         part = [i]
         held = np.vstack([B] + [Gq[[c]] for c in cs.active])
     mu = cs.mu[part] if cs.mu.size else np.zeros(len(part))
-    res = _law(M, Gq[part], T[part], mu, v, 0.0 if zeno else e, held, t, i)
-    k = part.index(i)
-    closed = zeno or e == 0.0 or res.vn_plus[k] < REBOUND_MIN
-    if closed and not (zeno or e == 0.0):
-        res = _law(M, Gq[part], T[part], mu, v, 0.0, held, t, i)
+    e_c = np.full(len(part), 0.0 if zeno else e)
+    res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i)
+    if e_c.any():
+        # a rebound too slow, or whose free flight too short, to resolve is plastic: its Zeno
+        # accumulation of ever shorter bounces, 2ġ⁺/((1 − e)|g̈|) long in all, taken as instantaneous
+        short = _unresolvable_rebounds(base, t, q, part, res)
+        if short.any():
+            e_c[short] = 0.0
+            res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i)
+    resting = [c for r, c in enumerate(part) if res.vn_plus[r] < REBOUND_MIN]
+    cs.release([c for c in part if c in cs.active and c not in resting], t)
     cs.d_impacts += res.energy_loss
-    opened = []
-    for r, c in enumerate(part):
-        shut = closed if c == i else (res.vn_plus[r] < REBOUND_MIN)
-        if c == i or res.impulse_n[r] > 0.0:
+    loss = res.energy_loss  # booked on the first contact that takes an impulse (the impacting one if it does)
+    for r in sorted(range(len(part)), key=lambda r: part[r] != i):
+        c = part[r]
+        if res.impulse_n[r] > 0.0:
             cs.last_impact_t[c] = t
-            cs.impacts.append(Impact(t, c, float(res.vn_minus[r]), float(res.vn_plus[r]),
-                                     res.energy_loss if c == i else 0.0, shut, float(res.impulse_n[r]),
+            cs.impacts.append(Impact(t, c, float(res.vn_minus[r]), float(res.vn_plus[r]), loss,
+                                     c in resting, float(res.impulse_n[r]), restitution=float(e_c[r]),
                                      q=q.copy(), v_minus=v.copy(), v_plus=res.v_plus.copy()))
-        if shut and c not in cs.active:
-            cs.active.append(c)
-        elif not shut and c in cs.active:
-            opened.append(c)
-    if opened:
-        cs.release(opened, t)
+            loss = 0.0
+    cs.close([c for c in resting if c not in cs.active], t)
     if cs.mu.any():
         cs.set_friction_state(part, t, q, res.v_plus)
-    return res.v_plus
+    # below the band (where a rebound from −GAP_BAND lives) a gap is the integrator's drift
+    return res.v_plus, [c for c in part if c not in resting and g[c] < -GAP_BAND - BAND_ROUNDOFF]
+
+
+def _unresolvable_rebounds(base: Problem, t: float, q: np.ndarray, part: list[int], res) -> np.ndarray:
+    """Which of the impacting contacts ``part`` rebound slower than REBOUND_MIN, or would fly
+    free for less than ZENO_FLIGHT (2ġ⁺/|g̈|, g̈ the gap acceleration with the contacts open)."""
+    vn_plus = res.vn_plus
+    hit = (res.impulse_n > 0.0) & (vn_plus > 0.0)
+    if not hit.any():
+        return hit
+    a, _ = base.acceleration(t, q, res.v_plus)
+    _, G, gam = base.gap_rows(q, res.v_plus)
+    gdd = G[part] @ a - gam[part]
+    return hit & ((vn_plus < REBOUND_MIN) | (2.0 * vn_plus < ZENO_FLIGHT * np.maximum(-gdd, 0.0)))
 
 
 def _law(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.ndarray, e: float,
          held: np.ndarray, t: float, i: int):
-    """The impact of the contacts GN (impact of contact i at t): one frictionless contact —
-    the equality map of core.contact.impact_map (also a Zeno closing, whatever the
-    velocity; the driver's map before the LCP, kept bit for bit); else the LCP of
-    core.frictional_impact. Its failure ends the run, named."""
-    if GN.shape[0] == 1 and not mu.any():
-        r = impact_map(M, GN, v, e, held)
-        return _Res(r.v_plus, r.impulse, np.zeros_like(r.impulse), r.vn_minus, r.vn_plus, r.energy_loss)
+    """Newton's law (with Coulomb friction where μ > 0) for the contacts GN, as one LCP
+    (:func:`daebench.core.frictional_impact.frictional_impact`; impact of contact i at t).
+    Its failure ends the run, named."""
     res = frictional_impact(M, GN, GT, mu, v, e, held)
     if not res.ok:
         raise StepFailure(f"{failure_message(res.status)} (impact of contact {i})", t)
     return res
 
 
-@dataclass
-class _Res:
-    v_plus: np.ndarray
-    impulse_n: np.ndarray
-    impulse_t: np.ndarray
-    vn_minus: np.ndarray
-    vn_plus: np.ndarray
-    energy_loss: float
-    ok: bool = True
+def settle(cs: ContactState, t: float, q: np.ndarray, v: np.ndarray) -> bool:
+    """Decide which contacts are closed at (t, q, v) by the acceleration-level contact law
+    (:func:`daebench.core.resting_contacts.resting_lcp`): the closed contacts and the open
+    ones at rest on their surface (|g| ≤ GAP_BAND, |ġ| ≤ REBOUND_MIN) are the candidates;
+    those with a positive force close (or stay closed), the others open. Returns whether
+    the closed set changed. Frictionless contacts only: with friction the stick/slip
+    phases decide (:mod:`daebench.driver.stickslip`)."""
+    base = cs.base
+    nc = base.n_contacts
+    if not (cs.constraint and nc):
+        return False
+    g, G, gam = base.gap_rows(q, v)
+    vn = G @ v
+    cand = sorted(set(cs.active) | {c for c in range(nc) if abs(g[c]) <= GAP_BAND and abs(vn[c]) <= REBOUND_MIN})
+    if not cand:
+        return False
+    a_free, _ = base.acceleration(t, q, v)
+    B = base.constraint_jacobian(t, q)[:base.n_bilateral]
+    sol = resting_lcp(base.mass(q), B, G[cand], a_free, gam[cand], cs.force_release_t[cand] == t)
+    if not sol.ok:
+        raise StepFailure(f"{resting_failure(sol.status)} (contacts {cand})", t)
+    closed = [c for c, shut in zip(cand, sol.closed) if shut]
+    if sorted(closed) == sorted(cs.active):
+        return False
+    cs.release([c for c in cs.active if c not in closed], t)
+    cs.close([c for c in closed if c not in cs.active], t)
+    return True
+
+
+def lift(cs: ContactState, system: MechanicalSystem, t: float, q: np.ndarray, contacts: list[int]) -> np.ndarray:
+    """Positions moved (mass-weighted, the bilateral constraints and the closed contacts
+    kept) so that the open ``contacts``, found below their surface while they separate,
+    touch it: the integrator's position drift removed, the velocities untouched."""
+    return project_positions(Problem(system, tuple(cs.active) + tuple(contacts)), t, q)
 
 
 def impact_law_name(cs: ContactState) -> str:
@@ -409,6 +569,20 @@ def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[n
     if problem.m == 0:
         return q, v
     M = problem.mass(q)
+    q = project_positions(problem, t, q, M)
+    Cq = problem.constraint_jacobian(t, q)
+    MiCt = solve_structured(M, Cq.T)
+    v = v - MiCt @ np.linalg.solve(Cq @ MiCt, Cq @ v + problem.constraint_t(t, q))
+    return q, v
+
+
+def project_positions(problem: Problem, t: float, q: np.ndarray, M: np.ndarray | None = None) -> np.ndarray:
+    """Mass-weighted projection of q onto C(t, q) = 0 of the problem's active constraints
+    (:data:`PROJECTION_ITERS` Newton iterations; ``M``: the mass matrix to weigh with, M(q)
+    by default)."""
+    if problem.m == 0:
+        return q
+    M = problem.mass(q) if M is None else M
     q = q.copy()
     for _ in range(PROJECTION_ITERS):
         C = problem.constraint(t, q)
@@ -417,7 +591,4 @@ def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[n
         Cq = problem.constraint_jacobian(t, q)
         MiCt = solve_structured(M, Cq.T)
         q -= MiCt @ np.linalg.solve(Cq @ MiCt, C)
-    Cq = problem.constraint_jacobian(t, q)
-    MiCt = solve_structured(M, Cq.T)
-    v = v - MiCt @ np.linalg.solve(Cq @ MiCt, Cq @ v + problem.constraint_t(t, q))
-    return q, v
+    return q

@@ -41,14 +41,14 @@ import pandas as pd
 
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
-from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name
+from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name, project, settle
 from daebench.driver.history import (DIVERGENCE_ENERGY, Block, block, columns, diverging, frame, state_row,
                                      states_arrays)
 from daebench.driver.stickslip import PAINLEVE_SLIP, FrictionPhase
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
 from daebench.stepping import dense as _dense, watch as _watch
-from daebench.stepping.watch import Watch
+from daebench.stepping.watch import NEAR_STEPS, Watch
 from daebench.core.system import MechanicalSystem, State
 from daebench.core.energyscale import energy_scale
 
@@ -132,6 +132,8 @@ class Driver:
         v = np.asarray(v, float)
         cs = self.contacts = ContactState.start(Problem(sys_), q, self._constraint_contacts,
                                                 self._continuous_contacts, v)
+        if self.integ.step_size(True) < self.integ.step_size(False):
+            cs.near_h = NEAR_STEPS * self.integ.step_size(False)
         self.rows: list[dict[str, float] | Block] = []
         self._states: list[tuple] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
@@ -185,17 +187,22 @@ class Driver:
     # -- one smooth phase ----------------------------------------------------------
     def _phase(self, state: State) -> State:
         cs = self.contacts
+        if cs.constraint and not cs.mu.any() and settle(cs, state.t, state.q, state.v):
+            # the acceleration-level contact law changed the closed set: start that phase
+            q, v = project(cs.phase(self.system), state.t, state.q, state.v)
+            return State(state.t, q, v)
         problem = self._current = cs.phase(self.system)
         a, lam = problem.acceleration(state.t, state.q, state.v)
+        cs.update_near(problem, state.q, state.v, a)
         state = State(state.t, state.q, state.v, a, lam)
-        if cs.constraint and cs.active:
-            # a closed contact that would pull (λ < 0) opens before the phase starts
+        if cs.constraint and cs.active and cs.mu.any():
+            # frictional contacts: a closed contact that would pull (λ < 0) opens before the phase starts
             k = problem.n_bilateral
-            tensile = [c for j, c in enumerate(cs.active) if lam[k + j] < 0.0 and c not in cs.hold]
+            tensile = [c for j, c in enumerate(cs.active) if lam[k + j] < 0.0]
             if tensile:
                 if cs.slip:
                     self._painleve(state, [c for c in tensile if c in cs.slip])
-                cs.release(tensile, state.t, state.q)  # a release like any other (see ContactState.hold)
+                cs.release(tensile, state.t, state.q)
                 return state
             # a stick group whose force is outside the cone slips (the direction its force fails)
             failing = [(c, lt) for c, (margin, lt) in cs.cone_margins(problem, lam).items() if margin < 0.0]
@@ -206,14 +213,14 @@ class Driver:
                         cs.slip[m] = math.copysign(1.0, lam_t)
                 cs.regroup(state.t, state.q)
                 return state
-        h = self.integ.step_size(cs.in_contact)
+        h = self.integ.step_size(cs.in_contact) * 0.5 ** cs.halvings
         self.integ.start(problem, state, h)
         if self.out_i == 0 and state.t == 0.0:
             self._record_until(state, state, problem, 0.0)
         powers0 = self._power(state)
         batch = self._batch_ok(problem)
         while True:
-            watch = self._watch(problem) if (batch and not cs.hold and not powers0
+            watch = self._watch(problem) if (batch and not powers0
                                              and self.out_i < len(self.t_out)) else None
             adv = self._advance(watch)
             prev, new = adv.prev, adv.new
@@ -230,7 +237,7 @@ class Driver:
             self._track_constraints(new, problem)  # at the integrator's own step, not an interpolant
             powers0 = powers1
             if event is not None:
-                return apply_event(cs, event, end, problem, self.work.get("contact", 0.0), h)
+                return apply_event(cs, event, end, problem, self.work.get("contact", 0.0))
             if _end_reached(new.t, self.t_end):
                 return new
 
@@ -279,8 +286,10 @@ class Driver:
             if cs.constraint else np.zeros(0, dtype=np.int64)
         armed = cs.armed if cs.armed.size else np.zeros(1, dtype=bool)
         cmax = np.array([self.cmax["C"], self.cmax["Cdot"], self.cmax["Cddot"]])
-        return Watch(inactive, lam_rows, armed.copy(), problem.m > 0, cmax, float(self.t_out[self.out_i]),
-                     self.t_end)
+        near = np.zeros(armed.size, dtype=bool)
+        near[list(cs.near)] = True
+        return _watch.make(problem.n, problem.m, inactive, lam_rows, armed.copy(), problem.m > 0, cmax,
+                           float(self.t_out[self.out_i]), self.t_end, cs.near_h, near)
 
     def _advance(self, watch: Watch | None) -> Advance:
         """One call of the integrator; adopt its quiet steps' bookkeeping and the contact

@@ -111,8 +111,7 @@ class CompiledIntegrator(Integrator):
             raise ValueError(f"t_stop = {t_stop} is not after t = {self.state.t}")
         if watch is None:
             return super().advance(t_stop, None)
-        w = _watch.Watch(watch.inactive, watch.lam_rows, watch.armed.copy(), watch.track, watch.cmax.copy(),
-                         watch.t_out_next, watch.t_end)
+        w = _watch.own_copy(watch)
         n, m = self.problem.n, self.problem.m
         out = _NO_ROWS
         if outputs is not None and len(outputs):

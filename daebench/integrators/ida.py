@@ -362,8 +362,7 @@ class IDA(Integrator):
         if watch is None:
             return super().advance(t_stop, None)
         n, m = self._n, self._m
-        w = _watch.Watch(watch.inactive, watch.lam_rows, watch.armed.copy(), watch.track, watch.cmax.copy(),
-                         watch.t_out_next, watch.t_end)
+        w = _watch.own_copy(watch)
         C, Cq, Ct, gam = np.empty(m), np.empty((m, n)), np.empty(m), np.empty(m)
         if isinstance(self._solver, _native.NativeIDA):
             return self._advance_native(float(t_stop), w, C, Cq, Ct, gam, outputs=outputs)

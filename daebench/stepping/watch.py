@@ -2,7 +2,10 @@
 
 The driver (:mod:`daebench.driver.simulate`) watches, after every accepted step, for a contact
 closing, a closed contact turning tensile, an output time, the end time and a
-non-finite state. A compiled runner that takes many steps per call stops after the
+non-finite state. A closed contact's force is its consistent multiplier at the step's
+(t, q, v) — the acceleration-level law of the phase (:func:`daebench.core.phase.solve_augmented`),
+as the driver reads it (:func:`daebench.driver.events.contact_forces`) — never the
+multiplier the integrator's step produced. A compiled runner that takes many steps per call stops after the
 first step with any of these and hands it back; for every earlier ("quiet") step it
 does the only bookkeeping the driver would have done: re-arming gaps and the running
 maxima of |C|, |Ċ|, |C̈|. The driver itself decides with :func:`gap_event` too.
@@ -11,6 +14,14 @@ Gap rule: after a release or a rebound a contact re-arms its closing event only 
 its gap exceeds ``GAP_BAND``; until then closing is detected at g = −GAP_BAND. Without
 the band, solver noise (|g| ~ 1e-12 at a release) re-closes the contact at once, over
 and over (chatter).
+
+Proximity rule (:func:`near`): an open contact is *near* when, on the quadratic
+prediction of its gap from its current velocity and acceleration, it comes within
+GAP_BAND of its surface in ``NEAR_STEPS`` free steps. The driver runs the contact step while a contact is near, as while one is
+closed: the approach to an impact, and the flights between the impacts of a chatter,
+are resolved at the contact step rather than at the free step, which would cross them
+(and so the event times and the post-impact state converge with the contact step).
+A runner stops when a contact's proximity changes.
 """
 
 from __future__ import annotations
@@ -25,25 +36,45 @@ from daebench.core.borrow import uncounted
 from daebench.core import kernels, phase
 
 GAP_BAND = 1e-9  # m
+NEAR_STEPS = 2.0  # an open contact within this many free steps of its surface is near
 
 
 class Watch(NamedTuple):
     """What a runner watches (arrays ``armed`` and ``cmax`` are its own copies, updated
-    in place and handed back to the driver as values)."""
+    in place and handed back to the driver as values: :func:`own_copy`)."""
 
     inactive: np.ndarray   # int64: open contacts whose closing is watched
-    lam_rows: np.ndarray   # int64: rows of λ of closed contacts (opening when λ < 0)
+    lam_rows: np.ndarray   # int64: rows of λ of closed contacts (opening when their consistent λ < 0)
     armed: np.ndarray      # bool per contact
     track: bool            # keep constraint maxima
     cmax: np.ndarray       # float64[3]: max |C|, |Ċ|, |C̈|
     t_out_next: float
     t_end: float
+    near_h: float          # NEAR_STEPS × the free step (0: no proximity rule)
+    near: np.ndarray       # bool per contact: run at the contact step (near)
+    aug: tuple             # phase.AugmentedWork of the phase: the consistent multipliers
+    acc: np.ndarray        # float64[n] scratch: the consistent acceleration
+    lam: np.ndarray        # float64[m] scratch: the consistent multipliers
+
+
+def make(n: int, m: int, inactive: np.ndarray, lam_rows: np.ndarray, armed: np.ndarray, track: bool,
+         cmax: np.ndarray, t_out_next: float, t_end: float, near_h: float = 0.0,
+         near_now: np.ndarray | None = None) -> Watch:
+    """A watch over a phase with n coordinates and m constraints (its scratch allocated)."""
+    near_now = np.zeros(armed.shape[0], np.bool_) if near_now is None else near_now
+    return Watch(inactive, lam_rows, armed, track, cmax, t_out_next, t_end, float(near_h), near_now,
+                 phase.augmented_work(n, m), np.zeros(n), np.zeros(max(m, 1)))
+
+
+def own_copy(w: Watch) -> Watch:
+    """The watch with its own ``armed`` and ``cmax`` (what a runner updates in place)."""
+    return w._replace(armed=w.armed.copy(), cmax=w.cmax.copy())
 
 
 def blind(n_contacts: int) -> Watch:
     """A watch that never stops a runner (single steps)."""
-    return Watch(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(max(n_contacts, 1), np.bool_), False,
-                 np.zeros(3), math.inf, math.inf)
+    return make(1, 0, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(max(n_contacts, 1), np.bool_), False,
+                np.zeros(3), math.inf, math.inf)
 
 
 @njit(cache=True, inline="always")
@@ -54,6 +85,19 @@ def gap_event(g, armed):
     if g < -off:
         return True, False
     return False, g > GAP_BAND
+
+
+@njit(cache=True, inline="always")
+def near(g, gdot, gddot, near_h):
+    """Whether an open contact at gap g, moving at ġ with acceleration g̈, comes within
+    GAP_BAND of its surface in the proximity time ``near_h`` (NEAR_STEPS free steps; 0:
+    never near) on its quadratic prediction g + ġs + ½g̈s², s ∈ [0, near_h]."""
+    if near_h <= 0.0:
+        return False
+    low = min(g, g + gdot * near_h + 0.5 * gddot * near_h * near_h)
+    if gddot > 0.0 and 0.0 < -gdot / gddot < near_h:
+        low = min(low, g - 0.5 * gdot * gdot / gddot)
+    return low < GAP_BAND
 
 
 @njit(cache=True, inline="always")
@@ -77,8 +121,9 @@ def reached(t, t_next, t_end):
 @uncounted
 def events(ph, w, t, cur):
     """Whether the step that ended in ``cur`` (at t) has an event the driver must handle:
-    a non-finite state, an open contact closing, a closed one turning tensile. Re-arms
-    gaps that left the band (every step: the driver's rule)."""
+    a non-finite state, an open contact closing or changing its proximity (:func:`near`), a
+    closed one whose consistent force turns tensile. Re-arms gaps that left the band (every
+    step: the driver's rule)."""
     q, v = cur.q, cur.v
     n = q.shape[0]
     stop = False
@@ -86,15 +131,26 @@ def events(ph, w, t, cur):
         if not (math.isfinite(q[i]) and math.isfinite(v[i])):
             stop = True
     for i in w.inactive:
-        g, _ = kernels.gap(ph.model, i, q, v, ph.gq)
+        g, gam = kernels.gap(ph.model, i, q, v, ph.gq)
         closes, arms = gap_event(g, w.armed[i])
         if closes:
             stop = True
         elif arms:
             w.armed[i] = True
-    for r in w.lam_rows:
-        if cur.lam[r] < 0.0:
-            stop = True
+        if w.near_h > 0.0:
+            gdot = 0.0
+            gddot = -gam
+            for j in range(n):
+                gdot += ph.gq[j] * v[j]
+                gddot += ph.gq[j] * cur.a[j]
+            if near(g, gdot, gddot, w.near_h) != w.near[i]:
+                stop = True
+    if w.lam_rows.shape[0] and not stop:
+        if phase.solve_augmented(ph, t, q, v, 0.0, 0.0, w.aug, w.acc, w.lam) != 0:
+            return True
+        for r in w.lam_rows:
+            if w.lam[r] < 0.0:
+                stop = True
     return stop
 
 
