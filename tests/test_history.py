@@ -3,7 +3,7 @@
 import numpy as np
 import pandas as pd
 
-from daebench.driver.history import Block, block, diverging, frame
+from daebench.driver.history import Block, block, divergence, frame
 
 
 def _rows_of(b: Block) -> list[dict]:
@@ -31,8 +31,22 @@ def test_block_head_and_divergence_rule():
     # E − E0 − ΣW + D, in the row's order of operations
     np.testing.assert_array_equal(b["energy_residual"], [(1.5 - 1.5 + 0.25) + 0.125, (2.5 - 1.5 + 0.25) + 0.125,
                                                         (50.5 - 1.5 + 0.25) + 0.125])
-    bad = diverging(b["energy_residual"], 1.0)
-    assert bad.tolist() == [False, False, True]                     # 49.4 > 10 × 1
-    assert diverging(float("nan"), 1.0) and not diverging(9.9, 1.0)
+    # bookkeeping scale 0.75 + |−0.25| + 0.125 = 1.125: a residual over 11.25 diverged
+    bad, why = divergence(b["E"], b["energy_residual"], {"damping": -0.25}, 1.5, 0.75, 0.125)
+    assert bad.tolist() == [False, False, True] and why.startswith("energy residual 49.4 J")
+    assert divergence(1.5, float("nan"), {}, 1.5, 1.0, 0.0)[0] and not divergence(1.5, 9.9, {}, 1.5, 1.0, 0.0)[0]
     h = b.head(2)
     assert len(h["t"]) == 2 and h["W_damping"] == -0.25 and "n_active" not in h
+
+
+def test_energy_made_from_nowhere_diverges_whatever_the_dissipative_work_booked():
+    """An unstable contact step books its own energy as contact work: the residual closes
+    (E − E0 − W_contact = 0) while E grows from 1 J to 500 J with no input. The rule reads
+    the gain beyond the input works (here none), not the residual; an input (a torque's
+    work) that supplied the gain excuses it."""
+    E = np.array([1.0, 5.0, 500.0])
+    W = {"contact": 499.0}
+    bad, why = divergence(E, E - 1.0 - 499.0, W, 1.0, 1.0, 0.0)
+    assert bad.tolist() == [False, False, True] and "energy from nowhere" in why
+    bad, _ = divergence(E, E - 1.0 - 499.0, {"torque": 499.0}, 1.0, 1.0, 0.0)
+    assert not bad.any()

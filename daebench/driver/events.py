@@ -99,7 +99,7 @@ class ContactState:
     impacts: list[Impact] = field(default_factory=list)
     d_impacts: float = 0.0                  # kinetic energy removed by impact maps
     gap_cache: tuple | None = None          # (q, t, g(q)) of the last step's new state
-    force_cache: tuple | None = None        # (q, t, λ_N) of the last step's new state
+    force_cache: tuple | None = None        # (q, t, λ) of the last step's new state (consistent multipliers)
     near_h: float = 0.0                     # proximity time: NEAR_STEPS free steps (0: no contact step)
     near: set[int] = field(default_factory=set)  # open contacts near their surface (stepping.watch.near)
     halvings: int = 0                       # the contact step halved this often (unresolved approaches)
@@ -272,14 +272,16 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
                     cands.append(Event(new.t, "far" if i in cs.near else "near", i))
     if cs.constraint and cs.active:
         fc = cs.force_cache
-        f0 = fc[2] if fc is not None and fc[0] is prev.q and fc[1] == prev.t else contact_forces(problem, prev)
-        f1 = contact_forces(problem, new)
-        cs.force_cache = (new.q, new.t, f1)
+        lam0 = fc[2] if fc is not None and fc[0] is prev.q and fc[1] == prev.t else consistent_multipliers(problem, prev)
+        lam1 = consistent_multipliers(problem, new)
+        cs.force_cache = (new.q, new.t, lam1)
+        k = problem.n_bilateral
+        f0, f1 = lam0[k:], lam1[k:]
         for j, c in enumerate(cs.active):
             if f1[j] < 0.0:
                 at = _root(lambda t: contact_forces(problem, dense(t))[j], prev, new) if f0[j] >= 0.0 else prev.t
                 cands.append(Event(at, "open", c))
-        cands += _friction_events(cs, prev, new, problem, dense)
+        cands += _friction_events(cs, prev, new, problem, dense, lam0, lam1)
     # a contact's status changes once an instant: an event that would undo at the phase's start
     # what was decided there (the state is degenerate: force and gap acceleration both zero)
     # waits one step, so that every such cycle advances time
@@ -322,9 +324,9 @@ def consistent_multipliers(problem: Problem, s: State) -> np.ndarray:
 
 
 def _friction_events(cs: ContactState, prev: State, new: State, problem: Problem,
-                     dense: Callable[[float], State]) -> list[Event]:
+                     dense: Callable[[float], State], lam0: np.ndarray, lam1: np.ndarray) -> list[Event]:
     """A slipping contact's slip velocity through zero (stop); a stick group's force
-    leaving the cone (slide)."""
+    leaving the cone (slide); ``lam0``, ``lam1``: the consistent multipliers at prev and new."""
     out = []
     md = cs.base.kernel.model
     for c, s in cs.slip.items():
@@ -335,8 +337,7 @@ def _friction_events(cs: ContactState, prev: State, new: State, problem: Problem
         if u1 < 0.0:
             out.append(Event(_root(ut, prev, new) if u0 > 0.0 else prev.t, "stop", c))
     if cs.groups:
-        m0 = cs.cone_margins(problem, consistent_multipliers(problem, prev))
-        m1 = cs.cone_margins(problem, consistent_multipliers(problem, new))
+        m0, m1 = cs.cone_margins(problem, lam0), cs.cone_margins(problem, lam1)
         for c in cs.groups:
             if m1[c][0] < 0.0:
                 f = (lambda t, c=c: cs.cone_margins(problem, consistent_multipliers(problem, dense(t)))[c][0])

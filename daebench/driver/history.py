@@ -30,10 +30,42 @@ class Block(dict):
         return Block({c: (v[:k] if isinstance(v, np.ndarray) else v) for c, v in self.items()})
 
 
-def diverging(resid: float | np.ndarray, scale: float) -> bool | np.ndarray:
-    """Whether an energy residual says the run diverged: not finite, or beyond
-    ``DIVERGENCE_ENERGY`` × the run's energy scale (elementwise for an array)."""
-    return ~np.isfinite(resid) | (np.abs(resid) > DIVERGENCE_ENERGY * scale)
+#: works that can only take energy out of the system (their laws are passive): a gain the
+#: energy shows beyond the other works' input is energy made from nowhere, whatever they booked
+DISSIPATIVE_WORK = ("contact", "friction", "damping")
+
+
+def divergence(E: float | np.ndarray, resid: float | np.ndarray, work: Mapping[str, float], E0: float,
+               energy_scale: float, d_impacts: float) -> tuple[np.ndarray, str]:
+    """The one divergence rule, for every integrator and both contact families (elementwise
+    over output rows): the run diverged where
+
+    * the energy-balance residual is not finite, or beyond ``DIVERGENCE_ENERGY`` × the
+      bookkeeping scale (the start's energy scale, every work booked and the impact loss), or
+    * the energy grew beyond ``DIVERGENCE_ENERGY`` × (the start's scale + the input works)
+      more than the input works supplied: E − E0 − Σ W_input — the input works being all
+      but :data:`DISSIPATIVE_WORK`, whose booking cannot excuse a gain (an unstable contact
+      step books its own energy as contact work: the residual closes, the energy grows).
+
+    Returns the mask and the reason of its first row ("" where none diverged)."""
+    resid = np.asarray(resid, dtype=float)
+    inputs = sum(w for k, w in work.items() if k not in DISSIPATIVE_WORK)
+    scale = energy_scale + sum(abs(w) for w in work.values()) + d_impacts
+    in_scale = energy_scale + sum(abs(w) for k, w in work.items() if k not in DISSIPATIVE_WORK)
+    gain = np.asarray(E, dtype=float) - E0 - inputs
+    bad_resid = ~np.isfinite(resid) | (np.abs(resid) > DIVERGENCE_ENERGY * scale)
+    bad_gain = ~np.isfinite(gain) | (gain > DIVERGENCE_ENERGY * in_scale)
+    bad = bad_resid | bad_gain
+    if not bad.any():
+        return bad, ""
+    i = int(np.argmax(bad.ravel()))
+    if bad_resid.ravel()[i]:
+        why = (f"energy residual {resid.ravel()[i]:.3g} J exceeds {DIVERGENCE_ENERGY:g} × the energy scale "
+               f"{scale:.3g} J")
+    else:
+        why = (f"the energy grew by {gain.ravel()[i]:.3g} J beyond what the input works supplied, over "
+               f"{DIVERGENCE_ENERGY:g} × the energy scale {in_scale:.3g} J (energy from nowhere)")
+    return bad, why
 
 
 def columns(t, obs: Mapping, terms: Mapping, work: Mapping[str, float], E0: float, d_impacts: float,

@@ -39,11 +39,11 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from daebench.core import impact_checks
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
 from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name, project, settle
-from daebench.driver.history import (DIVERGENCE_ENERGY, Block, block, columns, diverging, frame, state_row,
-                                     states_arrays)
+from daebench.driver.history import Block, block, columns, divergence, frame, state_row, states_arrays
 from daebench.driver.stickslip import PAINLEVE_SLIP, FrictionPhase
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
@@ -173,6 +173,9 @@ class Driver:
             message = f"t = {self._t_last:.6g} s: {msg}"
         except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
             status, message = "failed", f"t = {self._t_last:.6g} s: {type(exc).__name__}: {exc}"
+        broken = impact_checks.violations(cs.impacts, self._restitution())
+        if broken and status == "completed":
+            status, message = "failed", impact_checks.verdict(broken)
         hist = frame(self.rows)
         res = float(np.nanmax(np.abs(hist["energy_residual"]))) if len(hist) else math.nan
         return RunResult(status, message, self._t_last, time.perf_counter() - wall0,
@@ -183,6 +186,12 @@ class Driver:
 
     _t_last = 0.0
     _last_state: State | None = None
+
+    def _restitution(self) -> float:
+        """The restitution of the system's contacts (NaN: none declared)."""
+        law = self.system.contact_law
+        return float(law.restitution) if law is not None else float(getattr(self.system, "contact_restitution",
+                                                                            math.nan))
 
     # -- one smooth phase ----------------------------------------------------------
     def _phase(self, state: State) -> State:
@@ -381,7 +390,8 @@ class Driver:
             return
         # a stretch without events: the rows as one block of columns (driver.history)
         b = block(t, obs, terms, self.work, self.E0, cs.d_impacts, self.observables, self._n_active())
-        bad = diverging(b["energy_residual"], self._divergence_scale(self.work))
+        bad, _ = divergence(b["E"], b["energy_residual"], self.work, self.E0, self.energy_scale, cs.d_impacts)
+        bad = np.broadcast_to(bad, (len(outputs),))
         k = int(np.argmax(bad)) if bad.any() else len(outputs)
         if k:
             self.rows.append(b.head(k) if k < len(outputs) else b)
@@ -403,7 +413,7 @@ class Driver:
         terms = sys_.energy(s.q, s.v) if terms is None else terms
         row = columns(to, obs, {k: float(x) for k, x in terms.items()}, work, self.E0, cs.d_impacts,
                       self.observables, self._n_active())
-        self._check_divergence(to, s, row["energy_residual"], terms, work)
+        self._check_divergence(to, s, row["E"], row["energy_residual"], work)
         if cs.continuous:
             F = problem.contact_forces(s.q, s.v)
             for i in range(sys_.n_contacts):
@@ -439,19 +449,15 @@ class Driver:
         cs = self.contacts
         return len(cs.active) + len(cs.penetrating) if cs.watched else None
 
-    def _divergence_scale(self, work: dict) -> float:
-        return self.energy_scale + sum(abs(w) for w in work.values()) + self.contacts.d_impacts
-
-    def _check_divergence(self, t: float, s: State, resid: float, terms: dict, work: dict) -> None:
-        """Called at each output time (where the energy is computed anyway). The scale is
-        fixed by the start and the booked work — never by the current energy, which grows
-        with a blow-up. A diverged row ends the run there (also one of a batch of rows the
-        integrator's loop wrote beyond it)."""
-        scale = self._divergence_scale(work)
-        if diverging(resid, scale):
+    def _check_divergence(self, t: float, s: State, E: float, resid: float, work: dict) -> None:
+        """The one divergence rule (:func:`daebench.driver.history.divergence`), at each output
+        time (where the energy is computed anyway). Its scales are fixed by the start and the
+        booked work — never by the current energy, which grows with a blow-up. A diverged row
+        ends the run there (also one of a batch of rows the integrator's loop wrote beyond it)."""
+        bad, why = divergence(E, resid, work, self.E0, self.energy_scale, self.contacts.d_impacts)
+        if bad.any():
             self._t_last, self._last_state = max(self._t_last, t), s
-            raise _Diverged(f"t = {t:.6g} s: energy residual {resid:.3g} J exceeds "
-                            f"{DIVERGENCE_ENERGY:g} × the energy scale {scale:.3g} J")
+            raise _Diverged(f"t = {t:.6g} s: {why}")
 
 
 def simulate(system: MechanicalSystem, integrator: Integrator, t_end: float, output_dt: float,

@@ -4,7 +4,7 @@ Measured
 --------
 For one integrator setting and one scene, the largest step h for which a whole trial run
 *completes* — reaches its end with its energy balance within the driver's divergence
-threshold (:data:`daebench.driver.simulate.DIVERGENCE_ENERGY` × the energy scale; the run's
+threshold (:data:`daebench.driver.history.DIVERGENCE_ENERGY` × the energy scale; the run's
 status) — found by bisection in log h between ``h_min`` and ``h_max`` until the bracket
 [h_stable, h_unstable] is narrower than a factor 1 + ``tol``. Bisection assumes one
 boundary (stable below, unstable above); the trial length (:func:`trial_length`, 80
@@ -54,7 +54,7 @@ import scipy.linalg as sl
 from daebench.models import build_system
 from daebench.core.scene import Scene
 from daebench.core.energyscale import energy_scale
-from daebench.driver.simulate import DIVERGENCE_ENERGY
+from daebench.driver.history import DIVERGENCE_ENERGY
 
 MIN_STEPS = 100         # the largest step tried gives a trial this many steps (hω_max ≤ 5 at 80 periods)
 OMEGA_GRID = np.concatenate([np.linspace(1e-3, 4.0, 4000), np.geomspace(4.0, 1e7, 600)[1:]])
