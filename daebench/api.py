@@ -72,7 +72,7 @@ def integrator_infos() -> dict[str, IntegratorInfo]:
 
 def integrator_info(name: str) -> IntegratorInfo:
     """One integrator's declaration; ``name`` is case-insensitive (did-you-mean on a typo)."""
-    from daebench.harness import guards
+    from daebench.harness.running import checks as guards
 
     return integrator_infos()[guards.resolve_integrator(name)]
 
@@ -140,10 +140,10 @@ class RunOutput:
 
 
 def _error(scene: Scene, hist: pd.DataFrame, impacts: Sequence[Any]) -> dict[str, Any]:
-    """The whole-run errors of a history (:func:`daebench.harness.scoring.score`) against
+    """The whole-run errors of a history (:func:`daebench.harness.scoring.pipeline.score`) against
     the case's exact solution, else a valid cached reference, else {}."""
-    from daebench.harness import scoring
-    from daebench.harness.references import ReferenceDamaged, ReferenceMissing, load_reference
+    from daebench.harness.scoring import pipeline as scoring
+    from daebench.harness.references.reference import ReferenceDamaged, ReferenceMissing, load_reference
 
     def cached() -> Any:
         try:
@@ -154,7 +154,7 @@ def _error(scene: Scene, hist: pd.DataFrame, impacts: Sequence[Any]) -> dict[str
     run = scoring.Run(scene, build_system(scene), hist, impacts, scoring.declared(scene.model))
     truth = scoring.truth(run, cached) if len(hist) else None
     if truth is None:
-        from daebench.harness.references import why_no_reference
+        from daebench.harness.references.reference import why_no_reference
 
         return {"against": None, "why": why_no_reference(scene) if len(hist) else "the run wrote no output time"}
     scores = scoring.score(run, truth, (scoring.accuracy,))
@@ -174,7 +174,7 @@ def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] |
     overrides : scene keys, ``{"t_end": 0.5}`` or ``["t_end=0.5"]``
     settings, **setting_kw : integrator settings, e.g. ``h=1e-3, alpha=-0.1``
     write, out_dir : also write the history file (default folder results/runs)
-    run_cap : wall-time cap [s]; :class:`daebench.harness.guards.RunTimeout` beyond it
+    run_cap : wall-time cap [s]; :class:`daebench.harness.running.deadline.RunTimeout` beyond it
     force : run even beyond the step-count and history-size limits
     progress : True for a progress bar on stderr, or a callable ``progress(t)``
 
@@ -182,11 +182,11 @@ def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] |
     -------
     RunOutput
     """
-    from daebench.harness.progress import RunProgress
-    from daebench.harness.runner import make_integrator, run_scene
+    from daebench.harness.running.progress import RunProgress
+    from daebench.harness.running.runner import make_integrator, run_scene
 
     sc = load_scene(scene, overrides)
-    from daebench.harness.inputs import mapping
+    from daebench.harness.running.inputs import mapping
 
     integ = make_integrator(integrator, {**mapping(settings, "settings", '{"h": 1e-3}'), **setting_kw})
     bar = RunProgress(f"{sc.name} with {integ.name}", sc.t_end) if progress is True else None
@@ -212,9 +212,9 @@ def reference(scene: SceneLike, *, overrides: Iterable[str] | dict[str, Any] | N
               progress: bool = False) -> Any:
     """The cached reference of a scene (history, impact times, sidecar), computed when
     missing, damaged or ``force`` (IDA at rtol 1e-11 by default, checked against a 10×
-    looser run). Returns a :class:`daebench.harness.references.Reference`."""
-    from daebench.harness import references
-    from daebench.harness.progress import run_progress_factory
+    looser run). Returns a :class:`daebench.harness.references.reference.Reference`."""
+    from daebench.harness.references import reference as references
+    from daebench.harness.running.progress import run_progress_factory
 
     sc = load_scene(scene, overrides)
     for name, x in (("rtol", rtol), ("atol", atol)):
@@ -231,9 +231,9 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *,
           storage: Any = None, execution: Any = None, **keywords: Any) -> pd.DataFrame:
     """Sweep integrators × grid × steps (or tolerances) on a scene; one scored row per run.
 
-    The sweep's settings are four values (:mod:`daebench.harness.options`): ``plan``
+    The sweep's settings are four values (:mod:`daebench.harness.sweeps.options`): ``plan``
     (what to run), ``timing``, ``storage``, ``execution``; or, for convenience, these
-    keyword arguments (mapped onto them by :func:`daebench.harness.options.from_keywords`):
+    keyword arguments (mapped onto them by :func:`daebench.harness.sweeps.options.from_keywords`):
 
     Parameters
     ----------
@@ -254,7 +254,7 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *,
         ``resume`` completes an interrupted sweep)
     run_cap : wall-time cap of one run [s]; a run over it is a 'timeout' row
     repeats : timed runs (minimum taken) after a warm-up run, made while a run takes
-        under a second (:data:`daebench.harness.timing.REPEATS`); 1: one cold run, no warm-up
+        under a second (:data:`daebench.harness.running.timing.REPEATS`); 1: one cold run, no warm-up
 
     Returns
     -------
@@ -262,8 +262,8 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *,
         One row per run: label, settings, status, verdict, wall_s, counters, errors
         (``err_<observable>_{final,max,l2}``), energy and constraint residuals.
     """
-    from daebench.harness import bench as B
-    from daebench.harness import options
+    from daebench.harness.sweeps import sweep as B
+    from daebench.harness.sweeps import options
 
     sc = load_scene(scene, overrides)
     given = dict(plan=plan, timing=timing, storage=storage, execution=execution)

@@ -94,7 +94,7 @@ def test_rod_wall_hht_banded_equals_dense():
     declared structure and with dense LU: the same history to round-off."""
     from daebench import api
     from daebench.driver.simulate import simulate
-    from daebench.harness.runner import make_integrator
+    from daebench.harness.running.runner import make_integrator
     from daebench.models import build_system
 
     scene = api.load_scene("rod-wall", {"rod.elements": 20, "t_end": 1.2e-5})
@@ -208,7 +208,7 @@ def test_corotational_frame_declares_a_band_and_hht_agrees_with_dense():
 def _banded_and_dense(scene, h):
     """hht runs of ``scene`` through the declared structure and with it removed (dense LU)."""
     from daebench.driver.simulate import simulate
-    from daebench.harness.runner import make_integrator
+    from daebench.harness.running.runner import make_integrator
     from daebench.models import build_system
 
     runs = []

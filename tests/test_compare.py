@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from daebench.harness import compare as C
-from daebench.harness import fingerprints
+from daebench.workflows import compare as C
+from daebench.harness.references import fingerprints
 from daebench.models.scenes import load_scene
 
 
@@ -56,7 +56,7 @@ def test_compare_scores_every_row_and_writes_table_and_figure(tmp_path, monkeypa
 def test_fingerprint_refuses_a_reference_that_disagrees(monkeypatch):
     import pandas as pd
 
-    from daebench.harness.references import Reference, ReferenceDamaged
+    from daebench.harness.references.reference import Reference, ReferenceDamaged
 
     sc = load_scene("beam-impact")
     t = np.linspace(0.0, sc.t_end, 20001)
@@ -75,7 +75,7 @@ def test_fingerprint_refuses_a_reference_that_disagrees(monkeypatch):
 def test_shipped_beam_impact_reference_is_reproduced_from_scratch(tmp_path, monkeypatch):
     """The reference `daebench compare beam-impact` scores against (IDA rtol 1e-11, computed
     when missing) reproduces the fingerprint shipped in cases/reference-fingerprints.json."""
-    from daebench.harness.references import compute_reference
+    from daebench.harness.references.reference import compute_reference
 
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
     sc = load_scene("beam-impact")

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from daebench.integrators.family import chung_hulbert, hht_coefficients
 from daebench.models.scenes import load_scene
-from daebench.studies.stability import (AbmPece, NewmarkMember, divergence_time, linearize, log_growth, predict,
+from daebench.workflows.stability import (AbmPece, NewmarkMember, divergence_time, linearize, log_growth, predict,
                                         run_interval, stability_map, strict_interval)
 
 
@@ -140,7 +140,7 @@ def test_linear_theory_predicts_when_a_full_run_diverges():
     ABM4-PECE's principal root grows 0.15 % a step; the top bending mode, seeded by gravity,
     passes the driver's threshold in free flight before the first impact. Predicted 0.704 s,
     measured 0.705 s (the first output time after the crossing; outputs every 1 ms)."""
-    from daebench.harness.runner import make_integrator, run_scene
+    from daebench.harness.running.runner import make_integrator, run_scene
 
     sc = load_scene("beam-impact", {"discretization.n": 5, "hub.inertia": 1.0})
     t_pred = divergence_time(AbmPece(), linearize(sc), 1e-4)
@@ -162,7 +162,7 @@ def test_hub_variant_is_beam_impact_with_a_hub():
 
 
 def _baumgarte_run(n: int, h: float):
-    from daebench.harness.runner import make_integrator, run_scene
+    from daebench.harness.running.runner import make_integrator, run_scene
 
     sc = load_scene("beam-impact-hub", {"discretization.n": n})
     return run_scene(sc, make_integrator("baumgarte", {"h": h, "h_contact": 1e-6}), write=False)[1]

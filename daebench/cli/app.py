@@ -75,7 +75,7 @@ def show(name: str = typer.Argument(..., help="an integrator, a case name or a p
          keys: bool = typer.Option(False, "--keys", help="list every valid key with its type and range")) -> None:
     """An integrator's settings and capabilities, or a scene's resolved parameters, effects and size."""
     from daebench import api
-    from daebench.harness import guards
+    from daebench.harness.running import checks as guards
     from daebench.integrators.base import IntegratorError
     from daebench.models import build_system
     from daebench.core.params import did_you_mean
@@ -129,7 +129,7 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
     pairs = [("run", f"{r.scene.name} with integrator {r.integrator}"),
              ("settings", _settings_text(r.settings) or "(none)"),
              ("status", f"{r.status}{' — ' + r.message if r.message else ''} ({r.wall_s:.3g} s wall)")]
-    from daebench.harness import scoring
+    from daebench.harness.scoring import pipeline as scoring
 
     declared = scoring.declared(r.scene.model)
     obs = r.record.observables
@@ -190,12 +190,14 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
         run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of the run [s]"),
         force: bool = typer.Option(False, "--force", help="run even beyond the step-count / history-size limits")) -> None:
     """Run a scene with one integrator; write the time history; print a summary."""
-    from daebench.harness.progress import RunProgress
+    from daebench.harness.running.progress import RunProgress
 
     # the reporter starts first: loading the modules and kernels of a first run is not silent
     with RunProgress(scene, None) as bar:
         from daebench import api
-        from daebench.harness.guards import OutputWriteError, RunTimeout, check_run_cap, resolve_integrator
+        from daebench.harness.files import OutputWriteError
+        from daebench.harness.running.checks import resolve_integrator
+        from daebench.harness.running.deadline import RunTimeout, check_run_cap
         from daebench.core.params import parse_pairs
 
         sc = load_scene_or_exit(scene, set_)
@@ -257,7 +259,7 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
               force: bool = typer.Option(False, "--force", help="recompute even if cached")) -> None:
     """Compute (or show) the cached reference of a scene: its trusted span, digits and check run."""
     from daebench import api
-    from daebench.harness.guards import OutputWriteError
+    from daebench.harness.files import OutputWriteError
 
     sc = load_scene_or_exit(scene, set_)
     try:
@@ -275,7 +277,7 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
     worst = [f"{k} {v:.2e}" for k, v in agr.items() if k.startswith("err_") and k.endswith("_max") and v == v]
     if worst:
         out(f"agreement with the 10× looser check run ({agr.get('check', '')}): " + ", ".join(worst))
-    from daebench.harness import accuracy
+    from daebench.harness.references import accuracy
 
     for line in accuracy.summary_lines(ref.meta, ref.impacts, sc.t_end):
         out(line)
@@ -310,9 +312,9 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
           force: bool = typer.Option(False, "--force", help="allow runs beyond the step-count limit")) -> None:
     """Sweep integrators × grid × steps/tols on a scene; one scored row per run, stored as it finishes."""
     from daebench import api
-    from daebench.harness import bench as B
-    from daebench.harness.guards import OutputWriteError
-    from daebench.harness.options import Execution, Plan, Storage, Timing
+    from daebench.harness.sweeps import sweep as B
+    from daebench.harness.files import OutputWriteError
+    from daebench.harness.sweeps.options import Execution, Plan, Storage, Timing
     from daebench.core.params import parse_pairs
 
     sc = load_scene_or_exit(scene, set_)
@@ -346,7 +348,7 @@ def _bench_report(df: Any, sc: Any) -> None:
     """The sweep's table on stdout: the max error of each observable and point the model
     declares to be scored around impacts (else of its headline observable), energy and
     constraint residuals."""
-    from daebench.harness import scoring
+    from daebench.harness.scoring import pipeline as scoring
 
     obs, pos = scoring.declared(sc.model).windowed(list(sc.get("output.observables") or []))
     errs = [f"err_{d.score_name}_max" for d in (*obs, *pos)] or [f"err_{scoring.headline(sc).score_name}_max"]

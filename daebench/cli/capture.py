@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 
 from daebench.core.params import ParamError
+from daebench.harness.files import OutputWriteError, describe_os_error, ensure_writable_dir
 
 capture_app = typer.Typer(no_args_is_help=True, help="Event-capturing (moreau, nsgenalpha) vs event-driven "
                                                      "(hht, ida) contact: comparison page and per-step cost.")
@@ -51,7 +52,7 @@ def page(scene: str = typer.Argument("beam-impact", help="a case with contacts (
     sweep tables are results/bench/<scene>-capture-e…-{fixed,ida}: run the page again with
     --resume (after an interruption) or --overwrite (to replace them)."""
     from daebench.cli.common import fail
-    from daebench.harness import guards
+    from daebench.harness.running import checks as guards
     from daebench.studies import eventcapture as ec
 
     folder = Path(out)
@@ -60,7 +61,7 @@ def page(scene: str = typer.Argument("beam-impact", help="a case with contacts (
         h = _finite(h, "--h", 1e-12, 1.0)
         t_end = _finite(t_end, "--t-end", 1e-9, 1e5)
         step_list, tol_list = _numbers(steps, "steps"), _numbers(tols, "tols")
-        guards.ensure_writable_dir(folder, "--out folder")
+        ensure_writable_dir(folder, "--out folder")
         ov = {} if t_end is None else {"t_end": t_end}
         df = ec.compare(scene, restitution, step_list, tol_list, overrides=ov, jobs=jobs, repeats=repeats,
                         progress=True, resume=resume, overwrite=overwrite)
@@ -68,12 +69,12 @@ def page(scene: str = typer.Argument("beam-impact", help="a case with contacts (
         files = ec.work_precision_figures(df, folder / ec.tag(restitution), title=title)
         hists = ec.capture_histories(scene, restitution, h, overrides=ov, progress=True)
         files += ec.penetration_energy_figure(hists, folder / f"penetration-energy-{ec.tag(restitution)}", title)[1]
-    except guards.OutputWriteError as exc:
+    except OutputWriteError as exc:
         fail(str(exc), 1)
     except ParamError as exc:
         fail(str(exc))
     except OSError as exc:
-        fail(f"cannot write to '{folder}': {guards.describe_os_error(exc)}; the sweep tables are kept in "
+        fail(f"cannot write to '{folder}': {describe_os_error(exc)}; the sweep tables are kept in "
              f"results/bench/ (run again with --resume to redraw without running)", 1)
     typer.echo(ec.summary(df).to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     typer.echo("wrote " + ", ".join(map(str, files)))

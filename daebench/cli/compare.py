@@ -1,5 +1,5 @@
 """`daebench compare CASE`: every applicable integrator at the case's protocol, scored
-against the reference, one table and the work-precision figure (:mod:`daebench.harness.compare`)."""
+against the reference, one table and the work-precision figure (:mod:`daebench.workflows.compare`)."""
 
 from __future__ import annotations
 
@@ -30,12 +30,13 @@ def register(app: typer.Typer) -> None:
                                                  help="also write report.html (one self-contained page) in the folder")) -> None:
         """Run every applicable integrator at the case's protocol (daebench/harness/compare.py: PROTOCOLS),
         score each run against the reference, print one table and write the work-precision figure."""
-        from daebench.harness import compare as C
+        from daebench.workflows import compare as C
         from daebench.cli import textout
         from daebench.cli.common import load_scene_or_exit, fail, out as say
-        from daebench.harness import digest as D, recommend as Rec
-        from daebench.harness.guards import OutputWriteError
-        from daebench.harness.runner import results_dir
+        from daebench.harness.analysis import recommend as Rec
+        from daebench.harness.sweeps import digest as D
+        from daebench.harness.files import OutputWriteError
+        from daebench.harness.files import results_dir
 
         sc = load_scene_or_exit(case, set_)
         folder = Path(out) if out is not None else results_dir() / "compare" / f"{sc.name}-{sc.hash[:8]}"
@@ -63,7 +64,7 @@ def register(app: typer.Typer) -> None:
                 say(line)
             say(f"written: {', '.join(str(p) for p in res.files if p.suffix in ('.png', '.csv'))}")
         if report_page:
-            from daebench.harness.report import write_compare_report
+            from daebench.workflows.report import write_compare_report
 
             try:
                 page = write_compare_report(res, sc, folder / "report.html")

@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 
 from daebench.cli.common import fail, out
+from daebench.harness.files import atomic_write
 
 
 def register(app: typer.Typer) -> None:
@@ -24,8 +25,8 @@ def register(app: typer.Typer) -> None:
         """Run a daebench command twice in a fresh process, first from an empty kernel cache,
         and list every function numba compiled with its own compile time. Example:
         `daebench compile-report -- run beam-impact --integrator hht`."""
-        from daebench.harness import guards
-        from daebench.harness.runner import results_dir
+        from daebench.harness.running import checks as guards
+        from daebench.harness.files import results_dir
         from daebench.studies import compile_census as cc
 
         args = list(ctx.args)
@@ -48,5 +49,5 @@ def register(app: typer.Typer) -> None:
                 + f"-opt{res.opt[0]}-{stamp}.md")  # a time stamp: an earlier report is never replaced
         path = folder / name
         folder.mkdir(parents=True, exist_ok=True)
-        guards.atomic_write(path, lambda p: Path(p).write_text(text), "the compile report", "printed above")
+        atomic_write(path, lambda p: Path(p).write_text(text), "the compile report", "printed above")
         out(f"written: {path}")

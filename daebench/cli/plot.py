@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from daebench.core.params import ParamError
+from daebench.harness.running.history_io import history_label, read_history
 
 plot_app = typer.Typer(no_args_is_help=True, help="Figures from sweep tables and run histories.")
 
@@ -32,8 +33,9 @@ def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .c
             out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
     """Work-precision diagram (log–log, Pareto front marked) as PNG and SVG; one panel per
     --y column (the error measures every sweep row stores: see daebench/harness/impact_metrics.py)."""
-    from daebench.harness import plots, provenance
-    from daebench.harness.sweepstore import read_table
+    from daebench.harness.analysis import plots
+    from daebench.harness.running import provenance
+    from daebench.harness.sweeps.store import read_table
 
     p = Path(table)
     try:
@@ -67,8 +69,9 @@ def plot_order(table: str = typer.Argument(..., help="a sweep table (.parquet or
                out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
     """Convergence: error against h (log–log), one panel per --y column, the measured order of
     each line in its legend, a slope-2 guide."""
-    from daebench.harness import plots, provenance
-    from daebench.harness.sweepstore import read_table
+    from daebench.harness.analysis import plots
+    from daebench.harness.running import provenance
+    from daebench.harness.sweeps.store import read_table
 
     p = Path(table)
     try:
@@ -91,13 +94,14 @@ def plot_history(files: list[str] = typer.Argument(..., help="history files writ
                  modal: bool = typer.Option(True, "--modal/--no-modal", help="also W_i(t) if present")) -> None:
     """θ, energy residual and constraint residuals |C|, |Ċ|, |C̈| against t, one panel each
     (and modal participation), one line per run labelled by integrator and settings."""
-    from daebench.harness import plots, provenance
+    from daebench.harness.analysis import plots
+    from daebench.harness.running import provenance
 
     try:
         hists = {}
         for f in files:
-            h = plots.read_history(f)
-            hists[plots.history_label(f, set(hists))] = h
+            h = read_history(f)
+            hists[history_label(f, set(hists))] = h
     except ParamError as exc:
         _fail(str(exc))
     prov = provenance.collect()

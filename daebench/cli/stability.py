@@ -1,5 +1,5 @@
 """`daebench stability CASE`: the stability map (largest stable fixed step, measured by
-bisection on whole runs, beside the linear prediction; :mod:`daebench.studies.stability`)."""
+bisection on whole runs, beside the linear prediction; :mod:`daebench.workflows.stability`)."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ DEFAULT_PERIODS = 80.0
 def parse_method(text: str) -> tuple[str, dict[str, Any]]:
     """``"baumgarte:delta=10,epsilon=50"`` → ("baumgarte", {"delta": 10.0, "epsilon": 50.0}),
     validated and typed by the integrator's own settings."""
-    from daebench.harness.runner import make_integrator
+    from daebench.harness.running.runner import make_integrator
 
     name, _, rest = text.partition(":")
     raw = dict(kv.split("=", 1) for kv in rest.split(",") if kv.strip()) if rest.strip() else {}
@@ -69,8 +69,8 @@ def register(app: typer.Typer) -> None:
         linear prediction (start frequencies × the method's computed stability interval)."""
         from daebench.cli.common import fail
         from daebench.models.scenes import load_scene
-        from daebench.studies import stability as st
-        from daebench.studies import stability_report as rep
+        from daebench.workflows import stability as st
+        from daebench.workflows import stability_report as rep
 
         try:
             sc = load_scene(case, set_)

@@ -17,7 +17,7 @@ from daebench.core.params import ParamError
 
 def _print_survey(res) -> None:
     from daebench.cli.common import out, print_table
-    from daebench.harness import survey as S
+    from daebench.workflows import survey as S
 
     for r in res.cases:
         st = r.table["status"].value_counts().to_dict() if len(r.table) else {}
@@ -65,7 +65,9 @@ def register(app: typer.Typer) -> None:
         recommendation per case; write results/survey/<name>/ (table, reach = cost to reach each target,
         profiles, recommendations)."""
         from daebench.cli.common import fail, out
-        from daebench.harness import bench as B, costs, survey as S
+        from daebench.harness.analysis import costs
+        from daebench.harness.sweeps import sweep as B
+        from daebench.workflows import survey as S
 
         t0 = time.perf_counter()
         try:
@@ -84,7 +86,7 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(130)
         _print_survey(res)
         if report:
-            from daebench.harness import report as R
+            from daebench.workflows import report as R
 
             res.files.append(R.write_survey_report(res))
         out(f"written: {res.folder} ({', '.join(p.name for p in res.files)})")
@@ -106,7 +108,7 @@ def register(app: typer.Typer) -> None:
         """Write one self-contained HTML page of a survey: recommendations, sortable tables, figures,
         the reference's trusted span where known, provenance."""
         from daebench.cli.common import fail, out
-        from daebench.harness import report as R
+        from daebench.workflows import report as R
 
         try:
             res = R.load_survey(name)
@@ -126,7 +128,7 @@ def register(app: typer.Typer) -> None:
         every observable (max |Δ| against the all-on run) and of the cost (wall time, steps)."""
         from daebench.cli.common import fail, load_scene_or_exit, out, print_table
         from daebench.core.params import parse_pairs
-        from daebench.harness import effects as E
+        from daebench.workflows import effects as E
 
         sc = load_scene_or_exit(case, set_)
         try:

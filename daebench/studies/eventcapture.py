@@ -9,7 +9,7 @@
 * :func:`capture_histories` and :func:`penetration_energy_figure` — penetration
   max(−g, 0) and total energy E over time, one run per integrator at one step.
 
-Runs go through the public API (:func:`daebench.run`, :func:`daebench.harness.bench`): the same
+Runs go through the public API (:func:`daebench.run`, :func:`daebench.harness.sweeps.sweep`): the same
 driver, scoring and reference as every other row.
 """
 
@@ -122,7 +122,7 @@ def work_precision_figures(df: pd.DataFrame, out_dir: str | Path, measures: Sequ
                            x: str = "wall_s", title: str = "") -> list[Path]:
     """One work–precision figure (error against wall time, Pareto front) per error measure
     the table has; written as <out_dir>/wp-<measure>.png/.svg."""
-    from daebench.harness import plots
+    from daebench.harness.analysis import plots
 
     out = []
     for m in measures:
@@ -164,7 +164,7 @@ def penetration_energy_figure(hists: Mapping[str, pd.DataFrame], stem: str | Pat
     one line per run (``window``: a time interval to show)."""
     import matplotlib.pyplot as plt
 
-    from daebench.harness import plots
+    from daebench.harness.analysis import plots
 
     fig, (ax_p, ax_e) = plt.subplots(2, 1, figsize=(8.0, 6.5), sharex=True)
     for label, hist in hists.items():

@@ -2,7 +2,7 @@
 + impact map, driver), PFM (penalty) and IMM (interactive mode) — on the planar FE cases
 ``rod-wall``, ``slider-slot`` and ``rod-plate``, scored from ordinary run records.
 
-Every run goes through :func:`daebench.harness.runner.run_scene` (the harness's path: history,
+Every run goes through :func:`daebench.harness.running.runner.run_scene` (the harness's path: history,
 impacts, energy residual, constraint residuals); this module only reads the records:
 
 * :func:`contact_window` — first touch to last release, from the run's contact
@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from daebench.integrators.base import Integrator
-from daebench.harness.runner import make_integrator, run_scene
+from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.core.scene import Scene
 
 #: the treatments: (contact.law, default integrator)

@@ -2,7 +2,7 @@
 Physica Sinica 2017): Table 1 beside the published seconds,
 and one figure plus one computed verdict per claim 1–7.
 
-The runs are ordinary sweep rows (:func:`daebench.harness.bench.execute`), so they are scored
+The runs are ordinary sweep rows (:func:`daebench.harness.sweeps.row.execute`), so they are scored
 and never lost; their histories are kept under ``<out>/runs/`` for the figures. Each
 verdict is a sentence with the number it rests on, computed from this run's data —
 "supported", "not supported" or "not testable here" (e.g. N = 9 is not in --quick), or
@@ -21,10 +21,13 @@ from typing import Any
 
 import pandas as pd
 
-from daebench.harness import bench, provenance
-from daebench.harness.runner import results_dir
+from daebench.harness.running import provenance
+from daebench.harness.sweeps import sweep as bench
+from daebench.harness.files import results_dir
 from daebench.core.scene import Scene
 from daebench.models.scenes import load_scene
+from daebench.harness.sweeps.options import Execution, Timing
+from daebench.harness.sweeps.plan import RunSpec
 from daebench.studies.paper_table import (BAUMGARTE, BASE_OBSERVABLES, HHT_ALPHAS, PUBLISHED_TABLE1,  # noqa: F401
                                            QUICK_RUN_CAP, SCENE, observables, table1)
 
@@ -80,16 +83,16 @@ def setting_name(integrator: str, opts: dict[str, Any]) -> str:
     return integrator
 
 
-def plan(p: Protocol) -> list[bench.RunSpec]:
+def plan(p: Protocol) -> list[RunSpec]:
     """Every run of the reproduction, tagged by purpose in ``varied['set']``."""
-    specs: list[bench.RunSpec] = []
+    specs: list[RunSpec] = []
 
     def add(tag: str, integ: str, opts: dict[str, Any], N: int, e: float, law: str = "constraint") -> None:
         over = {"discretization.n": N, "contact.restitution": e, "contact.law": law,
                 "output.observables": observables(N)}
         o = {"h": p.h, "h_contact": p.h_contact, **opts}
         varied = {"set": tag, "N": N, "e": e, "law": law, "setting": setting_name(integ, opts)}
-        specs.append(bench.RunSpec(len(specs), integ, o, over, varied))
+        specs.append(RunSpec(len(specs), integ, o, over, varied))
 
     methods = [("hht", {"alpha": a}) for a in HHT_ALPHAS] + \
               [("baumgarte", {"delta": d, "epsilon": ep}) for d, ep in BAUMGARTE]
@@ -135,7 +138,7 @@ def run_paper(quick: bool = False, jobs: int = 1, out: str | Path | None = None,
     folder.mkdir(parents=True, exist_ok=True)
     scene = base_scene(p)
     specs = plan(p)
-    df = bench.run_specs(specs, scene, bench.Execution(jobs=jobs, progress=progress), bench.Timing(run_cap=run_cap),
+    df = bench.run_specs(specs, scene, Execution(jobs=jobs, progress=progress), Timing(run_cap=run_cap),
                          "auto", history_dir=folder / "runs", description="paper")
     return report(df, p, folder, scene, progress=progress)
 

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from daebench.harness import metrics, plots
+from daebench.harness.analysis import plots
+from daebench.harness.scoring import metrics
 from daebench.studies.paper_table import BAUMGARTE, HHT_ALPHAS, PUBLISHED_TABLE1, table1
 from daebench.studies.paper_figures import fig_cost, fig_difference, fig_series
 

@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from daebench.harness import metrics, plots
+from daebench.harness.analysis import plots
+from daebench.harness.scoring import metrics
 
 
 def fig_series(hm, col, stem, prov, title, logy=False, ylabel=None) -> list[Path]:

@@ -44,14 +44,16 @@ from typing import Any
 
 import numpy as np
 
-from daebench.harness import provenance
-from daebench.harness.runner import results_dir, run_scene
+from daebench.harness.running import provenance
+from daebench.harness.files import results_dir
+from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
 from daebench.studies import coldstart, eventcapture, friction_perf, perf_floor, perf_structure
 from daebench.studies.perf_bounds import adaptive, resolution_bound
 from daebench.studies.perf_common import PUBLISHED_TABLE1_TOTAL_S, PerfSettings, _timed
 from daebench.studies.perf_peers import compiled_plugin, exudyn_compare
 from daebench.studies.perf_report import markdown
+from daebench.harness.sweeps.options import Execution
 
 __all__ = ["PerfSettings", "run_perf", "markdown"]
 
@@ -68,13 +70,13 @@ def compile_time() -> dict[str, float]:
 
 
 def table1(s: PerfSettings) -> dict[str, Any]:
-    from daebench.harness import bench
+    from daebench.harness.sweeps import sweep as bench
     from daebench.studies import paper
 
     p = paper.Protocol(t_end=s.table_t_end)
     specs = [x for x in paper.plan(p) if x.varied["set"] == "table"]
     scene = paper.base_scene(p)
-    df, wall = _timed(lambda: bench.run_specs(specs, scene, bench.Execution(jobs=s.jobs, progress=False),
+    df, wall = _timed(lambda: bench.run_specs(specs, scene, Execution(jobs=s.jobs, progress=False),
                                               reference_mode="none"))
     runs = [{"N": int(r["N"]), "setting": r["setting"], "status": r["status"], "wall_s": float(r["wall_s"]),
              "steps": int(r.get("steps", 0) or 0), "t_final": float(r.get("t_final", math.nan))}

@@ -8,10 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from daebench.harness import metrics
-from daebench.harness.guards import RunTimeout, deadline
-from daebench.harness.references import load_reference
-from daebench.harness.runner import run_scene
+from daebench.harness.scoring import metrics
+from daebench.harness.running.deadline import RunTimeout, deadline
+from daebench.harness.references.reference import load_reference
+from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
 from daebench.studies.perf_common import THETA_TARGET_RAD, PerfSettings, _timed
 

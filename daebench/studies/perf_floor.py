@@ -29,7 +29,7 @@ from numba import njit
 
 from daebench.core import kernels
 from daebench.core.borrow import borrow
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
 

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from daebench.models.pendulum import exact_theta
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
 from daebench.studies.perf_common import PerfSettings, _timed
 

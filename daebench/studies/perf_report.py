@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from daebench.harness import provenance
+from daebench.harness.running import provenance
 from daebench.studies import perf_structure
 
 

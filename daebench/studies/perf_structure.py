@@ -33,7 +33,8 @@ import numpy as np
 
 from daebench.core.params import ParamError
 from daebench.driver.simulate import simulate
-from daebench.harness.runner import make_integrator, results_dir, run_scene
+from daebench.harness.files import results_dir
+from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
 
