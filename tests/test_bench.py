@@ -15,7 +15,7 @@ from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
 from daebench.harness.references.reference import ReferenceMissing, compute_reference, load_reference, reference_tolerances
 from daebench.harness.running.runner import run_scene
-from daebench.harness.sweeps.options import Execution, SweepError
+from daebench.harness.sweeps.options import Execution, SweepError, SweepOptions
 from daebench.harness.sweeps.plan import RunSpec, plan_sweep
 
 # the exploding test integrator overflows on purpose
@@ -130,7 +130,7 @@ def test_tols_skip_fixed_step_only(registry, pendulum):
     hht, boom = specs
     assert hht.options["adaptive"] is True and hht.options["rtol"] == 1e-4
     assert "no adaptive" in boom.skip
-    df = bench.run_specs(specs, pendulum, Execution(progress=False), reference_mode="none")
+    df = bench.run_specs(specs, pendulum, SweepOptions(reference="none", execution=Execution(progress=False)))
     assert list(df.status) == ["completed", "skipped"]
 
 

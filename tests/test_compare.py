@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from daebench.harness.sweeps.options import Execution, SweepOptions
 from daebench.workflows import compare as C
 from daebench.harness.references import fingerprints
 from daebench.models.scenes import load_scene
@@ -36,7 +37,8 @@ def test_compare_scores_every_row_and_writes_table_and_figure(tmp_path, monkeypa
     sc = load_scene("pendulum", {"t_end": 0.5})
     proto = C.Protocol((C.Entry("hht", (1e-2, 5e-3), options={"alpha": 0.0}), C.Entry("central")),
                        measures=("err_theta_max", "err_pos_max"))
-    res = C.run_compare(sc, jobs=1, out=tmp_path / "cmp", progress=False, protocol=proto)
+    options = SweepOptions(reference="compute", execution=Execution(jobs=1, progress=False))
+    res = C.run_compare(sc, options, out=tmp_path / "cmp", protocol=proto)
     df = res.table
     assert list(df["status"]) == ["completed", "completed"] and "central" in res.not_applicable
     assert np.all(np.isfinite(df["err_theta_max"])) and np.all(df["repeats"] >= 1)

@@ -313,7 +313,7 @@ def test_capture_page_shows_progress_and_can_run_again(monkeypatch, tmp_path):
     """Item 16: the page ran 258 s with no output and could not be run twice (its table
     existed). It now asks for progress bars and passes --resume/--overwrite to its sweeps."""
     from daebench.core.params import ParamError
-    from daebench.studies import eventcapture
+    from daebench.studies import event_capturing as eventcapture
 
     seen = {}
 

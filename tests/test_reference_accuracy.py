@@ -20,7 +20,7 @@ from daebench.harness.references import accuracy, reference as references
 from daebench.harness.scoring import metrics
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
-from daebench.studies import ivptest
+from daebench.studies import ivptest as ivptest
 
 
 def _hist(t, y):

@@ -12,6 +12,7 @@ import pytest
 from daebench.core.params import ParamError
 from daebench.harness.sweeps import digest, sweep as bench
 from daebench.workflows import compare, survey as S
+from daebench.harness.sweeps.options import Execution, Storage, SweepOptions, Timing
 from daebench.harness.sweeps.plan import plan_sweep
 
 
@@ -113,8 +114,10 @@ def test_digest_is_equal_across_executors(tmp_path):
     digests = {}
     for how, kw in (("inline", dict(executor="inline")), ("jobs2", dict(jobs=2)),
                     ("dask", dict(executor="dask", jobs=1))):
-        df = S.execute_specs(specs, sc, reference_mode="none", repeats=1, warmup=False,
-                             history_dir=tmp_path / how, **kw)
+        options = SweepOptions(reference="none", timing=Timing(repeats=1, warmup=False),
+                               execution=Execution(progress=False, **kw),
+                               storage=Storage(write=False, history_dir=tmp_path / how))
+        df = bench.run_specs(specs, sc, options)
         digests[how] = [digest.history_digest(pd.read_parquet(p)) for p in df["history"]]
     assert digests["inline"] == digests["jobs2"] == digests["dask"]
     assert len(set(digests["inline"])) == 2                       # two different runs, two digests

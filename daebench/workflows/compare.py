@@ -41,8 +41,9 @@ from daebench.harness.references.reference import ReferenceMissing, load_referen
 from daebench.harness.running import checks, provenance, timing
 from daebench.harness.running.progress import run_progress_factory
 from daebench.harness.scoring import pipeline
-from daebench.harness.sweeps import sweep
-from daebench.harness.sweeps.options import Execution, Timing
+from daebench.harness.sweeps import digest, sweep
+from daebench.harness.sweeps.options import Execution, SweepOptions
+from daebench.harness.sweeps.sweep import HARNESS_FAILURES
 from daebench.harness.sweeps.plan import RunSpec, plan_sweep
 from daebench.integrators import base
 
@@ -85,7 +86,7 @@ _BEAM = Protocol(
     measures=("err_{obs}_max_trusted", "err_pre_{obs}_max", "err_impact1_t"),
     why="the paper's steps (h = 1e-4 s, 1e-6 s in contact) and two halvings; the θ error over the "
         "reference's trusted span beside the error before the first impact and the first impact's time error")
-# the nonsmooth cases of issue 25 (friction): both families at the same three steps, the reference a
+# the nonsmooth cases with friction: both families at the same three steps, the reference a
 # fine Moreau–Jean run (daebench.harness.references.capturing); IDA and the integrators that cannot take the
 # case's friction are refused before running, each with its reason
 def _both_families(steps: tuple[float, ...]) -> tuple[Entry, ...]:
@@ -129,7 +130,9 @@ def protocol_for(scene: Scene) -> Protocol:
 @dataclass
 class CompareResult:
     """The scored table, the integrators not applicable (name → why), written files, the
-    protocol (measures resolved) and the headline observable's declaration."""
+    protocol (measures resolved), the headline observable's declaration, the folder, and
+    the determinism check: a line per run whose history digest differs from the previous
+    comparison in the same folder."""
 
     table: pd.DataFrame
     not_applicable: dict[str, str]
@@ -137,6 +140,31 @@ class CompareResult:
     protocol: Protocol
     reference: Any = None
     headline: Any = None
+    folder: Path | None = None
+    changed: list[str] = field(default_factory=list)
+    page: Path | None = None          # the HTML page, when one was written
+
+    @property
+    def failures(self) -> pd.DataFrame:
+        """The rows of runs that gave no verdict (error, timeout, crashed)."""
+        return self.table[self.table["status"].isin(HARNESS_FAILURES)] if len(self.table) else self.table
+
+    @property
+    def ok(self) -> bool:
+        """Every run gave a verdict and every history equals its previous one (the exit rule)."""
+        return not len(self.failures) and not self.changed
+
+    def table_rows(self) -> tuple[list[str], list[list[Any]]]:
+        """The printed table (:func:`table_rows`)."""
+        return table_rows(self.table, self.headline)
+
+    def summary_lines(self) -> list[str]:
+        """What the table does not say (:func:`summary_lines`)."""
+        return summary_lines(self)
+
+    def as_json(self) -> str:
+        """The table as JSON records (for --json)."""
+        return as_json(self)
 
 
 def plan(scene: Scene, protocol: Protocol) -> tuple[list[RunSpec], dict[str, str]]:
@@ -166,19 +194,23 @@ def _refused_at_start(row: pd.Series) -> bool:
         and not (float(row.get("steps", 0) or 0) > 0) and "IntegratorError" in str(row.get("message", ""))
 
 
-def run_compare(scene: Scene, jobs: int = 2, out: str | Path | None = None, progress: bool = True,
-                reference: str = "compute", run_cap: float | None = None,
+#: what `daebench compare` runs with unless told otherwise: two workers, the reference
+#: computed when missing (with a progress bar)
+DEFAULT_OPTIONS = SweepOptions(reference="compute", execution=Execution(jobs=2))
+
+
+def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str | Path | None = None,
                 protocol: Protocol | None = None) -> CompareResult:
-    """Run the protocol of ``scene``, score every run, write the table and the figure.
+    """Run the protocol of ``scene``, score every run, write the table and the figure, and
+    compare each run's history digest with the previous comparison in the same folder.
 
     Parameters
     ----------
     scene : the case (overrides applied)
-    jobs : worker processes
+    options : ``reference`` 'compute' (compute the reference when missing, with a progress
+        bar), 'require' (refuse without one) or 'auto'; ``execution`` (worker processes,
+        progress bars) and ``timing`` (its ``run_cap``: wall-time cap of one run [s])
     out : output folder (default results/compare/<scene>-<hash>)
-    reference : 'compute' (compute the reference when missing, with a progress bar),
-        'require' (refuse without one) or 'auto'
-    run_cap : wall-time cap of one run [s]
     protocol : instead of the case's own
 
     Raises
@@ -186,39 +218,48 @@ def run_compare(scene: Scene, jobs: int = 2, out: str | Path | None = None, prog
     ParamError
         Before any run: no applicable integrator, a missing reference under 'require', a
         cached reference that disagrees with the shipped fingerprint.
+    OutputWriteError
+        The runs finished but the files could not be written; ``.result`` holds the table.
     """
     head = pipeline.headline(scene)
     proto = (protocol or protocol_for(scene)).resolved(head.score_name)
-    folder = Path(out) if out is not None else results_dir() / "compare" / f"{scene.name}-{scene.hash[:8]}"
+    folder = Path(out) if out is not None else default_folder(scene)
     ensure_writable_dir(folder, "compare folder (--out)",  # before any run: /dev/null, too long, read-only
                         longest_name=f".wp-{scene.name}-{proto.measures[0] if proto.measures else 'e'}"
                                      f".svg.{'9' * 7}.tmp")
+    previous = digest.previous_table(folder / "table.parquet")   # the last comparison: its digests
     specs, refused = plan(scene, proto)
     if not specs:
         raise ParamError(f"no integrator applies to scene '{scene.name}': "
                          + "; ".join(f"{k}: {v}" for k, v in refused.items()))
-    sweep.prepare_references(specs, scene, reference, run_progress_factory(progress))
+    sweep.prepare_references(specs, scene, options.reference, run_progress_factory(options.execution.progress))
     ref = None
-    if reference != "none":
+    if options.reference != "none":
         try:
             ref = load_reference(scene, mode="require")
             fingerprints.check(scene, ref)
         except ReferenceMissing:
             ref = None
-    df = sweep.run_specs(specs, scene, Execution(jobs=jobs, progress=progress), Timing(run_cap=run_cap),
-                         "require" if ref is not None else "none", description=f"compare {scene.name}")
+    df = sweep.run_specs(specs, scene, options.scored_against("require" if ref is not None else "none"),
+                         description=f"compare {scene.name}")
     gone = df.apply(_refused_at_start, axis=1) if len(df) else pd.Series([], dtype=bool)
     for _, r in df[gone].iterrows():
         refused.setdefault(r["integrator"], str(r["message"]))
     df = df[~gone].reset_index(drop=True)
+    changed = digest.mismatch_lines(previous, df)   # a run whose history differs from its last time
     try:
         files = write(df, scene, proto, folder, refused, ref)
     except OSError as exc:  # a full disk after the work: the table still reaches the caller
         err = write_error(exc, "the comparison to", folder, "every run finished: the table is printed, "
                           "not saved (run again to save it)")
-        err.result = CompareResult(df, refused, [], proto, ref, head)
+        err.result = CompareResult(df, refused, [], proto, ref, head, folder, changed)
         raise err from None
-    return CompareResult(df, refused, files, proto, ref, head)
+    return CompareResult(df, refused, files, proto, ref, head, folder, changed)
+
+
+def default_folder(scene: Scene) -> Path:
+    """results/compare/<scene>-<first 8 digits of its hash>"""
+    return results_dir() / "compare" / f"{scene.name}-{scene.hash[:8]}"
 
 
 def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:

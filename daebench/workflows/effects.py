@@ -17,7 +17,7 @@ effect does to this integrator's answer, not how far the answer is from a refere
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -30,16 +30,23 @@ from daebench.harness.files import results_dir
 from daebench.harness.running import provenance
 from daebench.harness.running.history_io import read_history
 from daebench.harness.scoring import metrics
+from daebench.harness.sweeps import sweep
+from daebench.harness.sweeps.options import Execution, Storage, SweepOptions
 from daebench.harness.sweeps.plan import plan_sweep
-from daebench.workflows.survey import execute_specs
 
 ALL_ON = "(all on)"
 
 
 @dataclass
 class EffectsResult:
+    """The table (one row per effect turned off, and the all-on run) and its files."""
+
     table: pd.DataFrame
     files: list[Path] = field(default_factory=list)
+
+    def table_rows(self) -> tuple[list[str], list[list[Any]]]:
+        """The printed table (:func:`table_rows`)."""
+        return table_rows(self.table)
 
 
 def switchable(scene: Scene) -> list[str]:
@@ -61,10 +68,12 @@ def max_differences(on: pd.DataFrame, off: pd.DataFrame, observables: list[str])
     return out
 
 
-def run_effects(scene: Scene, integrator: str = "hht", options: Mapping[str, Any] | None = None,
-                folder: Path | None = None, jobs: int = 1, progress: bool = False) -> EffectsResult:
-    """Run ``scene`` all on and with each switchable effect off; the table and its files
-    (effects.csv, effects.json with provenance) in ``folder`` (default
+def run_effects(scene: Scene, integrator: str = "hht", settings: Mapping[str, Any] | None = None,
+                folder: Path | None = None, options: SweepOptions = SweepOptions(execution=Execution(progress=False))
+                ) -> EffectsResult:
+    """Run ``scene`` all on and with each switchable effect off (``integrator`` with
+    ``settings``; the runs unscored, executed and timed by ``options``); the table and its
+    files (effects.csv, effects.json with provenance) in ``folder`` (default
     results/effects/<scene>-<hash>).
 
     Raises
@@ -77,16 +86,16 @@ def run_effects(scene: Scene, integrator: str = "hht", options: Mapping[str, Any
     if not keys:
         raise ParamError(f"scene '{scene.name}' has no effect switched on (effects.* keys); nothing to turn off")
     folder = Path(folder) if folder is not None else results_dir() / "effects" / f"{scene.name}-{scene.hash[:8]}"
-    specs, refused = plan_sweep(scene, [integrator], options=dict(options or {})), {}
+    specs, refused = plan_sweep(scene, [integrator], options=dict(settings or {})), {}
     for k in keys:
         try:
-            specs += plan_sweep(scene, [integrator], grid={k: [False]}, options=dict(options or {}))
+            specs += plan_sweep(scene, [integrator], grid={k: [False]}, options=dict(settings or {}))
         except ParamError as exc:
             refused[k] = str(exc)
     for i, s in enumerate(specs):
         s.index = i
-    df = execute_specs(specs, scene, jobs=jobs, reference_mode="none", description=f"effects {scene.name}",
-                       history_dir=folder / "histories", progress=progress)
+    unscored = replace(options, reference="none", storage=Storage(write=False, history_dir=folder / "histories"))
+    df = sweep.run_specs(specs, scene, unscored, description=f"effects {scene.name}")
     obs = [str(o) for o in (scene.get("output.observables") or [])]
     hist = {int(r["run"]): read_history(r["history"]) if isinstance(r.get("history"), str) else pd.DataFrame()
             for _, r in df.iterrows()}
@@ -109,7 +118,7 @@ def run_effects(scene: Scene, integrator: str = "hht", options: Mapping[str, Any
     files = [folder / "effects.csv"]
     table.to_csv(files[0], index=False)
     files.append(provenance.write_sidecar(folder / "effects.json", provenance.collect([scene]), scene=scene.name,
-                                          integrator=integrator, options=dict(options or {}), effects=keys))
+                                          integrator=integrator, options=dict(settings or {}), effects=keys))
     return EffectsResult(table, files)
 
 

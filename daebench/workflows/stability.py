@@ -45,8 +45,10 @@ import functools
 import math
 import multiprocessing as mp
 import sys
+import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
@@ -64,7 +66,19 @@ from daebench.integrators.baumgarte import BaumgarteABM4
 from daebench.integrators.family import NewmarkFamily
 from daebench.models import build_system
 from daebench.stepping import abm
+from daebench.workflows import stability_report
 
+# the beam-impact paper's settings (docs/sources.md §G.3), plus generalized-α and two Newmark members:
+# the trapezoidal rule (unconditionally stable) and Fox–Goodwin β = 1/12 (stable for hω ≤ √6)
+DEFAULT_METHODS = ("baumgarte:delta=0,epsilon=0", "baumgarte:delta=10,epsilon=50",
+                   "baumgarte:delta=1000,epsilon=5000", "hht:alpha=0", "hht:alpha=-0.15", "hht:alpha=-0.3333",
+                   "genalpha:rho_inf=0.74", "newmark:beta=0.25", "newmark:beta=0.0833333333")
+DEFAULT_N = (3, 5, 7, 9)
+# trials of 80 periods of the fastest mode (≈ 530 steps near ABM4-PECE's boundary: an instability
+# beyond it shows as e^18, the weak growth below it stays under e^3.4; see trial_length).
+# On beam-impact that is 0.01-0.12 s (J_h = 0) and 0.03-0.32 s (with a hub): before the first
+# impact (0.37 s), in the free flight that the linearization at the start describes.
+DEFAULT_PERIODS = 80.0
 MIN_STEPS = 100         # the largest step tried gives a trial this many steps (hω_max ≤ 5 at 80 periods)
 OMEGA_GRID = np.concatenate([np.linspace(1e-3, 4.0, 4000), np.geomspace(4.0, 1e7, 600)[1:]])
 STRICT_SLACK = 1e-12    # ρ ≤ 1 + this counts as |ρ| ≤ 1 (round-off of the eigenvalue solver)
@@ -349,22 +363,37 @@ def trial_length(scene: Scene, lin: Linearization, periods: float) -> float:
     return scene.t_end if w <= 0.0 else min(scene.t_end, periods * 2.0 * math.pi / w)
 
 
+@dataclass(frozen=True)
+class Bisection:
+    """How the largest stable step is searched: the key N stands for (``n_key``), the trial
+    length (``t_end`` [s], or None: ``periods`` periods of the fastest mode,
+    :func:`trial_length`), the bisection bounds ``h_min``, ``h_max`` [s] and relative
+    bracket width ``tol`` (the upper bound is lowered to t_trial/:data:`MIN_STEPS`: a trial
+    of fewer steps shows no instability), worker processes (``jobs``: one bisection per
+    task, the tasks in parallel), the wall-time cap of one run (``run_cap`` [s]), and a step
+    drawn as a line on the figure (``mark_h`` [s])."""
+
+    n_key: str = "discretization.n"
+    t_end: float | None = None
+    periods: float = DEFAULT_PERIODS
+    h_min: float = 1e-6
+    h_max: float = 1e-2
+    tol: float = 0.02
+    jobs: int = 1
+    run_cap: float | None = None
+    mark_h: float | None = None
+
+
 def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n_values: Iterable[int] | None,
-                  *, n_key: str = "discretization.n", t_end: float | None = None, periods: float = 80.0,
-                  h_min: float = 1e-6, h_max: float = 1e-2, tol: float = 0.02, jobs: int = 1,
-                  run_cap: float | None = None, progress: Callable[[str], None] | None = None) -> pd.DataFrame:
+                  search: Bisection = Bisection(), progress: Callable[[str], None] | None = None) -> pd.DataFrame:
     """The stability table: one row per (integrator setting, N).
 
     Parameters
     ----------
     scene : the case
     methods : (integrator name, settings) pairs, e.g. ``("baumgarte", {"delta": 10, "epsilon": 50})``
-    n_values, n_key : values of the discretization key to sweep (None: the scene's own)
-    t_end, periods : run length of the trials [s]; None: ``periods`` periods of the fastest
-        mode (:func:`trial_length`)
-    h_min, h_max, tol : bisection bounds [s] and relative bracket width; the upper bound is
-        lowered to t_trial/:data:`MIN_STEPS` (a trial of fewer steps shows no instability)
-    jobs : worker processes (one bisection per task; the tasks run in parallel)
+    n_values : values of ``search.n_key`` to sweep (None: the scene's own)
+    search : trial length, bisection bounds and width, workers, run cap (:class:`Bisection`)
 
     Returns
     -------
@@ -372,6 +401,8 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
     interval_strict, interval [hω], h_pred, h_stable, h_unstable [s], unstable_status,
     runs, t_trial [s], agrees (h_pred within one bisection step of the measured bracket).
     """
+    n_key, t_end, periods, h_min, h_max, tol, jobs, run_cap = (
+        search.n_key, search.t_end, search.periods, search.h_min, search.h_max, search.tol, search.jobs, search.run_cap)
     scenes = []
     for n in (list(n_values) if n_values else [None]):
         sc = scene.with_overrides({n_key: n}) if n is not None else scene
@@ -417,3 +448,75 @@ def agrees(h_pred: float, found: dict[str, Any], tol: float, h_max: float) -> bo
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return False
     return lo / (1.0 + tol) <= h_pred <= hi * (1.0 + tol)
+
+
+def parse_method(text: str) -> tuple[str, dict[str, Any]]:
+    """``"baumgarte:delta=10,epsilon=50"`` → ("baumgarte", {"delta": 10.0, "epsilon": 50.0}),
+    validated and typed by the integrator's own settings."""
+    name, _, rest = text.partition(":")
+    raw = dict(kv.split("=", 1) for kv in rest.split(",") if kv.strip()) if rest.strip() else {}
+    if any(not k.strip() for k in raw):
+        raise ParamError(f"--method '{text}': write integrator:name=value,name=value")
+    integ = make_integrator(name.strip(), {k.strip(): v.strip() for k, v in raw.items()})
+    return integ.name, {k.strip(): integ.settings[k.strip()] for k in raw}
+
+
+@dataclass
+class StabilityResult:
+    """The table, the files written, and what a reader is told first (``heading``: what was
+    measured) and last (``summary``: how many rows agree, the runs and their wall time)."""
+
+    table: pd.DataFrame
+    files: list[Path]
+    markdown: str
+    heading: str
+    summary: str
+
+
+def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str = "auto",
+                  search: Bisection = Bisection(), out: Path = Path("results/stability"),
+                  name: str | None = None, progress: Callable[[str], None] | None = None) -> StabilityResult:
+    """The stability map of ``scene`` (:func:`stability_map`) with its files under ``out``
+    (``<name or scene-stability>``.parquet, .csv, .md, .png: :mod:`.stability_report`).
+
+    ``methods`` are ``integrator:setting=value,...`` texts (:func:`parse_method`); ``n``
+    the values of ``search.n_key``, comma-separated ('': the scene's own; 'auto':
+    :data:`DEFAULT_N` when the scene has that key).
+
+    Raises
+    ------
+    ParamError
+        For a bad method, N or bound, before anything runs.
+    """
+    try:
+        parsed = [parse_method(m) for m in methods]
+        if n.strip() == "auto":
+            n = ",".join(map(str, DEFAULT_N)) if search.n_key in scene.schema else ""
+        ns = [int(x) for x in n.split(",") if x.strip()] if n.strip() else None
+    except ValueError as exc:
+        raise ParamError(str(exc)) from None
+    if ns is not None and search.n_key not in scene.schema:
+        raise ParamError(f"scene '{scene.name}' has no key '{search.n_key}' to vary; give --n '' or --n-key")
+    if not (0.0 < search.h_min < search.h_max) or not (0.0 < search.tol < 1.0) or search.jobs < 1 \
+            or (search.t_end is not None and search.t_end <= 0.0) or search.periods <= 0.0:
+        raise ParamError("need 0 < --h-min < --h-max, 0 < --tol < 1, --jobs ≥ 1, --t-end ≥ 0 and --periods > 0")
+    te = min(search.t_end, scene.t_end) if search.t_end is not None else None
+    search = replace(search, t_end=te)
+    length = f"{te:g} s" if te is not None else f"{search.periods:g} periods of the fastest mode"
+    heading = (f"stability map of {scene.name}: {len(parsed)} settings × {len(ns or [None])} N, trials of {length}, "
+               f"h in [{search.h_min:g}, {search.h_max:g}] s to {search.tol:.0%}, {search.jobs} job(s)")
+    if progress is not None:
+        progress(heading)
+    wall0 = time.perf_counter()
+    try:
+        df = stability_map(scene, parsed, ns, search, progress)
+    except ValueError as exc:
+        raise ParamError(str(exc)) from None
+    extra = ", ".join(f"{k}={v}" for k, v in scene.changes().items())
+    title = (f"{scene.name}{' (' + extra + ')' if extra else ''}: largest stable step, trials of {length}, "
+             f"bisection to {search.tol:.0%}")
+    files = stability_report.write(df, Path(out), name or f"{scene.name}-stability", title, search.h_max,
+                                   search.mark_h)
+    summary = (f"{int(df['agrees'].sum())}/{len(df)} rows agree with the prediction within one bisection step; "
+               f"{int(df['runs'].sum())} runs in {time.perf_counter() - wall0:.1f} s")
+    return StabilityResult(df, files, stability_report.markdown(df, search.h_max), heading, summary)

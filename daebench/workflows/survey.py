@@ -58,7 +58,7 @@ from daebench.harness.running.progress import run_progress_factory
 from daebench.harness.scoring import pipeline
 from daebench.harness.sweeps import executors, sweep
 from daebench.harness.sweeps.row import execute, outcome_row
-from daebench.harness.sweeps.options import Execution, Timing
+from daebench.harness.sweeps.options import Execution, SweepOptions, Timing
 from daebench.harness.sweeps.plan import RunSpec
 from daebench.harness.sweeps.store import StoreError, SweepStore, assemble, check_name, unique_name
 from daebench.integrators import base
@@ -105,6 +105,12 @@ class SurveyOptions:
         """Timed runs after the warm-up: :data:`QUICK_REPEATS` under ``quick``, else the sweep's rule."""
         return QUICK_REPEATS if self.quick else None
 
+    def sweep_options(self, reference: str, run_cap: float | None) -> SweepOptions:
+        """The options of a case's sweep: scored under ``reference``, each run capped at ``run_cap``."""
+        timing = Timing(run_cap=run_cap) if self.repeats is None else Timing(repeats=self.repeats, run_cap=run_cap)
+        return SweepOptions(reference=reference, timing=timing,
+                            execution=Execution(jobs=self.jobs, scheduler=self.scheduler, progress=self.progress))
+
     @property
     def budget(self) -> float:
         b = self.budget_s if self.budget_s is not None else (QUICK_BUDGET_S if self.quick else DEFAULT_BUDGET_S)
@@ -140,6 +146,20 @@ class SurveyResult:
     wall_s: float
     files: list[Path] = field(default_factory=list)
     workers_started: int | None = None   # worker processes started over the survey (None: on Dask)
+
+    @property
+    def failures(self) -> pd.DataFrame:
+        """The rows of runs that gave no verdict for a reason of their own (error, crashed)."""
+        return self.table[self.table["status"].isin(("error", "crashed"))] if len(self.table) else self.table
+
+    @property
+    def ok(self) -> bool:
+        """No run failed that way and every repeat check matched (the exit rule)."""
+        return not len(self.failures) and not mismatches(self)
+
+    def mismatches(self) -> list[dict[str, Any]]:
+        """The repeat checks whose digests differ (:func:`mismatches`)."""
+        return mismatches(self)
 
 
 # ---- protocols --------------------------------------------------------------------------
@@ -212,18 +232,6 @@ def case_measures(df: pd.DataFrame, proto: Protocol) -> list[str]:
 
 
 # ---- running ---------------------------------------------------------------------------------
-def execute_specs(specs: Sequence[RunSpec], scene: Scene, *, jobs: int = 1, executor: str = "process",
-                  scheduler: Any = None, reference_mode: str = "auto", progress: bool = False,
-                  description: str = "runs", run_cap: float | None = None, store: Any = None,
-                  history_dir: Path | None = None, repeats: int | None = None, warmup: bool = True) -> pd.DataFrame:
-    """:func:`daebench.harness.sweeps.sweep.run_specs` with its settings as keywords (the one place
-    that builds the sweep's option values: :mod:`daebench.harness.sweeps.options`)."""
-    tm = Timing(run_cap=run_cap, warmup=warmup, **({} if repeats is None else {"repeats": repeats}))
-    return sweep.run_specs(specs, scene, Execution(jobs=jobs, executor=executor, scheduler=scheduler,
-                                                   progress=progress), tm, reference_mode=reference_mode,
-                           store=store, history_dir=history_dir, description=description)
-
-
 def execute_one(spec: RunSpec, scene: Scene) -> dict[str, Any]:
     """One run in this process, unscored, one cold timed call (for the repeat check)."""
     return execute(spec, scene, reference_mode="none", timing=Timing(repeats=1, warmup=False))
@@ -268,6 +276,7 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
     ref_mode, note = _reference(scene, specs, opts)
     budget = opts.budget
     cap = opts.run_cap if opts.run_cap is not None else max(budget, MIN_RUN_CAP_S)
+    sweep_opts = opts.sweep_options(ref_mode, cap)
     store = _open_store(folder, name, scene, specs, opts, ref_mode)
     skipped: list[dict[str, Any]] = []
     groups = rounds(specs)
@@ -286,10 +295,8 @@ def run_case(scene: Scene, opts: SurveyOptions, name: str, folder: Path) -> Case
                 break
             r0 = time.perf_counter()
             if todo:  # the finished rows of earlier rounds are in the store: the bar counts them as done
-                execute_specs([s for g in groups[:k + 1] for s in g], scene, jobs=opts.jobs, scheduler=opts.scheduler,
-                              reference_mode=ref_mode, progress=opts.progress, run_cap=cap, store=store,
-                              repeats=opts.repeats,
-                              description=f"survey {scene.name} round {k + 1}")
+                sweep.run_specs([s for g in groups[:k + 1] for s in g], scene, sweep_opts, store,
+                                description=f"survey {scene.name} round {k + 1}")
             last, ran = (time.perf_counter() - r0 if todo else past[k] if k < len(past) else 0.0), k + 1
             past[k:k + 1] = [last]
             log.write_text(json.dumps(past))

@@ -25,7 +25,7 @@ import math
 import shlex
 import shutil
 from contextlib import nullcontext
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
@@ -75,6 +75,8 @@ class Reference:
     impacts: list[float]
     meta: dict[str, Any]
     path: Path
+    notes: list[str] = field(default_factory=list)   # what a caller adds (e.g. digits against a test set)
+    shipped: Path | None = None                       # where it was shipped, when it was
 
     @property
     def rtol(self) -> float:
@@ -91,6 +93,19 @@ class Reference:
         if self.kind == "capturing":
             return f"{self.meta.get('integrator', '?')} h {float(self.meta['settings']['h']):g} (event capturing)"
         return f"{self.meta.get('integrator', 'ida')} rtol {self.rtol:g}"
+
+    def summary_lines(self, t_end: float) -> list[str]:
+        """What `daebench reference` says about it: what computed it and how long it took,
+        its agreement with the looser check run, its accuracy record
+        (:func:`daebench.harness.references.accuracy.summary_lines`) and its ``notes``."""
+        lines = [f"reference: {self.path}",
+                 f"{self.describe()}, {self.meta['wall_s']:.3g} s, {len(self.impacts)} impacts"
+                 + (f" — a fine event-capturing run: {self.meta.get('why')}" if self.kind == "capturing" else "")]
+        agr = self.meta.get("agreement", {})
+        worst = [f"{k} {v:.2e}" for k, v in agr.items() if k.startswith("err_") and k.endswith("_max") and v == v]
+        if worst:
+            lines.append(f"agreement with the 10× looser check run ({agr.get('check', '')}): " + ", ".join(worst))
+        return lines + accuracy.summary_lines(self.meta, self.impacts, t_end) + list(self.notes)
 
     @property
     def trust_span(self) -> tuple[float, int]:

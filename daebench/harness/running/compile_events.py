@@ -13,7 +13,9 @@
 from __future__ import annotations
 
 import threading
-from typing import Any, Callable
+import time
+from contextlib import contextmanager
+from typing import Any, Callable, Iterator
 
 from numba.core import event
 
@@ -60,3 +62,44 @@ def compiled_during(fn: Callable[[], Any]) -> tuple[Any, bool]:
     with event.install_recorder("numba:compile") as rec:
         result = fn()
     return result, bool(rec.buffer)
+
+
+@contextmanager
+def recording() -> Iterator[dict]:
+    """Record numba's compiles while the block runs: yields ``{"functions": [...], "llvm_s": x}``
+    (filled as compiles end; each function a :class:`Compiled` as a dict)."""
+    stack: list[list] = []          # [name, signature, start, nested seconds]
+    rec: dict = {"functions": [], "llvm_s": 0.0}
+    llvm_start = [0.0]
+
+    class Compiles(event.Listener):
+        def on_start(self, event):
+            d = event.data
+            disp = d["dispatcher"]
+            py = getattr(disp, "py_func", None)
+            name = f"{getattr(py, '__module__', '?')}.{getattr(py, '__qualname__', repr(disp))}"
+            stack.append([name, ", ".join(str(a) for a in d["args"]), time.perf_counter(), 0.0])
+
+        def on_end(self, event):
+            name, sig, t0, nested = stack.pop()
+            span = time.perf_counter() - t0
+            if stack:
+                stack[-1][3] += span
+            rec["functions"].append({"name": name, "signature": sig[:200], "own_s": span - nested,
+                                     "total_s": span})
+
+    class Llvm(event.Listener):
+        def on_start(self, event):
+            llvm_start[0] = time.perf_counter()
+
+        def on_end(self, event):
+            rec["llvm_s"] += time.perf_counter() - llvm_start[0]
+
+    listeners = [("numba:compile", Compiles()), ("numba:llvm_lock", Llvm())]
+    for kind, lis in listeners:
+        event.register(kind, lis)
+    try:
+        yield rec
+    finally:
+        for kind, lis in listeners:
+            event.unregister(kind, lis)

@@ -3,7 +3,7 @@
 The command line hands the API strings it has already split; a Python caller can hand it
 anything. Each check here turns a value of the wrong shape into a
 :class:`~daebench.core.params.ParamError` that names the argument, what it must be and an
-example — never a ``TypeError`` or ``ValueError`` from deep inside (issue 24: ``run(s,
+example — never a ``TypeError`` or ``ValueError`` from deep inside (e.g. ``run(s,
 settings="h=1e-3")``, ``bench(s, None)``, ``grid={"alpha": 0.0}``, ``options="alpha=0"``).
 """
 

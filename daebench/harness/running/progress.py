@@ -110,8 +110,8 @@ class RunProgress(_Ticker):
     def start(self) -> None:
         self._last_line = time.monotonic()
         if self.terminal:
-            from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+            from rich.console import Console  # lazy: rich, only when a terminal shows the bar
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn  # lazy: as above
 
             self._bar = Progress(TextColumn("{task.description}"), BarColumn(),
                                  TextColumn("t = {task.completed:.4g} / {task.total:.4g} s"), TimeElapsedColumn(),
@@ -175,8 +175,9 @@ class SweepProgress(_Ticker):
     def start(self) -> None:
         self._last_line = time.monotonic()
         if self.terminal:
-            from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+            from rich.console import Console  # lazy: rich, only when a terminal shows the bar
+            from rich.progress import (BarColumn, MofNCompleteColumn, Progress,  # lazy: as above
+                                       TextColumn, TimeElapsedColumn)
 
             self._bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                                  TimeElapsedColumn(), TextColumn("{task.fields[waiting]}"),

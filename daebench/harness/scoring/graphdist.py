@@ -115,7 +115,7 @@ def directed(a: np.ndarray, b: np.ndarray, tree: cKDTree | None = None) -> float
     if len(a) == 0 or len(b) == 0:
         return math.nan
     if tree is None:
-        from scipy.spatial import cKDTree  # here: importing scipy.spatial costs ~0.5 s of every CLI start
+        from scipy.spatial import cKDTree  # lazy: importing scipy.spatial costs ~0.5 s of every start
 
         tree = cKDTree(b)
     if len(a) <= 4 * STRIDE:

@@ -183,7 +183,7 @@ def trusted(run: Run, tr: Truth) -> dict[str, Any]:
 
 
 #: every measure of a run against its truth, in column order (see the module docstring)
-#: (event sequence classified, the exact impact oracle, the graph distance: issue 22 items 4-6)
+#: (event sequence classified, the exact impact oracle, the graph distance)
 MEASURES: tuple[Callable[[Run, Truth], dict[str, Any]], ...] = (accuracy, trusted, events, impacts,
                                                                 eventseq.measure, oracle.measure,
                                                                 graphdist.measure)

@@ -334,7 +334,7 @@ def connect_dask(scheduler: Any, jobs: int) -> tuple[Any, Callable[[], None]]:
         Without dask.distributed, for an unknown scheduler form, or an unreachable one.
     """
     try:
-        from dask.distributed import Client, LocalCluster
+        from dask.distributed import Client, LocalCluster  # lazy: dask, an optional extra
     except ImportError:
         raise ExecutorError("the Dask executor needs dask.distributed: pip install 'daebench[dask]' "
                             "(or pip install \"dask[distributed]\")") from None

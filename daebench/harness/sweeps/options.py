@@ -1,12 +1,13 @@
-"""A sweep's settings as values, one per concern, passed unchanged from the command line
-through the API (:func:`daebench.api.bench`) to the sweep
-(:func:`daebench.harness.sweeps.sweep.run_sweep`):
+"""A sweep's settings as values, built once (by the command line, or from the API's
+keywords) and passed unchanged through the API (:mod:`daebench.api`) and the workflows
+(:mod:`daebench.workflows`) to the sweep (:func:`daebench.harness.sweeps.sweep.run_sweep`):
 
-* :class:`Plan` — what to run (integrators × grid × steps or tolerances, fixed settings)
-  and what to score against where the model has no exact solution (``reference``);
-* :class:`Timing` — how to time a run (warm-up, repeats, caps);
-* :class:`Storage` — where the table goes (name, folder, resume, overwrite);
-* :class:`Execution` — how to execute (worker processes, in-process, Dask; progress bars).
+* :class:`Plan` — what to run (integrators × grid × steps or tolerances, fixed settings);
+* :class:`SweepOptions` — how its runs are made: what a run is scored against where the
+  model has no exact solution (``reference``), and three values of their own:
+  :class:`Timing` (warm-up, repeats, caps), :class:`Execution` (worker processes,
+  in-process, Dask; progress bars) and :class:`Storage` (table name, folder, resume,
+  overwrite, kept histories).
 
 :func:`from_keywords` maps the API's keyword arguments (``steps=…, jobs=…``) onto
 them: the one place where the user-facing names meet these values.
@@ -14,7 +15,7 @@ them: the one place where the user-facing names meet these values.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
@@ -59,7 +60,6 @@ class Plan:
     tols: tuple[float, ...] | None = None
     grid: Mapping[str, Sequence[Any]] = field(default_factory=dict)
     options: Mapping[str, Any] = field(default_factory=dict)
-    reference: str = "auto"
     force: bool = False
 
     def __post_init__(self) -> None:
@@ -70,8 +70,6 @@ class Plan:
         object.__setattr__(self, "grid", inputs.grid(self.grid))
         object.__setattr__(self, "options", inputs.mapping(self.options, "options", '{"alpha": -0.1}'))
         inputs.check_grid_against_modes(self.grid, self.steps, self.tols)
-        if self.reference not in REFERENCE_MODES:
-            raise SweepError(f"unknown reference mode '{self.reference}' ({', '.join(REFERENCE_MODES)})")
 
 
 @dataclass(frozen=True)
@@ -118,10 +116,31 @@ class Execution:
     progress: bool = True
 
 
-_GROUPS = {"plan": Plan, "timing": Timing, "storage": Storage, "execution": Execution}
+@dataclass(frozen=True)
+class SweepOptions:
+    """How a sweep's runs are made: ``reference`` — what a run is scored against where the
+    model has no exact solution ('auto': a cached reference if any, 'compute', 'require',
+    'none') —, its :class:`Timing`, :class:`Execution` and :class:`Storage`."""
+
+    reference: str = "auto"
+    timing: Timing = Timing()
+    execution: Execution = Execution()
+    storage: Storage = Storage()
+
+    def __post_init__(self) -> None:
+        if self.reference not in REFERENCE_MODES:
+            raise SweepError(f"unknown reference mode '{self.reference}' ({', '.join(REFERENCE_MODES)})")
+
+    def scored_against(self, reference: str) -> "SweepOptions":
+        """These options with another reference mode (a workflow that prepared the reference)."""
+        return replace(self, reference=reference)
+
+
+_GROUPS = ("plan", "timing", "storage", "execution")
 #: the API's keyword → (concern, field); `repeats` also decides the warm-up (Timing.for_repeats)
 KEYWORDS: dict[str, tuple[str, str]] = {
     **{f.name: ("plan", f.name) for f in fields(Plan) if f.name != "integrators"},
+    "reference": ("options", "reference"),
     "repeats": ("timing", "repeats"), "run_cap": ("timing", "run_cap"),
     "name": ("storage", "name"), "folder": ("storage", "folder"), "write": ("storage", "write"),
     "resume": ("storage", "resume"),
@@ -132,29 +151,32 @@ KEYWORDS: dict[str, tuple[str, str]] = {
 
 
 def from_keywords(integrators: Sequence[str] | str | None, keywords: Mapping[str, Any],
-                  given: Mapping[str, Any] | None = None) -> tuple[Plan, Execution, Timing, Storage]:
-    """The option values of :func:`daebench.api.bench`'s keyword arguments, in the order
-    :func:`daebench.harness.sweeps.sweep.run_sweep` takes them.
+                  given: Mapping[str, Any] | None = None) -> tuple[Plan, SweepOptions]:
+    """The plan and the options of :func:`daebench.api.bench`'s keyword arguments.
 
-    ``given`` holds option objects passed as such (``plan=``, ``timing=``, ``storage=``,
-    ``execution=``); a keyword may not set a field of one of them. The API's defaults
-    differ from the sweep's in one place: no progress bars unless asked.
+    ``given`` holds values passed as such (``plan=``, ``options=``, or one of the options'
+    parts ``timing=``, ``storage=``, ``execution=``); a keyword may not set a field of one
+    of them. The API's defaults differ from the sweep's in one place: no progress bars
+    unless asked.
 
     Raises
     ------
     SweepError
-        For an unknown keyword (with the closest valid one), a keyword beside the option
-        object it belongs to, no integrators, or a value the option refuses.
+        For an unknown keyword (with the closest valid one), a keyword beside the value
+        it belongs to, no integrators, or a value an option refuses.
     """
     given = {k: v for k, v in (given or {}).items() if v is not None}
-    per: dict[str, dict[str, Any]] = {g: {} for g in _GROUPS}
+    if "options" in given and given.keys() & {"timing", "storage", "execution"}:
+        raise SweepError("give timing=, storage= and execution= inside options=, not beside it")
+    per: dict[str, dict[str, Any]] = {g: {} for g in (*_GROUPS, "options")}
     for k, v in keywords.items():
         if k not in KEYWORDS:
             raise SweepError(f"unknown keyword argument '{k}'{did_you_mean(k, list(KEYWORDS))} "
                              f"(keywords: {', '.join(KEYWORDS)})")
         group, name = KEYWORDS[k]
-        if group in given:
-            raise SweepError(f"'{k}' is set by the {group}= option; give it there, not as a keyword")
+        if group in given or (group != "plan" and "options" in given):
+            raise SweepError(f"'{k}' is set by the {group if group in given else 'options'}= option; give it "
+                             f"there, not as a keyword")
         per[group][name] = v
     if "plan" in given:
         if integrators is not None:
@@ -164,7 +186,9 @@ def from_keywords(integrators: Sequence[str] | str | None, keywords: Mapping[str
         if integrators is None:
             raise SweepError("no integrators given (e.g. integrators=['hht', 'newmark'])")
         plan = Plan(integrators, **per["plan"])
+    if "options" in given:
+        return plan, given["options"]
     tm = given.get("timing") or Timing.for_repeats(**per["timing"])
     storage = given.get("storage") or Storage(**per["storage"])
     execution = given.get("execution") or Execution(**{"progress": False, **per["execution"]})
-    return plan, execution, tm, storage
+    return plan, SweepOptions(timing=tm, execution=execution, storage=storage, **per["options"])

@@ -32,7 +32,7 @@ from daebench.harness.references.reference import (REF_MARGIN, ReferenceMissing,
 from daebench.harness.running.deadline import check_run_cap
 from daebench.harness.running.progress import SweepProgress, run_progress_factory
 from daebench.harness.sweeps import executors
-from daebench.harness.sweeps.options import Execution, Plan, Storage, SweepError, Timing
+from daebench.harness.sweeps.options import Plan, SweepError, SweepOptions
 from daebench.harness.sweeps.plan import RunSpec, plan_sweep
 from daebench.harness.sweeps.row import execute, outcome_row
 from daebench.harness.sweeps.store import SweepStore, assemble, interrupted_rows, unique_name, write_table
@@ -104,22 +104,23 @@ def _int_at_least_1(value: Any, what: str, high: int) -> int:
     return value
 
 
-def run_specs(specs: Sequence[RunSpec], scene: Scene, execution: Execution = Execution(),
-              timing: Timing = Timing(), reference_mode: str = "auto", store: SweepStore | None = None,
-              history_dir: str | Path | None = None, description: str = "runs") -> pd.DataFrame:
+def run_specs(specs: Sequence[RunSpec], scene: Scene, options: SweepOptions = SweepOptions(),
+              store: SweepStore | None = None, description: str = "runs") -> pd.DataFrame:
     """Execute planned runs; one row each, in plan order.
 
-    ``execution``: 'process' (``jobs`` worker processes; a crash costs one row), 'inline'
-    (this process), or 'dask' (or any ``scheduler``); ``timing`` as
-    :class:`daebench.harness.sweeps.options.Timing`. With a ``store`` every row is on disk as soon
-    as it exists, and runs that already have a row there are not run again; with
-    ``history_dir`` each run's history is kept there.
+    ``options.execution``: 'process' (``jobs`` worker processes; a crash costs one row),
+    'inline' (this process), or 'dask' (or any ``scheduler``); ``options.timing`` as
+    :class:`daebench.harness.sweeps.options.Timing`; each run scored under
+    ``options.reference``. With a ``store`` every row is on disk as soon as it exists, and
+    runs that already have a row there are not run again; with
+    ``options.storage.history_dir`` each run's history is kept there.
 
     Raises
     ------
     SweepInterrupted
         On Ctrl-C, after every finished row is stored; it carries the partial table.
     """
+    execution, timing = options.execution, options.timing
     jobs, executor, scheduler, progress = execution.jobs, execution.executor, execution.scheduler, execution.progress
     jobs = _int_at_least_1(jobs, "jobs", MAX_JOBS)
     repeats = _int_at_least_1(timing.repeats, "repeats", 1000)
@@ -130,8 +131,8 @@ def run_specs(specs: Sequence[RunSpec], scene: Scene, execution: Execution = Exe
     client, release = executors.connect_dask(scheduler, jobs) if use_dask else (None, lambda: None)
     rows: dict[int, dict[str, Any]] = dict(store.finished()) if store is not None else {}
     todo = [s for s in specs if s.index not in rows]
-    tm = Timing(repeats, timing.warmup, timing.time_cap, run_cap)
-    fn = partial(execute, scene=scene, reference_mode=reference_mode, timing=tm, history_dir=history_dir)
+    fn = partial(execute, scene=scene, reference_mode=options.reference, timing=timing,
+                 history_dir=options.storage.history_dir)
     make_row = partial(_make_row, scene=scene)
     calls = repeats + (1 if timing.warmup else 0)
     backstop = run_cap * calls + executors.BACKSTOP_GRACE_S if run_cap else None
@@ -176,20 +177,19 @@ def manifest(scene: Scene, specs: Sequence[RunSpec], reference_mode: str, repeat
             "plan": [[s.index, s.integrator, s.options, s.scene_overrides, s.skip] for s in specs]}
 
 
-def run_sweep(scene: Scene, plan: Plan, execution: Execution = Execution(), timing: Timing = Timing(),
-              storage: Storage = Storage()) -> pd.DataFrame:
+def run_sweep(scene: Scene, plan: Plan, options: SweepOptions = SweepOptions()) -> pd.DataFrame:
     """Plan, run and score a sweep; one tidy row per run.
 
     Parameters
     ----------
     scene : Scene
-    plan : what to run and what to score against (:class:`daebench.harness.sweeps.options.Plan`)
-    execution : worker processes, in-process or Dask, progress bars (``Execution``)
-    timing : warm-up, repeats, caps (``Timing``; by default a warm-up run stopped after 1 s
-        and the minimum of 3 timed runs for runs under a second, one for longer runs:
-        :data:`daebench.harness.running.timing.REPEATS`)
-    storage : table name and folder (default results/bench/<scene>-<time>-<hex>), resume,
-        overwrite, or memory only (``Storage``)
+    plan : what to run (:class:`daebench.harness.sweeps.options.Plan`)
+    options : what to score against, and ``execution`` (worker processes, in-process or
+        Dask, progress bars), ``timing`` (warm-up, repeats, caps; by default a warm-up run
+        stopped after 1 s and the minimum of 3 timed runs for runs under a second, one for
+        longer runs: :data:`daebench.harness.running.timing.REPEATS`), ``storage`` (table
+        name and folder, default results/bench/<scene>-<time>-<hex>; resume, overwrite, or
+        memory only) (:class:`daebench.harness.sweeps.options.SweepOptions`)
 
     Returns
     -------
@@ -205,26 +205,26 @@ def run_sweep(scene: Scene, plan: Plan, execution: Execution = Execution(), timi
         On Ctrl-C: the partial table is written and carried by the exception.
     """
     specs = plan_sweep(scene, plan.integrators, plan.grid, plan.steps, plan.tols, plan.options, force=plan.force)
+    execution, storage = options.execution, options.storage
     if execution.executor not in ("process", "inline", "dask"):
         raise SweepError(f"unknown executor '{execution.executor}' (process, inline or dask)")
     client, release = (None, lambda: None)
     if execution.executor == "dask" or execution.scheduler is not None:  # unreachable: fails before any reference
         client, release = executors.connect_dask(execution.scheduler,
                                                  _int_at_least_1(execution.jobs, "jobs", MAX_JOBS))
-        execution = replace(execution, scheduler=client)
+        options = replace(options, execution=replace(execution, scheduler=client))
     store = None
     try:
         if storage.write:
             folder = Path(storage.folder) if storage.folder is not None else results_dir() / "bench"
             name = storage.name if storage.name is not None else unique_name(scene.name)
-            store = SweepStore.open(folder, name, manifest(scene, specs, plan.reference, timing.repeats),
+            store = SweepStore.open(folder, name, manifest(scene, specs, options.reference, options.timing.repeats),
                                     storage.resume, storage.overwrite)
         elif storage.resume or storage.overwrite:
             raise SweepError("resume and overwrite need a stored sweep (write=True)")
-        prepare_references(specs, scene, plan.reference, run_progress_factory(execution.progress))
+        prepare_references(specs, scene, options.reference, run_progress_factory(execution.progress))
         try:
-            df = run_specs(specs, scene, execution, timing, plan.reference, store, storage.history_dir,
-                           description=scene.name)
+            df = run_specs(specs, scene, options, store, description=scene.name)
         except SweepInterrupted as exc:
             if store is not None:
                 exc.path = write_table(exc.table, store.name, [scene], store.folder, complete=False)

@@ -1,19 +1,19 @@
-"""The issue-15 runs behind the note's tables: ``python -m daebench.studies.flexcontact_runs
-rodwall|slider|rodplate|cost|figure [OUT_DIR]`` (default results/flexcontact). Each part
-writes a JSON of rows (and the slider part an .npz of histories for the figure); all runs
-go through :func:`daebench.studies.flexcontact.run` (the harness's run path)."""
+"""The runs behind the interactive-mode reproduction's tables: ``daebench interactive-mode
+rodwall|slider|rodplate|cost|figure [--out OUT_DIR]`` (default results/flexcontact). Each
+part writes a JSON of rows (and the slider part an .npz of histories for the figure); all
+runs go through :func:`daebench.studies.interactive_mode_contact.measures.run` (the
+harness's run path)."""
 
 from __future__ import annotations
 
 import json
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from daebench.models import build_system
-from daebench.studies import flexcontact as fc
+from daebench.studies.interactive_mode_contact import measures as fc
 
 SLIDER_RUNS = [("ACM", "hht", dict(h=1e-6, h_contact=1e-7, alpha=-0.05), {}),
                ("IMM", "imm", dict(h=1e-7), {}),
@@ -97,9 +97,9 @@ def cost(out: Path) -> list[dict]:
 
 
 def figure(out: Path, dest: Path = Path("results/curated/slider-slot.png")) -> None:
-    import matplotlib
+    import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # lazy: as above
 
     rows = json.loads((out / "slider-slot.json").read_text())
     H = np.load(out / "slider-slot.npz")
@@ -128,12 +128,11 @@ def _dump(path: Path, rows: list[dict]) -> None:
     path.write_text(json.dumps(rows, indent=1, default=float))
 
 
-def main(argv: list[str]) -> None:
-    part = argv[0] if argv else "rodwall"
-    out = Path(argv[1]) if len(argv) > 1 else Path("results/flexcontact")
+#: the parts, by the name `daebench interactive-mode PART` takes
+PARTS = {"rodwall": rod_wall, "slider": slider, "rodplate": rod_plate, "cost": cost, "figure": figure}
+
+
+def run_part(part: str, out: Path = Path("results/flexcontact")) -> None:
+    """One part of :data:`PARTS`, its files written under ``out``."""
     out.mkdir(parents=True, exist_ok=True)
-    {"rodwall": rod_wall, "slider": slider, "rodplate": rod_plate, "cost": cost, "figure": figure}[part](out)
-
-
-if __name__ == "__main__":
-    main(sys.argv[1:])
+    PARTS[part](out)

@@ -1,5 +1,7 @@
-"""Seed 003 reproduced: its two examples with its own scheme (``lcp-avg``) beside the
-continuous contact laws and the event-driven driver.
+"""The time-averaged-gap LCP paper reproduced (Zhang, Qi, Wang, Guo, Wu: a flexible double
+pendulum and a chain with contact, solved by a linear complementarity problem on the gap
+averaged over a time window): its two examples with its own scheme (``lcp-avg``) beside the
+continuous contact laws and the event-driven driver (``daebench averaged-gap``).
 
 * :func:`chain_table` — Example 1 (``chain-impact``): the time-averaged-gap LCP at several
   windows h of the order of the ≈ 1.5 ms Hertz contact, and Hertz with Flores (and
@@ -22,11 +24,16 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-import daebench
+from daebench.core.problem import Problem
 from daebench.integrators.lcp_avg import contact_forces
 from daebench.models import build_system
 from daebench.models.doublependulum import contact_outcome
-from daebench.core.problem import Problem
+from daebench.models.scenes import load_scene
+from daebench.workflows.run import RunOutput, run
+
+
+def _run(case: str, integrator: str, overrides: dict[str, Any], progress: bool, **settings: Any) -> RunOutput:
+    return run(load_scene(case, overrides), integrator, settings, progress=progress)
 
 CHAIN_WINDOWS = (1e-4, 5e-4, 1e-3, 2e-3)
 CHAIN_RESTITUTIONS = (0.1, 0.2, 0.3, 0.5, 0.8, 1.0)
@@ -81,12 +88,12 @@ def chain_table(windows=CHAIN_WINDOWS, restitutions=CHAIN_RESTITUTIONS, rtol: fl
     base = {"t_end": t_end, "output.dt": output_dt, **(overrides or {})}
     runs: dict[str, Any] = {}
     for h in windows:
-        runs[f"lcp-avg h_avg={h:g}"] = daebench.run("chain-impact", integrator="lcp-avg",
-                                                    overrides={**base, "contact.law": "complementarity"},
-                                                    h_avg=h, rtol=rtol, atol=atol, progress=progress)
+        runs[f"lcp-avg h_avg={h:g}"] = _run("chain-impact", "lcp-avg",
+                                            overrides={**base, "contact.law": "complementarity"},
+                                            h_avg=h, rtol=rtol, atol=atol, progress=progress)
     for law in ("flores", "lankarani-nikravesh"):
         for e in restitutions if law == "flores" else (0.3,):
-            runs[f"{law} e={e:g}"] = daebench.run("chain-impact", integrator="ida", overrides={
+            runs[f"{law} e={e:g}"] = _run("chain-impact", "ida", overrides={
                 **base, "contact.hertz_damping": law, "contact.restitution": e}, progress=progress, **IDA_TIGHT)
     ref_key = f"lcp-avg h_avg={1e-3:g}"
     ref = runs[ref_key].observables["x3"].to_numpy() if ref_key in runs else None
@@ -107,14 +114,14 @@ def pendulum_table(windows=(1e-3, 1e-2), ida_rtol: float = 1e-6, hertz: bool = T
     """The double-pendulum comparison: the outcome per run (see the module docstring);
     ``progress``: a bar per run on stderr."""
     over = dict(overrides or {})
-    runs: dict[str, Any] = {"ida, constraint e=0": daebench.run("double-pendulum", integrator="ida",
-                                                                   overrides=over, rtol=ida_rtol, progress=progress)}
+    runs: dict[str, Any] = {"ida, constraint e=0": _run("double-pendulum", "ida", overrides=over, rtol=ida_rtol,
+                                                        progress=progress)}
     for h in windows:
-        runs[f"lcp-avg h_avg={h:g}"] = daebench.run("double-pendulum", integrator="lcp-avg", progress=progress,
-                                                    overrides={**over, "contact.law": "complementarity"}, h_avg=h)
+        runs[f"lcp-avg h_avg={h:g}"] = _run("double-pendulum", "lcp-avg", progress=progress,
+                                            overrides={**over, "contact.law": "complementarity"}, h_avg=h)
     if hertz:
-        runs["ida, hertz LN e=0"] = daebench.run("double-pendulum", integrator="ida", progress=progress,
-                                                 overrides={**over, "contact.law": "hertz"}, rtol=ida_rtol)
+        runs["ida, hertz LN e=0"] = _run("double-pendulum", "ida", progress=progress,
+                                         overrides={**over, "contact.law": "hertz"}, rtol=ida_rtol)
     rows = []
     for label, r in runs.items():
         o = contact_outcome(r.observables, r.impacts).as_dict()
@@ -137,10 +144,10 @@ def tip_force(label: str, run: Any) -> np.ndarray:
 
 def pendulum_figure(runs: dict[str, Any], path: str, window: tuple[float, float] = (0.6, 1.5)) -> None:
     """Tip gap [m] and tip normal force [N] against time [s], one curve per run."""
-    import matplotlib
+    import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # lazy: as above
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 5.5), sharex=True)
     for label, r in runs.items():

@@ -18,31 +18,28 @@ kernel cache (``NUMBA_CACHE_DIR``):
 
 The new model's compile cost is CPU(new) − CPU(again): the same runs, the same imports,
 only the compilation differs. CPU time is the child's user + system time, less sensitive
-to the machine's load than wall time. ``python -m daebench.studies.new_model`` prints it.
+to the machine's load than wall time. ``daebench perf --section new-model`` prints it.
 """
 
 from __future__ import annotations
 
 import json
-import os
-import resource
-import subprocess
-import sys
-import tempfile
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Sequence
+
+from daebench.studies.perf import probes
 
 INTEGRATORS = ("hht", "newmark", "genalpha", "baumgarte", "ida", "moreau", "nsgenalpha")
 _CHILD = """
 import json, sys
 from daebench import api
+from daebench.core.handles import compile_shared_defaults
 from daebench.core.params import ParamError
-from daebench.studies.compile_census import recording
+from daebench.harness.running.compile_events import recording
 cases, t_end, names = sys.argv[1].split(","), sys.argv[2], sys.argv[3].split(",")
 ran = {}
 with recording() as rec:
     if sys.argv[4] == "warm-up":  # the library's shared default kernels are library code, not the new model's
-        from daebench.core.handles import compile_shared_defaults
         compile_shared_defaults()
     for case in cases:
         for name in names:
@@ -70,13 +67,9 @@ class NewModelCost:
 
 
 def _child_cpu(args: Sequence[str], env: dict[str, str], timeout: float) -> tuple[float, dict]:
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run([sys.executable, "-c", _CHILD, *args], env=env, capture_output=True, text=True,
-                          timeout=timeout)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu, proc = probes.run_python(_CHILD, args, env, timeout)
     if proc.returncode != 0:
         raise RuntimeError(f"new-model study child failed ({' '.join(args)}):\n{proc.stderr[-2000:]}")
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return cpu, json.loads(proc.stdout.strip().splitlines()[-1])
 
 
@@ -84,9 +77,7 @@ def measure(first: str = "pendulum,ball", new: str = "crank", integrators: Seque
             t_end: float = 0.05, timeout: float = 3600.0) -> NewModelCost:
     """The three stages of the module docstring, in a new empty kernel cache."""
     names = ",".join(integrators)
-    with tempfile.TemporaryDirectory(prefix="daebench-newmodel-") as tmp:
-        env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "cache"),
-                   DAEBENCH_RESULTS=os.path.join(tmp, "results"))
+    with probes.fresh_cache("daebench-newmodel-") as env:
         warm, _ = _child_cpu([first, str(t_end), names, "warm-up"], env, timeout)
         fresh, out = _child_cpu([new, str(t_end), names, "new"], env, timeout)
         again, _ = _child_cpu([new, str(t_end), names, "again"], env, timeout)
@@ -104,9 +95,3 @@ def markdown(r: NewModelCost, top: int = 25) -> str:
             f"What the new stage compiled ({len(r.compiled)} compiles, {sum(f['own_s'] for f in r.compiled):.1f} s "
             f"wall inside them):\n\n| function | own [s] | signature |\n|---|---|---|\n"
             + "".join(f"| {f['name']} | {f['own_s']:.2f} | {f['signature'][:70]} |\n" for f in r.compiled[:top]))
-
-
-if __name__ == "__main__":  # pragma: no cover
-    res = measure(*sys.argv[1:3]) if len(sys.argv) > 2 else measure()
-    print(markdown(res))
-    print(json.dumps(asdict(res), indent=2))

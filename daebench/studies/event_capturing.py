@@ -1,4 +1,4 @@
-"""Event-capturing against event-driven contact on one case (issue 13's comparison page).
+"""Event-capturing against event-driven contact on one case: the comparison page.
 
 * :func:`step_rates` — steps per second of ``moreau``, ``nsgenalpha`` and ``hht`` on
   beam-impact (N modes) measured in one process, interleaved, the minimum of several
@@ -9,8 +9,9 @@
 * :func:`capture_histories` and :func:`penetration_energy_figure` — penetration
   max(−g, 0) and total energy E over time, one run per integrator at one step.
 
-Runs go through the public API (:func:`daebench.run`, :func:`daebench.harness.sweeps.sweep`): the same
-driver, scoring and reference as every other row.
+Runs go through the harness's run and sweep (:func:`daebench.harness.running.runner.run_scene`,
+:func:`daebench.harness.sweeps.sweep.run_sweep`): the same driver, scoring and reference as
+every other row.
 """
 
 from __future__ import annotations
@@ -20,8 +21,21 @@ import time
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-import numpy as np
-import pandas as pd
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from daebench.driver.simulate import simulate  # noqa: E402
+from daebench.harness.analysis import plots  # noqa: E402
+from daebench.harness.running.progress import RunProgress  # noqa: E402
+from daebench.harness.running.runner import make_integrator, run_scene  # noqa: E402
+from daebench.harness.sweeps import options, sweep  # noqa: E402
+from daebench.integrators.base import get_integrator  # noqa: E402
+from daebench.models import build_system  # noqa: E402
+from daebench.models.scenes import load_scene  # noqa: E402
 
 #: the line-up: label → (integrator, settings)
 LINEUP: dict[str, tuple[str, dict[str, Any]]] = {
@@ -62,11 +76,6 @@ def step_rates(n_modes: int = 5, h: float = 1e-4, t_end: float = 1.0, restitutio
     DataFrame: label, integrator, settings, status, steps, wall_s, steps_per_s,
     newton_per_step (Newton iterations per step).
     """
-    from daebench.integrators.base import get_integrator
-    from daebench.models import build_system
-    from daebench.models.scenes import load_scene
-    from daebench.driver.simulate import simulate
-
     sc = load_scene("beam-impact", {"discretization.n": int(n_modes), "t_end": float(t_end),
                                     "contact.restitution": float(restitution)})
     lineup = {"hht": ("hht", {"h": h}), "hht (h_contact 1e-6)": ("hht", {"h": h, "h_contact": 1e-6}),
@@ -106,15 +115,15 @@ def compare(scene: str = "beam-impact", restitution: float = 0.3, steps: Sequenc
     """hht, moreau (with and without projection) and nsgenalpha at fixed steps, ida at
     tolerances, scored against the scene's IDA reference; one table (rows of both sweeps).
     Wall times: the minimum of ``repeats`` runs after a warm-up (short runs are noisy)."""
-    import daebench
-
     ov = {"contact.restitution": float(restitution), **dict(overrides or {})}
+    sc = load_scene(scene, ov)
     stem = name or f"{scene}-capture-{tag(restitution)}"
-    fixed = daebench.bench(scene, ["hht", "moreau", "nsgenalpha"], steps=list(steps),
-                           grid={"projection": [False, True]}, overrides=ov, jobs=jobs, name=f"{stem}-fixed",
-                           reference=reference, repeats=repeats, **bench_kw)
-    adaptive = daebench.bench(scene, ["ida"], tols=list(tols), overrides=ov, jobs=jobs, name=f"{stem}-ida",
-                              reference=reference, repeats=repeats, **bench_kw)
+    fixed = sweep.run_sweep(sc, *options.from_keywords(
+        ["hht", "moreau", "nsgenalpha"], dict(steps=list(steps), grid={"projection": [False, True]}, jobs=jobs,
+                                              name=f"{stem}-fixed", reference=reference, repeats=repeats, **bench_kw)))
+    adaptive = sweep.run_sweep(sc, *options.from_keywords(
+        ["ida"], dict(tols=list(tols), jobs=jobs, name=f"{stem}-ida", reference=reference, repeats=repeats,
+                      **bench_kw)))
     return pd.concat([fixed, adaptive], ignore_index=True)
 
 
@@ -122,8 +131,6 @@ def work_precision_figures(df: pd.DataFrame, out_dir: str | Path, measures: Sequ
                            x: str = "wall_s", title: str = "") -> list[Path]:
     """One work–precision figure (error against wall time, Pareto front) per error measure
     the table has; written as <out_dir>/wp-<measure>.png/.svg."""
-    from daebench.harness.analysis import plots
-
     out = []
     for m in measures:
         if m not in df.columns or not np.isfinite(pd.to_numeric(df[m], errors="coerce")).any():
@@ -141,9 +148,7 @@ def capture_histories(scene: str = "beam-impact", restitution: float = 0.3, h: f
                       overrides: Mapping[str, Any] | None = None, progress: bool = False) -> dict[str, pd.DataFrame]:
     """One run per line-up entry (fixed-step integrators at h, ida at rtol): label → history.
     Labels carry the step or tolerance; ``progress``: a bar per run on stderr."""
-    import daebench
-
-    ov = {"contact.restitution": float(restitution), **dict(overrides or {})}
+    sc = load_scene(scene, {"contact.restitution": float(restitution), **dict(overrides or {})})
     out = {}
     for label, (name, settings) in lineup.items():
         s = dict(settings)
@@ -153,8 +158,15 @@ def capture_histories(scene: str = "beam-impact", restitution: float = 0.3, h: f
         else:
             s.setdefault("h", h)
             tag = f"{label}, h = {s['h']:g} s"
-        r = daebench.run(scene, name, overrides=ov, settings=s, progress=progress)
-        out[tag] = r.observables
+        integ = make_integrator(name, s)
+        bar = RunProgress(f"{sc.name} with {integ.name}", sc.t_end) if progress else None
+        if bar is not None:
+            bar.start()
+        try:
+            out[tag] = run_scene(sc, integ, write=False, progress=bar)[1].history
+        finally:
+            if bar is not None:
+                bar.stop()
     return out
 
 
@@ -162,10 +174,6 @@ def penetration_energy_figure(hists: Mapping[str, pd.DataFrame], stem: str | Pat
                               title: str = "", window: tuple[float, float] | None = None) -> tuple[Any, list[Path]]:
     """Two axes over time: penetration max(−g, 0) [m] of contact 0 and total energy E [J],
     one line per run (``window``: a time interval to show)."""
-    import matplotlib.pyplot as plt
-
-    from daebench.harness.analysis import plots
-
     fig, (ax_p, ax_e) = plt.subplots(2, 1, figsize=(8.0, 6.5), sharex=True)
     for label, hist in hists.items():
         t = hist["t"].to_numpy(float)

@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
 from daebench.harness.analysis import plots
 from daebench.harness.scoring import metrics
+from daebench.studies.hht_beam_impact.table import PUBLISHED_TABLE1
 
 
 def fig_series(hm, col, stem, prov, title, logy=False, ylabel=None) -> list[Path]:
@@ -24,8 +26,6 @@ def fig_difference(hm: dict[str, pd.DataFrame], base: str, col: str, stem: Path,
     starts with ``base`` (log axis) — the difference a claim is about, not six overlapping
     curves — over the base run's whole span, each run's curve ending where its history
     ends (a run that diverged after 6 ms used to cut every curve there)."""
-    import matplotlib.pyplot as plt
-
     key = next((k for k in hm if k.startswith(base)), None)
     if key is None or len(hm) < 2:
         return fig_series(hm, col, stem, prov, title)
@@ -52,10 +52,6 @@ def fig_difference(hm: dict[str, pd.DataFrame], base: str, col: str, stem: Path,
 
 
 def fig_cost(t: pd.DataFrame, stem: Path, prov: dict[str, Any]) -> list[Path]:
-    import matplotlib.pyplot as plt
-
-    from daebench.studies.paper_table import PUBLISHED_TABLE1
-
     fig, ax = plt.subplots(figsize=(7.0, 4.6))
     for i, s in enumerate(PUBLISHED_TABLE1.columns):
         m = t[t.setting == s].sort_values("N")

@@ -22,6 +22,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from daebench.driver.simulate import simulate
+from daebench.integrators.base import get_integrator
+from daebench.models import build_system
+from daebench.models.scenes import load_scene
+
 CASES = ("block-incline", "rocking-block")
 INTEGRATORS = ("moreau", "nsgenalpha")
 #: (case, integrator, law overrides) timed with the case's μ and μ = 0: compliant contact
@@ -46,11 +51,6 @@ def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...
     DataFrame: case, integrator, law, mu, steps, wall_s, us_per_step, newton_per_step,
     friction_over_frictionless (on the rows with μ > 0).
     """
-    from daebench.driver.simulate import simulate
-    from daebench.integrators.base import get_integrator
-    from daebench.models import build_system
-    from daebench.models.scenes import load_scene
-
     specs = []
     for case in cases:
         mu = float(load_scene(case)["contact.friction"])

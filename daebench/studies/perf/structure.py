@@ -1,4 +1,4 @@
-"""`daebench perf`, issue 21: cost that follows the structure — the FE models' banded
+"""`daebench perf`: cost that follows the structure — the FE models' banded
 iteration matrices and IDA's native backend, each as a ratio against a peer measured in
 the same run.
 
@@ -9,7 +9,7 @@ the same run.
   factorizations make a 400-element run minutes); the fitted exponent p of cost ∝ n^p
   for the whole run's cost per step and for the marginal cost of a step (see
   :func:`fe_scaling`). Targets: ≤ 0.5 ms per step at 200 elements, p ≤ 1.3 (whole run).
-  ``python -m daebench.studies.perf_structure`` runs this part alone.
+  ``daebench perf --section structure`` runs this part alone.
 * **IDA** (:func:`ida_backends`): CPU time per step of ``ida`` on beam-impact with
   ``backend=native`` and ``backend=sksundae``, interleaved (native, sksundae, native),
   and whether their histories are identical.
@@ -21,11 +21,9 @@ compiled code is loaded, not compiled, inside the timing).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
-import time
 from pathlib import Path
 from typing import Any
 
@@ -37,12 +35,7 @@ from daebench.harness.files import results_dir
 from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
-
-
-def _cpu(fn):
-    t = time.process_time()
-    out = fn()
-    return out, time.process_time() - t
+from daebench.studies.perf import probes
 
 
 def _rod_wall_run(elements: int, t_end: float, h: float, dense: bool, repeats: int = 1) -> tuple[int, int, float]:
@@ -55,7 +48,7 @@ def _rod_wall_run(elements: int, t_end: float, h: float, dense: bool, repeats: i
         if dense:
             system.sparsity = None  # the peer: no declared structure, dense LU
         sc = scene if k else warm
-        res, cpu = _cpu(lambda: simulate(system, make_integrator("hht", {"h": h}), sc.t_end, sc["output.dt"]))
+        res, cpu = probes.cpu(lambda: simulate(system, make_integrator("hht", {"h": h}), sc.t_end, sc["output.dt"]))
         if k:                       # k = 0: untimed (the compiled code is loaded, not compiled, below)
             best = min(best, cpu)
             steps, its = int(res.counters["steps"]), int(res.counters["newton_iterations"])
@@ -111,7 +104,7 @@ def ida_backends(t_end: float = 0.1) -> dict[str, Any]:
         run_scene(load_scene("beam-impact", ["t_end=0.002"]), "ida", {"backend": backend}, write=False)
     rows, hist = [], {}
     for backend in ("native", "sksundae", "native"):
-        (rec, res), cpu = _cpu(lambda: run_scene(scene, "ida", {"backend": backend}, write=False))
+        (rec, res), cpu = probes.cpu(lambda: run_scene(scene, "ida", {"backend": backend}, write=False))
         steps = int(rec.counters["steps"])
         rows.append({"backend": backend, "steps": steps, "cpu_s": cpu, "us_per_step": 1e6 * cpu / max(steps, 1)})
         hist[backend] = res.history
@@ -151,29 +144,14 @@ def markdown(fe: dict[str, Any] | None, ida: dict[str, Any] | None) -> list[str]
     return L
 
 
-def main(argv: list[str] | None = None) -> dict[str, Any]:
-    """``python -m daebench.studies.perf_structure``: the rod-wall scaling alone, printed and
-    written to ``<out>/fe_scaling.json`` and ``fe_scaling.md`` (default results/perf)."""
-    ap = argparse.ArgumentParser(prog="python -m daebench.studies.perf_structure", description=main.__doc__)
-    ap.add_argument("--elements", default="50,100,200,400", help="rod-wall sizes, comma-separated")
-    ap.add_argument("--t-end", type=float, default=2e-4)
-    ap.add_argument("--dense-up-to", type=int, default=200, help="largest size also run with dense LU")
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--out", default=None)
-    a = ap.parse_args(argv)
-    try:
-        els = tuple(int(x) for x in a.elements.split(","))
-    except ValueError:
-        raise ParamError(f"--elements must be comma-separated integers, got {a.elements!r}") from None
-    fe = fe_scaling(els, a.t_end, dense_up_to=a.dense_up_to, t_short=a.t_end / 2, repeats=a.repeats)
-    folder = Path(a.out) if a.out else results_dir() / "perf"
+def scaling_report(elements: tuple[int, ...] = (50, 100, 200, 400), t_end: float = 2e-4, dense_up_to: int = 200,
+                   repeats: int = 5, out: str | Path | None = None) -> str:
+    """The rod-wall scaling alone (``daebench perf --section structure``), written to
+    ``<out>/fe_scaling.json`` and ``fe_scaling.md`` (default results/perf); its Markdown."""
+    fe = fe_scaling(tuple(elements), t_end, dense_up_to=dense_up_to, t_short=t_end / 2, repeats=repeats)
+    folder = Path(out) if out else results_dir() / "perf"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "fe_scaling.json").write_text(json.dumps(fe, indent=2))
     text = "\n".join(markdown(fe, None)).strip() + "\n"
     (folder / "fe_scaling.md").write_text(text)
-    print(text + f"written: {folder}/fe_scaling.json, fe_scaling.md")
-    return fe
-
-
-if __name__ == "__main__":
-    main()
+    return text + f"written: {folder}/fe_scaling.json, fe_scaling.md"

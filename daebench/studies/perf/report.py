@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 from daebench.harness.running import provenance
-from daebench.studies import perf_structure
+from daebench.studies.perf import structure as perf_structure
 
 
 def _f(x, fmt=".3g"):
@@ -100,7 +100,7 @@ def markdown(r: dict[str, Any]) -> str:
         L.append(f"| {x['integrator']} | {x['status']} | {_f(x['t_final'])} | {x['steps']} | {_f(x['wall_s'])} | "
                  f"{_f(x['steps_per_s'], '.0f')} |")
     if r.get("floor"):
-        L += ["", "## Per step beyond the model's own physics (issue 21; `python -m daebench.studies.perf_floor`)", "",
+        L += ["", "## Per step beyond the model's own physics (`daebench perf --section model-floor`)", "",
               "Whole `run_scene` calls (set-up, events, history table included); the median of the runs and "
               "their range. The model kernel's time per call × the force evaluations per step is a floor under "
               "any integrator's step; 1 / floor bounds steps/s.", "",

@@ -1,6 +1,8 @@
-"""Flexible bodies in contact (issue 15): the three contact treatments — ACM (constraints
-+ impact map, driver), PFM (penalty) and IMM (interactive mode) — on the planar FE cases
-``rod-wall``, ``slider-slot`` and ``rod-plate``, scored from ordinary run records.
+"""The interactive-mode paper reproduced (Wang, Liu, Hong: dynamic modelling of flexible
+bodies with contact/impact based on the interactive mode, Acta Physica Sinica 2017): the
+three contact treatments — ACM (constraints + impact map, driver), PFM (penalty) and IMM
+(interactive mode) — on the planar FE cases ``rod-wall``, ``slider-slot`` and
+``rod-plate``, scored from ordinary run records.
 
 Every run goes through :func:`daebench.harness.running.runner.run_scene` (the harness's path: history,
 impacts, energy residual, constraint residuals); this module only reads the records:
@@ -31,12 +33,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from daebench.integrators.base import Integrator
-from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.core.scene import Scene
+from daebench.harness.running.runner import make_integrator, run_scene
+from daebench.integrators.base import Integrator
+from daebench.models.rodwall import exact
+from daebench.models.scenes import load_scene
 
 #: the treatments: (contact.law, default integrator)
-from daebench.models.scenes import load_scene
 TREATMENTS = {"ACM": ("constraint", "hht"), "PFM": ("penalty", "central"), "IMM": ("complementarity", "imm")}
 
 
@@ -71,8 +74,6 @@ def contact_force(hist: pd.DataFrame) -> np.ndarray:
 def rod_wall_scores(res: Any, scene: Scene) -> dict[str, float]:
     """Saint-Venant's numbers for a rod-wall run (docs/sources.md §A.2/A.3 conventions: mean
     reaction = ∫λ dt / T without the impulse of the impact map)."""
-    from daebench.models.rodwall import exact
-
     ex = exact(scene)
     t0, t1 = contact_window(res)
     T = t1 - t0

@@ -13,14 +13,13 @@ iterations can. This study measures, in one process:
   compiled loop (the way every integrator loop calls it), at the scene's initial state;
 * the floor and the share of the step the integrator, the driver and the outputs take.
 
-``python -m daebench.studies.perf_floor`` prints it for beam-impact (N = 5, the
+``daebench perf --section model-floor`` prints it for beam-impact (N = 5, the
 protocol's hht) and the pendulum (hht, genalpha).
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import time
 from typing import Any, Sequence
 
@@ -96,15 +95,12 @@ def cases(beam_t_end: float = 0.4, pendulum_t_end: float = 10.0) -> list[tuple]:
             ("pendulum", pend, "genalpha", {"h": 1e-3})]
 
 
-def main(argv: Sequence[str] = ()) -> list[dict[str, Any]]:
-    rows = [floor(*c) for c in cases()]
-    for r in rows:
-        print(f"{r['case']:12s} {r['integrator']:9s} {r['steps_per_s']:9.0f} steps/s ({r['us_per_step']:6.2f} µs/step); "
-              f"{r['residual_evals_per_step']:.2f} force evaluations/step × {r['kernel_us_per_call']:.3f} µs = "
-              f"{r['kernel_us_per_step']:.2f} µs/step in the model kernel ({100 * r['kernel_share']:.0f} %); "
-              f"bound {r['bound_steps_per_s']:.0f} steps/s")
-    return rows
-
-
-if __name__ == "__main__":
-    main(sys.argv[1:])
+def report() -> str:
+    """The floor of each case of :func:`cases`, one line each (``daebench perf --section model-floor``)."""
+    lines = []
+    for r in (floor(*c) for c in cases()):
+        lines.append(f"{r['case']:12s} {r['integrator']:9s} {r['steps_per_s']:9.0f} steps/s ({r['us_per_step']:6.2f} "
+                     f"µs/step); {r['residual_evals_per_step']:.2f} force evaluations/step × "
+                     f"{r['kernel_us_per_call']:.3f} µs = {r['kernel_us_per_step']:.2f} µs/step in the model kernel "
+                     f"({100 * r['kernel_share']:.0f} %); bound {r['bound_steps_per_s']:.0f} steps/s")
+    return "\n".join(lines)

@@ -1,9 +1,9 @@
 """What a cold run compiles: every function numba compiles for one daebench command, with
 its own compile time, from an empty kernel cache.
 
-The command runs in a fresh subprocess with ``NUMBA_CACHE_DIR`` set to a new empty folder
+The command runs in a fresh process with an empty kernel cache (:func:`.probes.fresh_cache`)
 and ``NUMBA_OPT`` as given (numba's default, 3, when not). The child listens to numba's
-``numba:compile`` events (:mod:`numba.core.event`): a compile event spans the typing,
+``numba:compile`` events (:func:`daebench.harness.running.compile_events.recording`): a compile event spans the typing,
 lowering and LLVM work of one function for one signature, *including* the compiles of the
 callees it triggers; each function's **own** time is its span minus its nested compiles'
 spans, so the own times add up to the total compile time. ``numba:llvm_lock`` spans are
@@ -21,14 +21,14 @@ import json
 import os
 import resource
 import runpy
-import subprocess
 import sys
 import tempfile
-import time
 from collections import defaultdict
-from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Iterator, Sequence
+from typing import Sequence
+
+from daebench.harness.running.compile_events import recording
+from daebench.studies.perf import probes
 
 
 @dataclass
@@ -64,50 +64,7 @@ class Census:
         return sorted(((m, int(n), s) for m, (n, s) in acc.items()), key=lambda r: -r[2])
 
 
-@contextmanager
-def recording() -> Iterator[dict]:
-    """Record numba's compiles while the block runs: yields ``{"functions": [...], "llvm_s": x}``
-    (filled as compiles end; each function a :class:`Compiled` as a dict)."""
-    from numba.core import event as ev
-
-    stack: list[list] = []          # [name, signature, start, nested seconds]
-    rec: dict = {"functions": [], "llvm_s": 0.0}
-    llvm_start = [0.0]
-
-    class Compiles(ev.Listener):
-        def on_start(self, event):
-            d = event.data
-            disp = d["dispatcher"]
-            py = getattr(disp, "py_func", None)
-            name = f"{getattr(py, '__module__', '?')}.{getattr(py, '__qualname__', repr(disp))}"
-            stack.append([name, ", ".join(str(a) for a in d["args"]), time.perf_counter(), 0.0])
-
-        def on_end(self, event):
-            name, sig, t0, nested = stack.pop()
-            span = time.perf_counter() - t0
-            if stack:
-                stack[-1][3] += span
-            rec["functions"].append({"name": name, "signature": sig[:200], "own_s": span - nested,
-                                     "total_s": span})
-
-    class Llvm(ev.Listener):
-        def on_start(self, event):
-            llvm_start[0] = time.perf_counter()
-
-        def on_end(self, event):
-            rec["llvm_s"] += time.perf_counter() - llvm_start[0]
-
-    listeners = [("numba:compile", Compiles()), ("numba:llvm_lock", Llvm())]
-    for kind, lis in listeners:
-        ev.register(kind, lis)
-    try:
-        yield rec
-    finally:
-        for kind, lis in listeners:
-            ev.unregister(kind, lis)
-
-
-def _child(out_path: str, args: list[str]) -> int:
+def child(out_path: str, args: list[str]) -> int:
     """Run ``daebench *args`` in this process, recording numba's compiles. The command runs
     as the program ``python -m daebench.cli.app`` would (by module name, as
     :mod:`.coldstart` runs it: a study does not import the CLI layer above it)."""
@@ -127,13 +84,15 @@ def _child(out_path: str, args: list[str]) -> int:
     return rc
 
 
+#: the child process: ``daebench ARGS`` in it, its compiles recorded into the file OUT
+_CHILD = "import sys; from daebench.studies.perf.compile_census import child; sys.exit(child(sys.argv[1], sys.argv[2:]))"
+
+
 def _run(args: Sequence[str], env: dict[str, str], timeout: float) -> dict:
     with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as tmp:
         path = tmp.name
     try:
-        proc = subprocess.run([sys.executable, "-m", "daebench.studies.compile_census", path, *args], env=env,
-                              timeout=timeout, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                              check=False)
+        _, proc = probes.run_python(_CHILD, [path, *args], env, timeout)
         with open(path) as f:
             text = f.read()
         if not text:
@@ -154,9 +113,7 @@ def census(args: Sequence[str], opt: str | None = None, timeout: float = 1800.0)
     opt : ``NUMBA_OPT`` for the child (0–3); None keeps the environment's (numba: 3)
     timeout : seconds per run
     """
-    with tempfile.TemporaryDirectory(prefix="daebench-census-") as tmp:
-        env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "cache"),
-                   DAEBENCH_RESULTS=os.path.join(tmp, "results"))
+    with probes.fresh_cache("daebench-census-") as env:
         if opt is not None:
             env["NUMBA_OPT"] = str(opt)
         cold = _run(args, env, timeout)
@@ -179,7 +136,3 @@ def markdown(c: Census, top: int = 15) -> str:
     lines += ["", "| function | own [s] | with nested [s] | signature |", "|---|---|---|---|"]
     lines += [f"| {f.name} | {f.own_s:.2f} | {f.total_s:.2f} | {f.signature[:60]} |" for f in c.functions[:top]]
     return "\n".join(lines) + "\n"
-
-
-if __name__ == "__main__":  # pragma: no cover — the child of census()
-    sys.exit(_child(sys.argv[1], sys.argv[2:]))

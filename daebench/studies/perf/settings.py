@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 PUBLISHED_TABLE1_TOTAL_S = 47500.0
@@ -33,10 +32,10 @@ class PerfSettings:
     bound_dt: float = 2.5e-5       # its output interval: Nyquist 1.26e5 rad/s
     bound_min_window: float = 0.05 # free-flight windows shorter than this are left out
     rates_t_end: float = 1.0
-    capture: bool = True           # event-capturing steppers' steps/s beside hht (issue 13)
+    capture: bool = True           # event-capturing steppers' steps/s beside hht
     capture_repeats: int = 3
     coldstart: bool = False        # first-run times with an empty kernel cache (minutes; opt-in)
-    fe_elements: tuple[int, ...] = (50, 100, 200, 400)  # rod-wall sizes of the banded-FE scaling (issue 21)
+    fe_elements: tuple[int, ...] = (50, 100, 200, 400)  # rod-wall sizes of the banded-FE scaling
     fe_t_end: float = 2e-4
 
     @classmethod
@@ -45,9 +44,3 @@ class PerfSettings:
                    beam_hs=(2e-4, 1e-4), beam_ref_h=2.5e-5, ancf_elements=2, adaptive_tols=(1e-6,),
                    adaptive_t_end=0.02, rates_t_end=0.005, bound_min_window=0.01,
                    capture=False, fe_elements=(10, 20), fe_t_end=2e-5)  # capture rates: tests/test_capture_beam.py (slow)
-
-
-def _timed(fn):
-    t = time.perf_counter()
-    out = fn()
-    return out, time.perf_counter() - t

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +13,8 @@ import numpy as np
 from daebench.models.pendulum import exact_theta
 from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
-from daebench.studies.perf_common import PerfSettings, _timed
+from daebench.studies.perf import probes
+from daebench.studies.perf.settings import PerfSettings
 
 
 def _exu_settings(exu, T: float, h: float, rho: float):
@@ -32,9 +32,10 @@ def _exu_settings(exu, T: float, h: float, rho: float):
 
 def exudyn_pendulum(T: float, h: float, rho: float, theta0_deg: float = 30.0) -> tuple[float, float]:
     """(wall time of SolveDynamic, final θ [rad]) of Exudyn's generalized-α on the Cartesian pendulum."""
-    import exudyn as exu
-    from exudyn.itemInterface import (DistanceConstraint, LoadCoordinate, MarkerNodeCoordinate, MarkerNodePosition,
-                                      MassPoint2D, NodePoint2D, NodePointGround)
+    import exudyn as exu  # lazy: exudyn, an optional extra
+    from exudyn.itemInterface import (  # lazy: as above
+        DistanceConstraint, LoadCoordinate, MarkerNodeCoordinate, MarkerNodePosition, MassPoint2D, NodePoint2D,
+        NodePointGround)
 
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
@@ -49,17 +50,17 @@ def exudyn_pendulum(T: float, h: float, rho: float, theta0_deg: float = 30.0) ->
     mbs.AddLoad(LoadCoordinate(markerNumber=mc, load=-m * g))
     mbs.Assemble()
     sim = _exu_settings(exu, T, h, rho)
-    _, w = _timed(lambda: exu.SolveDynamic(mbs, sim))
+    _, w = probes.wall(lambda: exu.SolveDynamic(mbs, sim))
     p = mbs.GetNodeOutput(n, exu.OutputVariableType.Position)
     return w, math.atan2(p[0], -p[1])
 
 
 def exudyn_ancf_beam(T: float, h: float, rho: float, ne: int, scene) -> tuple[float, float]:
     """(wall, tip angle [rad] at T) of a hinged ANCF cable (same L, EI, ρA, EA, start angle, g)."""
-    import exudyn as exu
-    from exudyn.itemInterface import (CoordinateConstraint, LoadMassProportional, MarkerBodyMass,
-                                      MarkerNodeCoordinate, NodePoint2DSlope1, NodePointGround, ObjectANCFCable2D,
-                                      ObjectGround)
+    import exudyn as exu  # lazy: exudyn, an optional extra
+    from exudyn.itemInterface import (  # lazy: as above
+        CoordinateConstraint, LoadMassProportional, MarkerBodyMass, MarkerNodeCoordinate, NodePoint2DSlope1,
+        NodePointGround, ObjectANCFCable2D, ObjectGround)
 
     L, A, I = scene["beam.length"], scene["beam.area"], scene["beam.inertia"]
     rho_m, E, g = scene["beam.density"], scene["beam.modulus"], scene["gravity.g"]
@@ -83,7 +84,7 @@ def exudyn_ancf_beam(T: float, h: float, rho: float, ne: int, scene) -> tuple[fl
             nodeNumber=nodes[0], coordinate=k))]))
     mbs.Assemble()
     sim = _exu_settings(exu, T, h, rho)
-    _, w = _timed(lambda: exu.SolveDynamic(mbs, sim))
+    _, w = probes.wall(lambda: exu.SolveDynamic(mbs, sim))
     p = mbs.GetNodeOutput(nodes[-1], exu.OutputVariableType.Position)
     return w, math.atan2(p[1], p[0])
 
@@ -97,12 +98,6 @@ def _cost_at(errs: list[float], walls: list[float], target: float) -> float:
         return math.nan
     order = np.argsort(e)
     return float(np.exp(np.interp(math.log(target), e[order], w[order])))
-
-
-def _cpu(fn):
-    t = time.process_time()
-    out = fn()
-    return out, time.process_time() - t
 
 
 def _pendulum_pair(s: PerfSettings, integrator: str, opts: dict[str, Any], rho: float) -> dict[str, Any]:
@@ -122,10 +117,10 @@ def _pendulum_pair(s: PerfSettings, integrator: str, opts: dict[str, Any], rho: 
     exudyn_pendulum(min(T, 0.01), h, rho)
     slope, whole, us, exu_us = [], [], [], []
     for _ in range(s.peer_rounds):
-        (rec, res), c_long = _cpu(run_long)
-        (rec_s, _), c_short = _cpu(run_short)
-        (_, th_e), e_long = _cpu(lambda: exudyn_pendulum(T, h, rho))
-        _, e_short = _cpu(lambda: exudyn_pendulum(T / 4, h, rho))
+        (rec, res), c_long = probes.cpu(run_long)
+        (rec_s, _), c_short = probes.cpu(run_short)
+        (_, th_e), e_long = probes.cpu(lambda: exudyn_pendulum(T, h, rho))
+        _, e_short = probes.cpu(lambda: exudyn_pendulum(T / 4, h, rho))
         steps, steps_s = rec.counters["steps"], rec_s.counters["steps"]
         n_exu, n_exu_s = round(T / h), round(T / 4 / h)
         o, e = (c_long - c_short) / (steps - steps_s), (e_long - e_short) / (n_exu - n_exu_s)
@@ -154,7 +149,7 @@ def pendulum_vs_exudyn(s: PerfSettings, alpha: float = -0.15) -> dict[str, Any]:
 
 def exudyn_compare(s: PerfSettings) -> dict[str, Any]:
     try:
-        import exudyn
+        import exudyn  # lazy: exudyn, an optional extra
     except ImportError:
         return {"available": False, "note": "exudyn not installed (pip install 'daebench[exudyn]')"}
     out: dict[str, Any] = {"available": True, "version": exudyn.__version__}
@@ -173,7 +168,7 @@ def exudyn_compare(s: PerfSettings) -> dict[str, Any]:
     scenes = {k: load_scene("beam-impact", base + sets) for k, (_, sets) in models.items()}
 
     def ours(key, hh):
-        (rec, res), w = _timed(lambda: run_scene(scenes[key], "hht", {"h": hh, "alpha": alpha}, write=False))
+        (rec, res), w = probes.wall(lambda: run_scene(scenes[key], "hht", {"h": hh, "alpha": alpha}, write=False))
         last = res.history.iloc[-1]
         return w, math.atan2(float(last["tip_y"]), float(last["tip_x"]))
 
@@ -218,13 +213,13 @@ def genalpha_vs_exudyn(s: PerfSettings, rho: float = 0.74) -> dict[str, Any]:
 def _plugin_classes():
     """The example plugins from the repository's tests/plugin_pkg (None when daebench is
     not run from a checkout)."""
-    root = Path(__file__).resolve().parents[2] / "tests" / "plugin_pkg"
+    root = Path(__file__).resolve().parents[3] / "tests" / "plugin_pkg"
     if not (root / "daebench_verlet").is_dir():
         return None
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
-    from daebench_verlet import Verlet
-    from daebench_verlet.compiled import CompiledVerlet
+    from daebench_verlet import Verlet  # lazy: the example plugin, importable once its folder is on sys.path
+    from daebench_verlet.compiled import CompiledVerlet  # lazy: as above
 
     return Verlet, CompiledVerlet
 
@@ -246,7 +241,7 @@ def compiled_plugin(s: PerfSettings) -> dict[str, Any]:
         run_scene(sc, make(), opts, write=False)  # warm
         best = math.inf
         for _ in range(3):
-            (rec, _), w = _timed(lambda: run_scene(sc, make(), opts, write=False))
+            (rec, _), w = probes.wall(lambda: run_scene(sc, make(), opts, write=False))
             best = min(best, w)
         rows[label] = {"steps": rec.counters["steps"], "us_per_step": 1e6 * best / rec.counters["steps"]}
     plugin = rows["verlet-compiled (plugin)"]["us_per_step"]

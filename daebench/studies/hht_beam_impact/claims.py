@@ -14,8 +14,8 @@ import pandas as pd
 
 from daebench.harness.analysis import plots
 from daebench.harness.scoring import metrics
-from daebench.studies.paper_table import BAUMGARTE, HHT_ALPHAS, PUBLISHED_TABLE1, table1
-from daebench.studies.paper_figures import fig_cost, fig_difference, fig_series
+from daebench.studies.hht_beam_impact.table import BAUMGARTE, HHT_ALPHAS, PUBLISHED_TABLE1, table1
+from daebench.studies.hht_beam_impact.figures import fig_cost, fig_difference, fig_series
 
 
 # ==== claim helpers =================================================================

@@ -7,7 +7,7 @@ and never lost; their histories are kept under ``<out>/runs/`` for the figures. 
 verdict is a sentence with the number it rests on, computed from this run's data —
 "supported", "not supported" or "not testable here" (e.g. N = 9 is not in --quick), or
 supported by the parts that could be tested, naming how many could not
-(:mod:`daebench.studies.paper_claims`).
+(:mod:`daebench.studies.hht_beam_impact.claims`).
 """
 
 from __future__ import annotations
@@ -21,21 +21,24 @@ from typing import Any
 
 import pandas as pd
 
-from daebench.harness.running import provenance
-from daebench.harness.sweeps import sweep as bench
-from daebench.harness.files import results_dir
+from daebench.core.params import ParamError
 from daebench.core.scene import Scene
-from daebench.models.scenes import load_scene
-from daebench.harness.sweeps.options import Execution, Timing
+from daebench.harness.files import results_dir
+from daebench.harness.running import provenance
+from daebench.harness.running.history_io import read_history
+from daebench.harness.sweeps import sweep
+from daebench.harness.sweeps.options import Execution, Storage, SweepOptions, Timing
 from daebench.harness.sweeps.plan import RunSpec
-from daebench.studies.paper_table import (BAUMGARTE, BASE_OBSERVABLES, HHT_ALPHAS, PUBLISHED_TABLE1,  # noqa: F401
+from daebench.models.scenes import load_scene
+from daebench.studies.hht_beam_impact.claims import CLAIMS
+from daebench.studies.hht_beam_impact.table import (BAUMGARTE, BASE_OBSERVABLES, HHT_ALPHAS, PUBLISHED_TABLE1,  # noqa: F401
                                            QUICK_RUN_CAP, SCENE, observables, table1)
 
 @dataclass(frozen=True)
 class Protocol:
     """The grid and step protocol of one reproduction.
 
-    Two variants (issue 16, item 3): ``published`` — beam-impact (J_h = 0) at the paper's
+    Two variants: ``published`` — beam-impact (J_h = 0) at the paper's
     h = 1e-4 s, where Baumgarte + ABM4 diverges for N ≥ 5 so claims resting on it cannot
     be judged; ``calibrated`` — beam-impact-hub (J_h = 0.03 kg m²) at h = 2.5e-5 s, the
     step at which this model shows the published pattern (Baumgarte completes N = 3, 5, 7
@@ -131,15 +134,16 @@ def run_paper(quick: bool = False, jobs: int = 1, out: str | Path | None = None,
     if run_cap is None and quick:
         run_cap = QUICK_RUN_CAP
     if not quick and variant not in VARIANTS:
-        from daebench.core.params import ParamError
         raise ParamError(f"unknown paper variant '{variant}'; choose one of {', '.join(VARIANTS)}")
     p = Protocol.quick() if quick else VARIANTS[variant]()
     folder = Path(out) if out is not None else results_dir() / "paper" / p.name
     folder.mkdir(parents=True, exist_ok=True)
     scene = base_scene(p)
     specs = plan(p)
-    df = bench.run_specs(specs, scene, Execution(jobs=jobs, progress=progress), Timing(run_cap=run_cap),
-                         "auto", history_dir=folder / "runs", description="paper")
+    options = SweepOptions(reference="auto", timing=Timing(run_cap=run_cap),
+                           execution=Execution(jobs=jobs, progress=progress),
+                           storage=Storage(write=False, history_dir=folder / "runs"))
+    df = sweep.run_specs(specs, scene, options, description="paper")
     return report(df, p, folder, scene, progress=progress)
 
 
@@ -155,8 +159,6 @@ def report(df: pd.DataFrame, p: Protocol, folder: Path, scene: Scene, progress: 
     table.to_csv(folder / "table1.csv", index=False)
     (folder / "table1.md").write_text(md)
     hists = _load_histories(df)
-    from daebench.studies.paper_claims import CLAIMS
-
     verdicts, figs = [], []
     for k, fn in enumerate(CLAIMS, start=1):
         if progress:
@@ -188,7 +190,7 @@ def _load_histories(df: pd.DataFrame) -> dict[int, pd.DataFrame]:
     for _, r in df.iterrows():
         path = r.get("history")
         if isinstance(path, str) and Path(path).exists():
-            out[int(r["run"])] = pd.read_parquet(path)
+            out[int(r["run"])] = read_history(path)
     return out
 
 

@@ -13,7 +13,8 @@ from daebench.harness.running.deadline import RunTimeout, deadline
 from daebench.harness.references.reference import load_reference
 from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
-from daebench.studies.perf_common import THETA_TARGET_RAD, PerfSettings, _timed
+from daebench.studies.perf import probes
+from daebench.studies.perf.settings import THETA_TARGET_RAD, PerfSettings
 
 
 def adaptive(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
@@ -32,7 +33,7 @@ def adaptive(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
                 opts.update(adaptive=True, alpha=-0.15)
             try:
                 with deadline(s.adaptive_cap_s):
-                    (rec, res), w = _timed(lambda: run_scene(sc, integ, opts, write=False))
+                    (rec, res), w = probes.wall(lambda: run_scene(sc, integ, opts, write=False))
             except RunTimeout:
                 rows.append({"integrator": integ, "rtol": tol, "status": f"over {s.adaptive_cap_s:g} s cap",
                              "steps": -1, "wall_s": math.nan, "theta_err_max_rad": math.nan})
@@ -72,7 +73,7 @@ def resolution_bound(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]
     The spectrum is taken from an ``hht`` run with α = 0 (no numerical damping, so the
     tones keep their amplitude) at ``bound_h``, sampled every ``bound_dt``."""
     sc = load_scene("beam-impact", [f"t_end={s.adaptive_t_end}", f"output.dt={s.bound_dt}"])
-    (rec, res), w = _timed(lambda: run_scene(sc, "hht", {"h": s.bound_h, "h_contact": min(s.bound_h, 1e-6),
+    (rec, res), w = probes.wall(lambda: run_scene(sc, "hht", {"h": s.bound_h, "h_contact": min(s.bound_h, 1e-6),
                                                          "alpha": 0.0}, write=False))
     if rec.status != "completed":
         return {"available": False, "note": f"spectrum run {rec.status}: {rec.message}"}
