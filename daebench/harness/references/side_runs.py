@@ -11,7 +11,7 @@ one process, so their histories are the same to the last digit.
 
 Where ``fork`` does not exist (Windows, or ``parallel=False``) the check runs are made one
 after the other in the calling process when their results are asked for. A worker ends
-with its caller (:func:`daebench.harness.sweeps.executors._die_with_parent`); a worker that dies
+with its caller (:func:`daebench.harness.running.child_process.die_with_parent`); a worker that dies
 without an answer is reported as a ``RuntimeError`` naming the run and its exit code; an
 exception a run raises is raised again in the caller.
 """
@@ -27,7 +27,7 @@ from typing import Any, Callable
 
 import pandas as pd
 
-from daebench.harness.sweeps import executors
+from daebench.harness.running.child_process import describe_exit, die_with_parent
 
 
 @dataclass
@@ -48,7 +48,7 @@ class RunSummary:
 def _child(conn: Any, fn: Callable[[], RunSummary], parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the caller's business
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    executors._die_with_parent(parent_pid)
+    die_with_parent(parent_pid)
     try:
         msg: tuple = ("ok", fn())
     except BaseException as exc:  # any failure is the caller's to report
@@ -115,7 +115,7 @@ class SideRuns:
             except (EOFError, OSError):
                 proc.join()
                 raise RuntimeError(f"the reference's {name} run ended without a result (its process "
-                                   f"{executors.describe_exit(proc.exitcode)})") from None
+                                   f"{describe_exit(proc.exitcode)})") from None
             proc.join()
             if msg[0] == "raised":
                 raise msg[1] if isinstance(msg[1], BaseException) else RuntimeError(

@@ -20,7 +20,7 @@ runs execute (:func:`sigterm_as_interrupt`: ``kill PID`` keeps the rows and the 
 Ctrl-C). A worker never outlives its sweep: on Linux the kernel kills it when the process
 that started it dies (``PR_SET_PDEATHSIG``, so even ``kill -9`` of the sweep leaves no
 orphan), and everywhere a watcher thread in the worker ends it within
-``PARENT_POLL_S`` once its parent is gone.
+``PARENT_POLL_S`` once its parent is gone (:mod:`daebench.harness.running.child_process`).
 
 **One pool for many sweeps.** A worker keeps what its runs loaded (numba kernels, the
 models' modules, :mod:`daebench.harness.sweeps.row`'s warm-up record) for as long as it
@@ -35,12 +35,10 @@ pool started are not known to its workers.
 
 from __future__ import annotations
 
-import ctypes
 import multiprocessing as mp
 import os
 import pickle
 import signal
-import sys
 import threading
 import time
 from collections import deque
@@ -50,30 +48,17 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterator, Sequence
 
 from daebench.core.params import ParamError
+from daebench.harness.running.child_process import describe_exit, die_with_parent
 
 POLL_S = 0.25               # how often the pool looks at its workers
 BACKSTOP_GRACE_S = 30.0     # a run is killed this long after its cap would have stopped it
 DASK_CONNECT_TIMEOUT = 10.0  # s to reach a Dask scheduler
-PARENT_POLL_S = 1.0         # a worker looks this often whether its sweep still exists
-PR_SET_PDEATHSIG = 1        # prctl option (linux/prctl.h)
 
 Row = dict[str, Any]
 
 
 class ExecutorError(ParamError):
     """An executor that cannot be used (bad job count, unreachable scheduler …)."""
-
-
-def describe_exit(code: int | None) -> str:
-    """'killed by signal SIGSEGV' or 'exited with code 3'."""
-    if code is None:
-        return "worker vanished"
-    if code < 0:
-        try:
-            return f"killed by signal {signal.Signals(-code).name}"
-        except ValueError:
-            return f"killed by signal {-code}"
-    return f"exited with code {code}"
 
 
 class Terminated(KeyboardInterrupt):
@@ -99,27 +84,6 @@ def sigterm_as_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, old)
 
 
-def _die_with_parent(parent_pid: int) -> None:
-    """Make this worker end when the sweep's process does: the kernel's parent-death signal
-    on Linux, and on every system a daemon thread that polls the parent's pid."""
-    if sys.platform.startswith("linux"):
-        try:
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-        except (OSError, AttributeError):
-            pass
-    if os.getppid() != parent_pid:  # the parent died before the signal was armed
-        os._exit(1)
-
-    def watch() -> None:
-        while True:
-            time.sleep(PARENT_POLL_S)
-            if os.getppid() != parent_pid:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="daebench-parent-watch", daemon=True).start()
-
-
 def run_inline(specs: Sequence[Any], fn: Callable[[Any], Row], on_row: Callable[[Row], None],
                on_running: Callable[[list[Any]], None] | None = None) -> None:
     """Each run in this process, one after the other (no crash isolation: for debugging
@@ -137,7 +101,7 @@ def _worker_main(conn: Connection, fn: Callable[[Any], Row] | None, parent_pid: 
     spec and answers ``("row", row)`` (or ``("raised", why)``), ``None`` ends it."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's business, not the worker's
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the sweep's handler (inherited through fork)
-    _die_with_parent(parent_pid)
+    die_with_parent(parent_pid)
     while True:
         try:
             msg = conn.recv()
