@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -50,7 +49,7 @@ import pandas as pd
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene, list_scenes
 from daebench.harness.analysis import costs, profiles, recommend
-from daebench.harness.files import results_dir
+from daebench.harness.files import atomic_write, results_dir
 from daebench.harness.references import fingerprints
 from daebench.harness.references.reference import load_reference
 from daebench.harness.running import checks, provenance
@@ -428,9 +427,7 @@ def write(res: SurveyResult, opts: SurveyOptions | None = None) -> list[Path]:
             df.to_csv(f / f"{stem}.csv", index=False)
             files.append(f / f"{stem}.csv")
     if len(res.table):
-        tmp = f / f".table.parquet.{os.getpid()}.tmp"
-        res.table.to_parquet(tmp, index=False)
-        os.replace(tmp, f / "table.parquet")
+        atomic_write(f / "table.parquet", lambda p: res.table.to_parquet(p, index=False), "the survey's table")
     prov = provenance.collect(scene_hashes(res.table))
     if len(res.reach) and res.reach["reached"].any():
         files += profiles.figure(res.reach, f / "profile-wall", prov=prov)
