@@ -1,18 +1,20 @@
 """daebench: benchmark time integrators for constrained mechanical systems with impact.
 
-The Python API (:mod:`daebench.api`), available at the package top::
+The Python API (:mod:`daebench.api`), available at the package top:
 
-    import daebench
-    r = daebench.run("pendulum", integrator="hht", h=1e-3)   # arrays r.t, r.q, r.v, r.lam
-    df = daebench.bench("pendulum", ["hht", "newmark"], steps=[1e-2, 5e-3])
-    daebench.cases(), daebench.integrator_infos(), daebench.load_scene("beam-impact")
-    daebench.reference("pendulum")
+>>> import daebench
+>>> r = daebench.run("pendulum", integrator="hht", h=1e-3)   # arrays r.t, r.q, r.v, r.lam  # doctest: +SKIP
+>>> df = daebench.bench("pendulum", ["hht", "newmark"], steps=[1e-2, 5e-3])                  # doctest: +SKIP
+>>> daebench.cases(), daebench.integrator_infos(), daebench.load_scene("beam-impact")         # doctest: +SKIP
+>>> daebench.reference("pendulum"), daebench.compare("pendulum")                             # doctest: +SKIP
+>>> daebench.ParamError                                                                      # doctest: +SKIP
 
 The package reads top-down, one layer a subpackage, each importing only those before it
 (``tests/test_layers.py`` holds the order): :mod:`.core` (data and physics interfaces),
 :mod:`.stepping` (compiled steppers), :mod:`.models`, :mod:`.integrators`,
 :mod:`.driver` (the event-driven driver), :mod:`.harness` (runs, sweeps, references,
-scores), :mod:`.api`, :mod:`.studies`, :mod:`.cli`.
+scores), :mod:`.workflows` (what each command does), :mod:`.studies` (the reproduced
+papers, the speed figures), :mod:`.api` (the only door the command line uses), :mod:`.cli`.
 """
 import os as _os
 
@@ -30,15 +32,15 @@ from daebench.core import numba_cache as _nc  # noqa: E402
 
 _nc.install()
 
-_API = ("run", "bench", "reference", "load_scene", "cases", "integrator_info", "integrator_infos", "RunOutput",
-        "IntegratorInfo")
+_API = ("run", "bench", "reference", "compare", "survey", "effects", "report", "stability", "load_scene", "cases",
+        "integrator_info", "integrator_infos", "RunOutput", "IntegratorInfo", "ParamError")
 __all__ = list(_API)
 
 
 def __getattr__(name: str):
     # the API is imported on first use: `import daebench` stays cheap for the CLI's --help
     if name in _API:
-        from daebench import api
+        from daebench import api  # lazy: the API loads the harness; `import daebench` stays cheap for --help
 
         return getattr(api, name)
     raise AttributeError(f"module 'daebench' has no attribute '{name}'")

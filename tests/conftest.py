@@ -17,7 +17,7 @@ second worker to need it waits and loads it instead of compiling it again.
 
 ``DAEBENCH_TEST_COMPILE_LOG=<folder>``: every worker appends each numba compile (test,
 function, signature, own seconds) to ``<folder>/<worker>.jsonl`` — where a cold suite's
-time goes (:mod:`daebench.studies.compile_census` records them).
+time goes (:mod:`daebench.studies.perf.compile_census` records them).
 """
 
 from __future__ import annotations

@@ -66,8 +66,8 @@ def test_catalogues_and_scene_loading():
     sc = daebench.load_scene("beam-impact", {"discretization.n": 3})
     assert sc["discretization.n"] == 3
     assert {"run", "bench", "reference", "load_scene", "cases", "integrators"} <= set(dir(daebench))
-    from daebench.harness import bench  # the module stays importable beside daebench.bench(...)
-    assert callable(daebench.bench) and hasattr(bench, "run_sweep")
+    from daebench.harness.sweeps import sweep  # the module stays importable beside daebench.bench(...)
+    assert callable(daebench.bench) and hasattr(sweep, "run_sweep")
 
 
 def test_api_errors_are_param_errors():
@@ -87,13 +87,15 @@ def test_bench_takes_its_options_as_values_or_as_keywords():
     """One options value per concern (what to run, how to time, where to store, how to
     execute); the keywords are the same sweep, mapped in one place."""
     from daebench.core.params import ParamError
-    from daebench.harness.options import Execution, Plan, Storage, Timing
+    from daebench.harness.sweeps.options import Execution, Plan, Storage, SweepOptions, Timing
 
     kw = dict(overrides={"t_end": 0.1}, write=False, executor="inline", repeats=1)
     by_keywords = daebench.bench("pendulum", "hht,newmark", steps=[1e-2], reference="none", **kw)
-    by_values = daebench.bench("pendulum", plan=Plan(["hht", "newmark"], steps=[1e-2], reference="none"),
-                               timing=Timing.for_repeats(1), storage=Storage(write=False),
-                               execution=Execution(executor="inline", progress=False), overrides={"t_end": 0.1})
+    by_values = daebench.bench("pendulum", plan=Plan(["hht", "newmark"], steps=[1e-2]),
+                               options=SweepOptions(reference="none", timing=Timing.for_repeats(1),
+                                                    storage=Storage(write=False),
+                                                    execution=Execution(executor="inline", progress=False)),
+                               overrides={"t_end": 0.1})
     cols = ["label", "h", "status", "steps", "err_theta_max", "err_pos_max", "energy_resid_max"]
     pd.testing.assert_frame_equal(by_keywords[cols], by_values[cols])
     # the pendulum has an exact solution: scored against it even with reference='none'
@@ -103,4 +105,4 @@ def test_bench_takes_its_options_as_values_or_as_keywords():
     with pytest.raises(ParamError, match="set by the storage= option"):
         daebench.bench("pendulum", ["hht"], steps=[1e-2], storage=Storage(write=False), name="x")
     with pytest.raises(ParamError, match="unknown reference mode"):
-        Plan(["hht"], reference="sometimes")
+        SweepOptions(reference="sometimes")

@@ -94,7 +94,7 @@ def test_rod_wall_hht_banded_equals_dense():
     declared structure and with dense LU: the same history to round-off."""
     from daebench import api
     from daebench.driver.simulate import simulate
-    from daebench.harness.runner import make_integrator
+    from daebench.harness.running.runner import make_integrator
     from daebench.models import build_system
 
     scene = api.load_scene("rod-wall", {"rod.elements": 20, "t_end": 1.2e-5})
@@ -174,10 +174,10 @@ def test_fe_scaling_study_counts_the_steps(tmp_path):
     or more Newton iterations each; its files are written and state the targets."""
     import json
 
-    from daebench.studies import perf_structure
+    from daebench.studies.perf import structure as perf_structure
 
-    fe = perf_structure.main(["--elements", "8,16", "--t-end", "2e-5", "--repeats", "1", "--dense-up-to", "8",
-                              "--out", str(tmp_path)])
+    perf_structure.scaling_report((8, 16), 2e-5, dense_up_to=8, repeats=1, out=tmp_path)
+    fe = json.loads((tmp_path / "fe_scaling.json").read_text())
     rows = fe["rows"]
     assert [r["elements"] for r in rows] == [8, 16] and [r["n"] for r in rows] == [36, 68]
     assert all(abs(r["steps"] - 200) <= 2 and r["newton_per_step"] >= 1.0 for r in rows)
@@ -208,7 +208,7 @@ def test_corotational_frame_declares_a_band_and_hht_agrees_with_dense():
 def _banded_and_dense(scene, h):
     """hht runs of ``scene`` through the declared structure and with it removed (dense LU)."""
     from daebench.driver.simulate import simulate
-    from daebench.harness.runner import make_integrator
+    from daebench.harness.running.runner import make_integrator
     from daebench.models import build_system
 
     runs = []

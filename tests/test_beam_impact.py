@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from daebench.models import build_system
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
 
 T_FIRST = 0.3715  # just past the first impact (t ≈ 0.370 s)

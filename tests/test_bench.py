@@ -10,16 +10,20 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness import bench, options
+from daebench.harness.sweeps import options, sweep as bench
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+from daebench.harness.references.reference import ReferenceMissing, compute_reference, load_reference, reference_tolerances
+from daebench.harness.running.runner import run_scene
+from daebench.harness.sweeps.options import Execution, SweepError, SweepOptions
+from daebench.harness.sweeps.plan import RunSpec, plan_sweep
 
 # the exploding test integrator overflows on purpose
 pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
 
 
 def sweep(scene, integrators, **keywords):
-    """A sweep with the API's keyword names (:func:`daebench.harness.options.from_keywords`)."""
+    """A sweep with the API's keyword names (:func:`daebench.harness.sweeps.options.from_keywords`)."""
     return bench.run_sweep(scene, *options.from_keywords(integrators, keywords))
 
 
@@ -92,9 +96,9 @@ def test_raise_diverge_succeed_give_three_rows(registry, pendulum, tmp_path, job
 def test_scored_against_the_exact_solution_and_nan_for_diverged(registry, pendulum):
     """The pendulum has an exact solution: a sweep scores against it (as `daebench.run`
     does), not against the reference it also requires."""
-    ref = bench.compute_reference(pendulum, rtol=1e-10, atol=1e-12)
+    ref = compute_reference(pendulum, rtol=1e-10, atol=1e-12)
     assert ref.path.exists() and ref.meta["agreement"]["err_theta_max"] < 1e-5
-    again = bench.load_reference(pendulum)
+    again = load_reference(pendulum)
     pd.testing.assert_frame_equal(again.history, ref.history)
     df = sweep(pendulum, ["explode", "hht"], steps=[1e-2, 5e-3], jobs=1, reference="require",
                progress=False, write=False)
@@ -106,33 +110,33 @@ def test_scored_against_the_exact_solution_and_nan_for_diverged(registry, pendul
 
 
 def test_grid_keys_classified_and_unknown_refused(registry, pendulum):
-    specs = bench.plan_sweep(pendulum, ["hht", "ida"], grid={"alpha": [0.0, -0.1], "pendulum.length": [1, 2]},
+    specs = plan_sweep(pendulum, ["hht", "ida"], grid={"alpha": [0.0, -0.1], "pendulum.length": [1, 2]},
                              steps=[1e-2])
     # alpha varies only for hht (2 × 2 lengths); ida has no fixed step → skipped rows (2 lengths)
     hht = [s for s in specs if s.integrator == "hht"]
     assert len(hht) == 4 and {s.options["alpha"] for s in hht} == {0.0, -0.1}
     assert all(s.scene_overrides["pendulum.length"] in (1, 2) for s in specs)
     assert all(s.skip for s in specs if s.integrator == "ida")
-    with pytest.raises(bench.SweepError, match="unknown grid key 'alpah'.*alpha"):
-        bench.plan_sweep(pendulum, ["hht"], grid={"alpah": [0.0]})
-    with pytest.raises(bench.SweepError, match="unknown integrator 'hhtt'"):
-        bench.plan_sweep(pendulum, ["hhtt"])
-    with pytest.raises(bench.ReferenceMissing, match="daebench reference pendulum"):
+    with pytest.raises(SweepError, match="unknown grid key 'alpah'.*alpha"):
+        plan_sweep(pendulum, ["hht"], grid={"alpah": [0.0]})
+    with pytest.raises(SweepError, match="unknown integrator 'hhtt'"):
+        plan_sweep(pendulum, ["hhtt"])
+    with pytest.raises(ReferenceMissing, match="daebench reference pendulum"):
         sweep(pendulum, ["hht"], steps=[1e-2], reference="require", progress=False)
 
 
 def test_tols_skip_fixed_step_only(registry, pendulum):
-    specs = bench.plan_sweep(pendulum, ["hht", "boom"], tols=[1e-4])
+    specs = plan_sweep(pendulum, ["hht", "boom"], tols=[1e-4])
     hht, boom = specs
     assert hht.options["adaptive"] is True and hht.options["rtol"] == 1e-4
     assert "no adaptive" in boom.skip
-    df = bench.run_specs(specs, pendulum, bench.Execution(progress=False), reference_mode="none")
+    df = bench.run_specs(specs, pendulum, SweepOptions(reference="none", execution=Execution(progress=False)))
     assert list(df.status) == ["completed", "skipped"]
 
 
 def test_reference_tolerance_margin():
-    assert bench.reference_tolerances() == (1e-11, 1e-13)
-    r, a = bench.reference_tolerances(tightest_rtol=1e-10)
+    assert reference_tolerances() == (1e-11, 1e-13)
+    r, a = reference_tolerances(tightest_rtol=1e-10)
     assert r == pytest.approx(1e-12) and a == pytest.approx(1e-14)
 
 
@@ -150,7 +154,7 @@ class Hang(Boom):
 def test_hanging_run_is_a_failed_row(registry, pendulum, monkeypatch):
     reg = {**base.registry(), "hang": Registered("hang", Hang, "tests")}
     monkeypatch.setattr(base, "registry", lambda: dict(reg))
-    bench.run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded (workers fork from here)
+    run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded (workers fork from here)
     df = sweep(pendulum, ["hang", "hht"], steps=[1e-2], reference="none", progress=False,
                write=False, run_cap=2.0)
     by = df.set_index("integrator")
@@ -190,7 +194,7 @@ def test_dask_executor_gives_the_rows_of_the_process_pool(registry, pendulum):
     pytest.importorskip("dask.distributed")
     from dask.distributed import Client, LocalCluster
 
-    bench.compute_reference(pendulum, rtol=1e-10, atol=1e-12)
+    compute_reference(pendulum, rtol=1e-10, atol=1e-12)
     kw = dict(steps=[1e-2, 5e-3], reference="require", progress=False, write=False)
     local = sweep(pendulum, ["hht", "newmark"], jobs=2, **kw)
     dask = sweep(pendulum, ["hht", "newmark"], jobs=2, scheduler="local", **kw)
@@ -223,14 +227,14 @@ def test_observable_of_a_switched_off_effect_is_reported_not_scored(registry):
 def test_a_reference_too_loose_for_the_sweep_is_recomputed_under_compute(tmp_path, monkeypatch, capsys):
     """survey/compare with --reference compute: a cached reference not REF_MARGIN tighter than
     the tightest scored rtol is replaced by one that is (said on stderr); 'require' refuses it."""
-    from daebench.harness.references import load_reference
+    from daebench.harness.references.reference import load_reference
     from daebench.models.scenes import load_scene
 
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
     sc = load_scene("pendulum").with_overrides({"t_end": 0.2})
-    bench.compute_reference(sc, rtol=1e-8, check=False)
-    specs = [bench.RunSpec(0, "ida", {"rtol": 1e-10}, {}, {"rtol": 1e-10})]
-    with pytest.raises(bench.SweepError, match="not 100× tighter"):
+    compute_reference(sc, rtol=1e-8, check=False)
+    specs = [RunSpec(0, "ida", {"rtol": 1e-10}, {}, {"rtol": 1e-10})]
+    with pytest.raises(SweepError, match="not 100× tighter"):
         bench.prepare_references(specs, sc, "require")
     bench.prepare_references(specs, sc, "compute")
     assert "computing one at rtol 1e-12 in its place" in capsys.readouterr().err

@@ -181,7 +181,7 @@ def test_capture_cli_registers_its_commands():
     import typer
     from typer.testing import CliRunner
 
-    from daebench.cli.capture import register
+    from daebench.cli.studies import register
 
     app = typer.Typer()
 

@@ -81,7 +81,7 @@ def test_chain_impact_constraint_law():
 def test_step_rates_measures_every_integrator_in_one_process():
     """The per-step cost study returns one finite steps/s per line-up entry, with the step
     counts the fixed step implies (timing itself is printed, never asserted)."""
-    from daebench.studies.eventcapture import step_rates
+    from daebench.studies.event_capturing import step_rates
 
     df = step_rates(n_modes=3, h=1e-4, t_end=0.05, repeats=1)
     print("\n" + df.to_string(index=False))

@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from daebench.integrators.base import IntegratorError, StepFailure
 from daebench.integrators.lcp import ComplementarityLCP, solve_contact_lcp
 from daebench.models.chain import Chain, effective_restitution, energetic_restitution
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.core.scene import SceneError
 from daebench.models.scenes import load_scene
 from daebench.driver.simulate import simulate

@@ -14,10 +14,11 @@ from typing import ClassVar
 import pytest
 from typer.testing import CliRunner
 
-from daebench.harness import progress
+from daebench.harness.running import progress
 from daebench.cli.app import app
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+from daebench.harness.running.history_io import history_label
 
 runner = CliRunner()
 LINES: list[str] = []
@@ -64,8 +65,8 @@ def test_compile_notice_then_a_line_every_tick_until_the_first_step(monkeypatch,
 @pytest.mark.parametrize("compiling", [True, False])
 def test_the_notice_says_compiling_only_while_the_compiler_runs(monkeypatch, compiling):
     """Issue 24 item 16: a warm run under load said the kernels were being compiled. The
-    notice follows the compiler's own events (guards.COMPILE_DEPTH)."""
-    monkeypatch.setattr(progress, "_compiling", lambda: compiling)
+    notice follows the compiler's own events (compile_events.compiling)."""
+    monkeypatch.setattr(progress, "compiling", lambda: compiling)
     lines: list[str] = []
     bar = progress.RunProgress("case", 2.0, write=lines.append, terminal=False, notice_after=0.0, tick=0.0)
     with bar:
@@ -81,7 +82,7 @@ def test_the_notice_says_compiling_only_while_the_compiler_runs(monkeypatch, com
 def test_on_a_terminal_the_wait_is_one_updating_line(monkeypatch):
     """Issue 24 item 16: in a terminal the notice printed ~38 separate lines; now one notice,
     then the bar's description updates in place."""
-    monkeypatch.setattr(progress, "_compiling", lambda: True)
+    monkeypatch.setattr(progress, "compiling", lambda: True)
     printed: list[str] = []
     monkeypatch.setattr(progress.RunProgress, "line", lambda self, text: printed.append(text))
     bar = progress.RunProgress("case", 2.0, terminal=True, notice_after=0.0, tick=0.0)
@@ -174,13 +175,13 @@ def test_help_points_nowhere_missing(cmd):
 def test_history_legend_names_integrator_and_settings(tmp_path):
     """`plot history` labels each line by integrator and its non-default settings (read from
     the sidecar `run` writes), not by the file's hash."""
-    from daebench.harness import plots
+    from daebench.harness.analysis import plots
 
     r = runner.invoke(app, ["run", "pendulum", "-i", "hht", "--opt", "h=1e-2", "--opt", "alpha=-0.3",
                             "--set", "t_end=0.1", "--out", str(tmp_path)])
     assert r.exit_code == 0, r.output
     (path,) = tmp_path.glob("pendulum-hht-*.csv")
-    assert plots.history_label(path) == "hht (h=0.01, alpha=-0.3)"
+    assert history_label(path) == "hht (h=0.01, alpha=-0.3)"
     r = runner.invoke(app, ["plot", "history", str(path), "--out", str(tmp_path / "fig")])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "fig.png").exists() and (tmp_path / "fig.svg").exists()

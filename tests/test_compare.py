@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from daebench.harness import compare as C
-from daebench.harness import fingerprints
+from daebench.harness.sweeps.options import Execution, SweepOptions
+from daebench.workflows import compare as C
+from daebench.harness.references import fingerprints
 from daebench.models.scenes import load_scene
 
 
@@ -36,7 +37,8 @@ def test_compare_scores_every_row_and_writes_table_and_figure(tmp_path, monkeypa
     sc = load_scene("pendulum", {"t_end": 0.5})
     proto = C.Protocol((C.Entry("hht", (1e-2, 5e-3), options={"alpha": 0.0}), C.Entry("central")),
                        measures=("err_theta_max", "err_pos_max"))
-    res = C.run_compare(sc, jobs=1, out=tmp_path / "cmp", progress=False, protocol=proto)
+    options = SweepOptions(reference="compute", execution=Execution(jobs=1, progress=False))
+    res = C.run_compare(sc, options, out=tmp_path / "cmp", protocol=proto)
     df = res.table
     assert list(df["status"]) == ["completed", "completed"] and "central" in res.not_applicable
     assert np.all(np.isfinite(df["err_theta_max"])) and np.all(df["repeats"] >= 1)
@@ -56,7 +58,7 @@ def test_compare_scores_every_row_and_writes_table_and_figure(tmp_path, monkeypa
 def test_fingerprint_refuses_a_reference_that_disagrees(monkeypatch):
     import pandas as pd
 
-    from daebench.harness.references import Reference, ReferenceDamaged
+    from daebench.harness.references.reference import Reference, ReferenceDamaged
 
     sc = load_scene("beam-impact")
     t = np.linspace(0.0, sc.t_end, 20001)
@@ -75,7 +77,7 @@ def test_fingerprint_refuses_a_reference_that_disagrees(monkeypatch):
 def test_shipped_beam_impact_reference_is_reproduced_from_scratch(tmp_path, monkeypatch):
     """The reference `daebench compare beam-impact` scores against (IDA rtol 1e-11, computed
     when missing) reproduces the fingerprint shipped in cases/reference-fingerprints.json."""
-    from daebench.harness.references import compute_reference
+    from daebench.harness.references.reference import compute_reference
 
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
     sc = load_scene("beam-impact")

@@ -1,4 +1,4 @@
-"""The compile census (daebench.studies.compile_census): nested compiles are attributed to
+"""The compile census (daebench.studies.perf.compile_census): nested compiles are attributed to
 their own function, and the own times add up to the outer compile's span."""
 
 from __future__ import annotations
@@ -7,7 +7,8 @@ import numba
 import numpy as np
 import pytest
 
-from daebench.studies.compile_census import Census, Compiled, markdown, recording
+from daebench.harness.running.compile_events import recording
+from daebench.studies.perf.compile_census import Census, Compiled, markdown
 
 
 def _fresh_pair():

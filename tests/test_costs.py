@@ -1,4 +1,4 @@
-"""Cost to reach an accuracy (daebench.harness.costs) on synthetic work–precision data
+"""Cost to reach an accuracy (daebench.harness.analysis.costs) on synthetic work–precision data
 with known answers: a power law error = C·h^p with cost = K/h lies on a straight line in
 log–log, so the interpolated cost at any τ inside the range is exact."""
 
@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from daebench.core.params import ParamError
-from daebench.harness import costs
+from daebench.harness.analysis import costs
 
 C, P, K = 3.0, 2.0, 0.01          # error = C h^p, cost = K / h
 
@@ -110,7 +110,7 @@ def test_recommendation_names_cheapest_runner_up_and_failures():
     """Two power laws on one case: 'fast' reaches τ at K_f/h*, 'slow' at twice the cost
     (K_s = 2 K_f); 'broken' diverges at every step. Known answers: best 'fast', runner-up
     'slow', ratio 2, and 'broken' listed with its reason."""
-    from daebench.harness import recommend
+    from daebench.harness.analysis import recommend
 
     rows = []
     for h in (1e-2, 5e-3, 2.5e-3):

@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from daebench.harness.guards import RunTimeout, deadline
+from daebench.harness.running.deadline import RunTimeout, deadline
 
 
 def test_an_error_raised_after_the_cap_fired_is_a_timeout_with_it_as_cause():
@@ -36,7 +36,7 @@ def test_an_error_before_the_cap_stays_itself():
 
 @pytest.mark.slow
 def test_capped_python_model_runs_all_end_as_timeouts():
-    from daebench.harness.runner import run_scene
+    from daebench.harness.running.runner import run_scene
     from daebench.models.scenes import load_scene
 
     run_scene(load_scene("chain-impact", ["t_end=0.001"]), "hht", {}, write=False)  # compiled before the caps

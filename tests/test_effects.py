@@ -1,4 +1,4 @@
-"""`daebench effects` (daebench.harness.effects) against closed forms.
+"""`daebench effects` (daebench.workflows.effects) against closed forms.
 
 The ball (cases/ball.toml, dropped from x0 = 1 m, restitution e = 0.8) with contact on
 bounces at t1 = √(2 x0/g) with v1 = g t1; with contact off it falls freely. After t1 the
@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from daebench.core.params import ParamError
-from daebench.harness import effects
+from daebench.workflows import effects
 from daebench.models.scenes import load_scene
 
 G, X0, E, T = 9.81, 1.0, 0.8, 0.6

@@ -1,4 +1,4 @@
-"""Event sequences, classified (daebench.harness.eventseq): synthetic sequences with known
+"""Event sequences, classified (daebench.harness.scoring.eventseq): synthetic sequences with known
 answers, and properties (a sequence against itself is all matched; dropping k impacts gives
 k missed, adding k far from the others k spurious; the in-order pairing is a maximum
 matching, checked against scipy's bipartite maximum matching)."""
@@ -16,7 +16,7 @@ from scipy.sparse.csgraph import maximum_bipartite_matching
 
 from daebench.core.contact import Impact
 from daebench.core.params import ParamError
-from daebench.harness import eventseq as es
+from daebench.harness.scoring import eventseq as es
 
 TOL = 1e-3
 times = st.lists(st.floats(0.0, 10.0, allow_nan=False), min_size=0, max_size=25, unique=True)

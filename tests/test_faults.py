@@ -25,6 +25,7 @@ import pytest
 from typer.testing import CliRunner
 
 from daebench.cli.app import app
+from daebench.harness.files import OutputWriteError
 
 runner = CliRunner()
 SMALL = ["bench", "pendulum", "-i", "hht", "--steps", "1e-2,5e-3", "--set", "t_end=0.05", "--reference", "none",
@@ -250,13 +251,13 @@ def test_api_run_write_on_a_full_disk_keeps_the_result(tmp_path, monkeypatch):
     """`daebench.run(write=True)` tracebacked after the work, losing it: now an
     OutputWriteError (a ParamError) that says so and carries the computed result."""
     import daebench
-    from daebench.harness import guards
+    from daebench.harness.running import checks as guards
 
     def full(*a, **k):
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(pd.DataFrame, "to_csv", full)
-    with pytest.raises(guards.OutputWriteError, match="the disk is full") as exc:
+    with pytest.raises(OutputWriteError, match="the disk is full") as exc:
         daebench.run("pendulum", "hht", h=1e-2, overrides={"t_end": 0.05}, write=True, out_dir=tmp_path / "o")
     assert exc.value.result.status == "completed" and len(exc.value.result.history) == 51
     assert list((tmp_path / "o").iterdir()) == []               # no .tmp left
@@ -333,7 +334,7 @@ def test_newmark_losing_newton_on_the_pendulum_says_why():
 def test_claim7_is_judged_on_cpu_time_and_says_so(tmp_path):
     """Wall times under load (flat in N here) said N^0.04; the verdict now uses each run's
     CPU time (here ∝ N², HHT 3× Baumgarte) and names it."""
-    from daebench.studies import paper_claims
+    from daebench.studies.hht_beam_impact import claims as paper_claims
 
     rows = []
     for i, N in enumerate((3, 5, 7)):
@@ -355,7 +356,7 @@ def test_the_claim1_difference_panel_spans_the_base_run(tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from daebench.studies import paper_figures
+    from daebench.studies.hht_beam_impact import figures as paper_figures
 
     t = np.linspace(0.0, 1.0, 1001)
     hm = {"HHT α=0": pd.DataFrame({"t": t, "theta_deg": np.sin(t)}),
@@ -383,7 +384,7 @@ def test_the_claim1_difference_panel_spans_the_base_run(tmp_path):
 # ---- items 13, 14: damaged references, and the command that makes one -------------------------------
 @pytest.fixture()
 def cached_reference(tmp_path, monkeypatch):
-    from daebench.harness import references
+    from daebench.harness.references import reference as references
     from daebench.models.scenes import load_scene
 
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path / "results"))
@@ -411,7 +412,7 @@ def test_a_damaged_reference_is_reported_as_damaged(cached_reference, damage, wh
     "impacts": "x" (ValueError traceback): both are ReferenceDamaged naming what failed and
     the exact command that fixes it; `why_no_reference` (what `run` and `.error` say) says
     'damaged', not 'no cached reference'."""
-    from daebench.harness import references
+    from daebench.harness.references import reference as references
 
     sc, ref = cached_reference
     damage(ref.path)
@@ -423,7 +424,7 @@ def test_a_damaged_reference_is_reported_as_damaged(cached_reference, damage, wh
 
 
 def test_a_folder_in_place_of_a_reference_is_not_overwritten(cached_reference):
-    from daebench.harness import references
+    from daebench.harness.references import reference as references
 
     sc, ref = cached_reference
     _folder(ref.path)
@@ -435,7 +436,7 @@ def test_a_folder_in_place_of_a_reference_is_not_overwritten(cached_reference):
 def test_the_reference_command_carries_the_runs_overrides():
     """Item 14: a run with --set contact.law=hertz suggested `daebench reference beam-impact`,
     the command of another scene (another hash)."""
-    from daebench.harness import references
+    from daebench.harness.references import reference as references
     from daebench.models.scenes import load_scene
 
     sc = load_scene("beam-impact", ["contact.law=hertz", "t_end=0.5"])
@@ -450,7 +451,8 @@ def test_the_reference_command_carries_the_runs_overrides():
 @pytest.mark.parametrize("out", ["/dev/null", "x" * 300])
 def test_compare_refuses_an_output_it_cannot_write_before_running(tmp_path, monkeypatch, out):
     """`compare pendulum --out /dev/null` ran everything, then a FileExistsError traceback."""
-    from daebench.harness import bench, compare as C
+    from daebench.harness.sweeps import sweep as bench
+    from daebench.workflows import compare as C
 
     monkeypatch.setattr(bench, "run_specs", lambda *a, **k: pytest.fail("ran before checking --out"))
     target = out if out.startswith("/") else str(tmp_path / out)
@@ -461,7 +463,7 @@ def test_compare_refuses_an_output_it_cannot_write_before_running(tmp_path, monk
 
 
 def test_compare_on_a_full_disk_prints_the_table_and_says_what_was_not_saved(tmp_path, monkeypatch):
-    from daebench.harness import compare as C
+    from daebench.workflows import compare as C
 
     small = C.Protocol((C.Entry("hht", (1e-2,)),), why="test: one run")
     monkeypatch.setattr(C, "protocol_for", lambda scene: small)

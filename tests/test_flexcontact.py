@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from daebench.studies import flexcontact as fc
+from daebench.studies.interactive_mode_contact import measures as fc
 
 
 def test_acm_reproduces_the_semidiscrete_rod():

@@ -1,4 +1,4 @@
-"""The graph (Hausdorff) distance (daebench.harness.graphdist): closed forms (a jump moved by
+"""The graph (Hausdorff) distance (daebench.harness.scoring.graphdist): closed forms (a jump moved by
 d is d away, a constant offset c is c away), the strided search against a full search,
 the velocity-level probe, and the convergence order of Moreau–Jean and the nonsmooth
 generalized-α scheme on the bouncing ball against its exact piecewise-parabolic motion,
@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 
 from daebench.core.params import ParamError
 from daebench.driver.simulate import simulate
-from daebench.harness import graphdist as gd
+from daebench.harness.scoring import graphdist as gd
 from daebench.integrators.base import get_integrator
 from daebench.models import build_system
 from daebench.models.ball import exact_motion

@@ -12,7 +12,7 @@ import pytest
 from daebench.api import load_scene
 from daebench.core import handles, kernels
 from daebench.core.kernels import KernelError, PyModel
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.models import build_system
 
 FAST = ["pendulum", "ball", "block-incline"]

@@ -9,7 +9,7 @@ from typing import ClassVar
 import pytest
 from typer.testing import CliRunner
 
-from daebench.harness import executors
+from daebench.harness.sweeps import executors
 from daebench.cli.app import app
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
@@ -181,7 +181,7 @@ def test_a_run_over_its_cap_stops_cleanly():
 
 def test_baumgarte_energy_blow_up_is_diverged():
     """3 J → ~460 J used to end 'completed'; the driver's energy-balance threshold now says diverged."""
-    from daebench.harness.runner import run_scene
+    from daebench.harness.running.runner import run_scene
     from daebench.models.scenes import load_scene
 
     sc = load_scene("beam-impact", ["t_end=0.45", "discretization.n=5"])
@@ -313,7 +313,7 @@ def test_capture_page_shows_progress_and_can_run_again(monkeypatch, tmp_path):
     """Item 16: the page ran 258 s with no output and could not be run twice (its table
     existed). It now asks for progress bars and passes --resume/--overwrite to its sweeps."""
     from daebench.core.params import ParamError
-    from daebench.studies import eventcapture
+    from daebench.studies import event_capturing as eventcapture
 
     seen = {}
 

@@ -365,7 +365,7 @@ def test_batch_advance_equals_stepping_through_the_driver(monkeypatch):
     """IDA.advance (many steps per driver call, compiled quiet-step checks) takes the same
     steps as the driver's one-step loop: identical histories, impacts, counters and
     constraint maxima, through impacts, a closed phase and its release."""
-    from daebench.harness.runner import run_scene
+    from daebench.harness.running.runner import run_scene
     from daebench.models.scenes import load_scene
 
     scene = load_scene("beam-impact", ["t_end=0.3815", "discretization.n=3", "output.dt=2e-4"])

@@ -87,7 +87,7 @@ def test_a_python_models_exception_ends_the_run_with_its_message(monkeypatch, ca
     an exception it raises inside IDA's residual ends the run 'failed' with the model's own
     message at the time it was raised — not 'Exception ignored' and IDA going on — under
     the default backend (a Python model runs through scikit-sundae's callbacks)."""
-    from daebench.harness.runner import run_scene
+    from daebench.harness.running.runner import run_scene
     from daebench.models.chain import Chain
 
     real = Chain.applied_force

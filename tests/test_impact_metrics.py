@@ -1,4 +1,4 @@
-"""Error measures that survive impacts (daebench.harness.impact_metrics).
+"""Error measures that survive impacts (daebench.harness.scoring.impact_metrics).
 
 Independent truths: closed-form histories (a cubic that Hermite interpolation must
 reproduce exactly; sinusoids whose shifted copies must score zero after
@@ -15,8 +15,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness import impact_metrics as IM
-from daebench.harness import metrics
+from daebench.harness.scoring import impact_metrics as IM
+from daebench.harness.scoring import metrics
 from daebench.core.contact import impact_map
 from daebench.core.observables import Observable, Observables
 
@@ -139,7 +139,7 @@ ORDER_STEPS = (1e-4, 5e-5, 2.5e-5, 1.25e-5)
 def order_sweep(tmp_path_factory):
     import os
 
-    from daebench.harness import bench, options
+    from daebench.harness.sweeps import options, sweep as bench
     from daebench.models.scenes import load_scene
 
     old = os.environ.get("DAEBENCH_RESULTS")

@@ -13,7 +13,7 @@ import pytest
 PKG = Path(__file__).resolve().parents[1] / "daebench"
 
 # bottom to top; a module may import its own layer and any layer listed before it
-LAYERS = ["core", "stepping", "models", "integrators", "driver", "harness", "api", "studies", "cli"]
+LAYERS = ["core", "stepping", "models", "integrators", "driver", "harness", "workflows", "studies", "api", "cli"]
 RANK = {name: i for i, name in enumerate(LAYERS)}
 
 
@@ -147,3 +147,72 @@ def test_the_circle_check_catches_a_circle(tmp_path):
     (fake / "b.py").write_text("def f():\n    from daebench.harness.a import x\n")
     (fake / "c.py").write_text("from daebench.harness import a\n")
     assert import_cycles(tmp_path / "daebench") == [["daebench.harness.a", "daebench.harness.b"]]
+
+
+# ---- the API is the only door; imports inside functions are documented lazy loads ------------------
+#: the floors whose imports inside functions are checked (the lower ones import at the top, and the
+#: command line may defer its imports so that `daebench --help` stays quick)
+UPPER = ("harness", "workflows", "studies", "api")
+LAZY = "lazy:"
+
+
+def cli_imports(root: Path = PKG) -> list[str]:
+    """Every import in ``cli/`` of a daebench module other than :mod:`daebench.api`, the
+    command line's own modules and the package top (for its version)."""
+    bad = []
+    for path in sorted((root / "cli").rglob("*.py")):
+        for line, mod in imports_of(path, root):
+            if mod.startswith("daebench") and mod != "daebench" and not mod.startswith(("daebench.api",
+                                                                                       "daebench.cli")):
+                bad.append(f"{path.relative_to(root.parent)}:{line} imports {mod}")
+    return bad
+
+
+def test_the_command_line_calls_only_the_api():
+    assert cli_imports() == []
+
+
+def test_the_cli_check_catches_a_harness_import(tmp_path):
+    fake = tmp_path / "daebench" / "cli"
+    fake.mkdir(parents=True)
+    (fake / "cmd.py").write_text("def f():\n    from daebench import api\n    from daebench.harness import x\n"
+                                 "    from daebench.studies.perf import suite\n")
+    assert cli_imports(tmp_path / "daebench") == ["daebench/cli/cmd.py:3 imports daebench.harness",
+                                                  "daebench/cli/cmd.py:4 imports daebench.studies.perf"]
+
+
+def undocumented_inner_imports(root: Path = PKG, floors: tuple[str, ...] = UPPER) -> list[str]:
+    """Imports inside a function of the upper floors and the package's own ``__init__``
+    without a ``lazy:`` comment on their line saying what is loaded lazily (each once)."""
+    bad = []
+    paths = [root / "__init__.py"] + [p for f in floors for p in sorted((root / f).rglob("*.py"))]
+    for path in paths:
+        if not path.exists():
+            continue
+        text = path.read_text()
+        lines = text.splitlines()
+        for top in ast.walk(ast.parse(text, str(path))):
+            if not isinstance(top, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(top):
+                if isinstance(node, (ast.Import, ast.ImportFrom)) and LAZY not in lines[node.lineno - 1]:
+                    bad.append(f"{path.relative_to(root.parent)}:{node.lineno}: {lines[node.lineno - 1].strip()}")
+    return sorted(set(bad))
+
+
+def test_imports_inside_functions_are_documented_lazy_loads():
+    assert undocumented_inner_imports() == []
+
+
+def test_the_lazy_check_catches_an_undocumented_one(tmp_path):
+    fake = tmp_path / "daebench" / "harness"
+    fake.mkdir(parents=True)
+    (fake / "m.py").write_text("import os\n\ndef f():\n    import json\n    import rich  # lazy: a terminal's bar\n")
+    assert undocumented_inner_imports(tmp_path / "daebench", ("harness",)) == ["daebench/harness/m.py:4: import json"]
+
+
+def test_param_error_is_importable_from_the_package():
+    from daebench import ParamError
+    from daebench.core.params import ParamError as Core
+
+    assert ParamError is Core

@@ -20,7 +20,7 @@ from scipy.linalg import eigh
 from daebench.models import build_system
 from daebench.models.meshfree import MeshfreeBasis, cubic_spline_weight, meshfree_basis
 from daebench.models.shapes import cantilever_roots, composite_gauss, foreshortening_matrices
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.core.scene import SceneError
 from daebench.models.scenes import load_scene
 from _fd import fd  # tests/_fd.py

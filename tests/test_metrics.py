@@ -10,10 +10,11 @@ import pandas as pd
 import pytest
 from scipy.special import ellipj, ellipk
 
-from daebench.harness import metrics, scoring, timing
+from daebench.harness.running import timing
+from daebench.harness.scoring import metrics, pipeline as scoring
 from daebench.integrators.hht import HHT
 from daebench.models.pendulum import Pendulum, exact_theta
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
 
 G, L, M, TH0 = 9.81, 1.0, 1.0, math.radians(30.0)
@@ -133,7 +134,7 @@ def test_oscillation_spectrum_recovers_tones_about_a_trend(w1, w2):
     """Two tones of known amplitude on a large smooth trend: amplitudes to 1 %, the
     highest tone above a level found at its frequency, the strong tone's sidelobes not
     mistaken for tones."""
-    from daebench.harness.metrics import highest_frequency_above, oscillation_spectrum
+    from daebench.harness.scoring.metrics import highest_frequency_above, oscillation_spectrum
 
     t = np.arange(0.0, 0.4, 2.5e-5)
     x = 0.3 + 2.0 * t - t**2 + np.sin(3.0 * t) + 3e-3 * np.sin(w1 * t + 0.3) + 5e-6 * np.sin(w2 * t + 1.0)
@@ -150,7 +151,7 @@ def test_oscillation_spectrum_recovers_tones_about_a_trend(w1, w2):
 
 
 def test_free_windows_split_at_closed_phases_and_impacts():
-    from daebench.harness.metrics import free_windows
+    from daebench.harness.scoring.metrics import free_windows
 
     t = np.round(np.arange(0.0, 1.0 + 1e-9, 0.01), 10)
     hist = pd.DataFrame({"t": t, "n_active": [0] * 30 + [1] * 5 + [0] * 66})

@@ -108,7 +108,7 @@ def test_declared_observables_are_scored_in_a_sweep_against_the_reference(bob):
 
 
 def test_run_summary_prints_declared_finals_and_units(bob):
-    from daebench.cli.app import run_summary
+    from daebench.cli.runs import run_summary
 
     lines = dict(run_summary(daebench.run(str(bob["bob-exact"]), "hht", h=1e-3)))
     assert "final phi [rad]" in lines and "final bob_y [m]" not in lines  # only `summary` columns

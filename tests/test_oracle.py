@@ -1,4 +1,4 @@
-"""The exact impact oracle (daebench.harness.oracle) against closed forms: a ball
+"""The exact impact oracle (daebench.harness.scoring.oracle) against closed forms: a ball
 (Λ = (1 + e) m |v⁻|), two masses joined by a bilateral constraint (the joined mass takes
 the impulse), a wrong restitution (relative jump error known exactly), and runs: the
 event-driven driver's impacts reproduce the oracle to round-off, a Moreau–Jean step's
@@ -15,7 +15,7 @@ import pytest
 from daebench.core.contact import Impact
 from daebench.core.params import ParamError
 from daebench.driver.simulate import simulate
-from daebench.harness import oracle
+from daebench.harness.scoring import oracle
 from daebench.integrators.base import get_integrator
 from daebench.models import build_system
 from daebench.models.scenes import load_scene

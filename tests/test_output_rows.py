@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.integrators.base import State, hermite_state
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.models.scenes import load_scene

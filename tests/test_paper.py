@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from daebench.studies import paper
+from daebench.studies.hht_beam_impact import study as paper
 from daebench.cli.app import app
 
 
@@ -58,7 +58,7 @@ def test_paper_quick_writes_table_figures_verdicts(tmp_path, monkeypatch):
 
 
 def test_verdict_wording_cannot_contradict_itself():
-    from daebench.studies.paper_claims import _num, _verdict
+    from daebench.studies.hht_beam_impact.claims import _num, _verdict
 
     assert _verdict([("a", True), ("b", True)]) == "a; b → supported"
     assert _verdict([("a", True), ("b", False)]).endswith("→ not supported")

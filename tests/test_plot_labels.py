@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import numpy as np
 import pandas as pd
 
-from daebench.harness.plots import label_of, model_of, work_precision
+from daebench.harness.analysis.plots import label_of, model_of, work_precision
 
 
 def test_units_come_from_the_cases_model():

@@ -1,4 +1,4 @@
-"""Performance profiles (daebench.harness.profiles) on a hand-computed example.
+"""Performance profiles (daebench.harness.analysis.profiles) on a hand-computed example.
 
 Costs to reach the target (∞: not reached; '-': setting absent from the case):
 
@@ -22,7 +22,7 @@ import pandas as pd
 import pytest
 
 from daebench.core.params import ParamError
-from daebench.harness import profiles
+from daebench.harness.analysis import profiles
 
 INF = math.inf
 COSTS = {"P1": {"A": 1.0, "B": 2.0, "C": INF}, "P2": {"A": 3.0, "B": 1.0, "C": 6.0},

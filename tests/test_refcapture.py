@@ -1,5 +1,5 @@
-"""The reference of nonsmooth and frictional cases (daebench.harness.refcapture through
-daebench.harness.references): which scenes get a fine event-capturing reference, its
+"""The reference of nonsmooth and frictional cases (daebench.harness.references.capturing through
+daebench.harness.references.reference): which scenes get a fine event-capturing reference, its
 stated accuracy against the exact solution of the block on an incline, its storage and
 its checks, and what `daebench reference` says about it.
 
@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from daebench.harness import refcapture, references
+from daebench.harness.references import capturing as refcapture, reference as references
 from daebench.models.rigid2d_exact import incline_motion
 from daebench.models.scenes import load_scene
 
@@ -100,7 +100,7 @@ def test_compare_protocols_plan_both_families_and_refuse_with_reasons():
     """`daebench compare rocking-block` plans moreau, nsgenalpha and the event-driven integrators
     that declare friction at three steps each, and refuses IDA (and every integrator without
     friction) before running, each with the reason; the slider-crank plan runs IDA (μ = 0)."""
-    from daebench.harness import compare
+    from daebench.workflows import compare
 
     sc = load_scene("rocking-block")
     specs, refused = compare.plan(sc, compare.protocol_for(sc))

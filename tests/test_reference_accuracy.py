@@ -16,10 +16,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness import accuracy, references
+from daebench.harness.references import accuracy, reference as references
+from daebench.harness.scoring import metrics
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
-from daebench.studies import ivptest
+from daebench.studies import ivptest as ivptest
 
 
 def _hist(t, y):
@@ -99,7 +100,7 @@ def test_reference_matches_the_published_solution_to_nine_digits(case, tmp_path,
     there the estimate need only be ≥ 11. Measured against the published values: andrews
     ≥ 9.68 (γ), crank ≥ 9.83 (q4), caraxis ≥ 11.11 (yr); estimate − truth below 12 digits:
     andrews ≤ +0.55 (γ), crank ≤ +0.11, caraxis ≤ 0.19 (2–6 min each on a loaded machine)."""
-    from daebench.harness.runner import run_scene
+    from daebench.harness.running.runner import run_scene
     from daebench.integrators.odeint import IndexOneODE
 
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
@@ -121,7 +122,7 @@ def test_andrews_reference_reaches_nine_digits_fast():
     """The fast variant: the reference solver (DOP853 on the index-1 ODE, rtol 1e-11, atol
     rtol × the declared scales) alone, no check runs, over andrews' whole 0.03 s: ≥ 9 digits
     in all seven angles against the published solution (measured ≥ 9.68)."""
-    from daebench.harness.runner import run_scene
+    from daebench.harness.running.runner import run_scene
     from daebench.integrators.odeint import IndexOneODE
 
     _, res = run_scene(load_scene("andrews"), IndexOneODE(rtol=1e-11), write=False, force=True)
@@ -136,9 +137,9 @@ def test_errors_on_the_trusted_span_stop_at_trust_t():
     t = np.linspace(0.0, 10.0, 101)
     ref = pd.DataFrame({"t": tr, "y": np.sin(tr)})
     run = pd.DataFrame({"t": t, "y": np.sin(t) + np.where(t <= 5.0, 1e-3, 1.0)})
-    on = accuracy.trusted_errors(run, ref, [], 5.0, ["y"])
+    on = metrics.trusted_errors(run, ref, [], 5.0, ["y"])
     assert on["err_y_max"] == pytest.approx(1e-3, rel=1e-6) and on["err_y_final"] == pytest.approx(1e-3, rel=1e-6)
-    stopped = accuracy.trusted_errors(run[run.t <= 3.0], ref, [], 5.0, ["y"])
+    stopped = metrics.trusted_errors(run[run.t <= 3.0], ref, [], 5.0, ["y"])
     assert math.isnan(stopped["err_y_max"])
 
 
@@ -147,7 +148,7 @@ def test_every_scored_row_carries_the_trusted_span():
     trust_impacts and the errors on [0, 5] (1e-3) beside the whole-run ones (1)."""
     from types import SimpleNamespace
 
-    from daebench.harness import scoring
+    from daebench.harness.scoring import pipeline as scoring
 
     tr_t = np.linspace(0.0, 10.0, 2001)
     t = np.linspace(0.0, 10.0, 101)

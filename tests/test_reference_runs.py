@@ -4,7 +4,7 @@ conservation laws, the work of the drive, and agreement between discretizations.
 import numpy as np
 import pytest
 
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
 
 TIGHT = {"rtol": 1e-10, "atol": 1e-12}

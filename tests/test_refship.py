@@ -1,6 +1,6 @@
 """The reference the package ships for the main case (beam-impact): loaded on an empty
 results folder after every check a cached one passes, refused when the scene or the model
-changed (daebench.harness.refship, daebench.harness.modelprobe)."""
+changed (daebench.harness.references.shipped, daebench.harness.references.modelprobe)."""
 
 import shutil
 
@@ -8,10 +8,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness import accuracy, fingerprints, modelprobe, references
+from daebench.harness.references import accuracy, fingerprints, modelprobe, reference as references
 from daebench.models.scenes import load_scene
 
-REGENERATE = "python -m daebench.harness.refship beam-impact"
+REGENERATE = "daebench reference beam-impact --force --ship"
 
 
 @pytest.fixture
@@ -51,7 +51,7 @@ def test_the_shipped_reference_loads_with_require_on_an_empty_results_folder(emp
     assert 0.36 < ref.impacts[0] < 0.39 and ref.history["theta_deg"].iloc[0] == 45.0
     # from now on it is an ordinary cached reference
     assert references.why_no_reference(scene) == ""
-    from daebench.harness import bench
+    from daebench.harness.sweeps import sweep as bench
 
     bench.prepare_references([], scene, "require")
 

@@ -1,10 +1,10 @@
-"""A reference's check runs in forked processes (daebench.harness.refside) give the same
+"""A reference's check runs in forked processes (daebench.harness.references.side_runs) give the same
 reference, to the last bit, as the three runs one after the other in one process."""
 
 import pandas as pd
 import pytest
 
-from daebench.harness import references, refside
+from daebench.harness.references import reference as references, side_runs as refside
 from daebench.models.scenes import load_scene
 
 

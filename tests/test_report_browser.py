@@ -1,7 +1,7 @@
 """The survey report page in a real headless browser (Chromium from the system's packages;
 .ci/run installs it when missing — this test fails, never skips, without it).
 
-The page (daebench.harness.report) is built from a synthetic survey (no runs: known
+The page (daebench.workflows.report) is built from a synthetic survey (no runs: known
 tables and one real matplotlib figure), opened with ``?selftest&table=I&col=J``: the page
 clicks the header of column J of table I and writes what it saw into the DOM, which
 ``--dump-dom`` returns. Asserted: no error on the page nor on the browser's console log,
@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from daebench.harness import costs, profiles, recommend, report
-from daebench.harness.survey import CaseResult, SurveyResult
+from daebench.harness.analysis import costs, profiles, recommend
+from daebench.workflows import report
+from daebench.workflows.survey import CaseResult, SurveyResult
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 
@@ -95,8 +96,8 @@ def test_report_in_headless_chromium(tmp_path):
 def test_compare_report_in_headless_chromium(tmp_path):
     """`daebench compare CASE --report`: the page of one comparison, built from a synthetic
     result (known table, one real figure) and checked in the browser like the survey's."""
-    from daebench.harness import plots
-    from daebench.harness.compare import CompareResult, Protocol
+    from daebench.harness.analysis import plots
+    from daebench.workflows.compare import CompareResult, Protocol
     from daebench.models.scenes import load_scene
 
     sc = load_scene("ball")

@@ -11,7 +11,7 @@ import pytest
 
 import daebench
 from daebench.models import build_system
-from daebench.studies.seed003 import lcp_force_history, unclipped_hertz_force
+from daebench.studies.averaged_gap_lcp import lcp_force_history, unclipped_hertz_force
 
 
 def test_flores_force_goes_negative_before_the_clip_at_low_restitution():

@@ -184,7 +184,7 @@ def test_ode_only_integrator_refused_on_constraint_contact():
 def test_contacts_left_to_the_integrator_need_one_that_resolves_them():
     """A complementarity scene refuses an integrator that would let bodies pass through
     each other, and the complementarity integrator refuses a scene without such contacts."""
-    from daebench.harness.runner import run_scene
+    from daebench.harness.running.runner import run_scene
     from daebench.models.scenes import load_scene
 
     chain = load_scene("chain-impact", ["contact.law=complementarity", "t_end=1e-3"])

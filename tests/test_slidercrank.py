@@ -20,7 +20,7 @@ from scipy.integrate import solve_ivp
 
 from daebench.core import kernels
 from daebench.core.scene import SceneError
-from daebench.harness import guards
+from daebench.harness.running import checks as guards
 from daebench.integrators.base import IntegratorError, applies_friction, get_integrator
 from daebench.models import build_system
 from daebench.models.scenes import load_scene

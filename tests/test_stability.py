@@ -12,8 +12,8 @@ from typer.testing import CliRunner
 
 from daebench.integrators.family import chung_hulbert, hht_coefficients
 from daebench.models.scenes import load_scene
-from daebench.studies.stability import (AbmPece, NewmarkMember, divergence_time, linearize, log_growth, predict,
-                                        run_interval, stability_map, strict_interval)
+from daebench.workflows.stability import (AbmPece, Bisection, NewmarkMember, divergence_time, linearize, log_growth,
+                                          predict, run_interval, stability_map, strict_interval)
 
 
 def member(c) -> NewmarkMember:
@@ -98,8 +98,8 @@ def _check_agreement(df):
 
 def test_baumgarte_boundary_agrees_with_the_prediction_reduced():
     """N = 3, 5 (measured 2.371e-4–2.414e-4 and 8.354e-5–8.505e-5 s; predicted 2.36e-4 and 8.42e-5 s)."""
-    df = stability_map(load_scene("beam-impact"), [("baumgarte", {})], [3, 5], h_min=1e-5,
-                       h_max=1e-3, tol=0.02)
+    df = stability_map(load_scene("beam-impact"), [("baumgarte", {})], [3, 5], Bisection(h_min=1e-5, h_max=1e-3,
+                                                                                        tol=0.02))
     _check_agreement(df)
     assert (df["unstable_status"] == "diverged").all()
 
@@ -108,7 +108,7 @@ def test_baumgarte_boundary_agrees_with_the_prediction_reduced():
 def test_stability_map_agrees_with_the_prediction_full():
     methods = [("baumgarte", {}), ("baumgarte", {"delta": 1000.0, "epsilon": 5000.0}),
                ("newmark", {"beta": 1.0 / 12.0}), ("hht", {"alpha": -0.15})]
-    df = stability_map(load_scene("beam-impact"), methods, [3, 5, 7, 9], jobs=2)
+    df = stability_map(load_scene("beam-impact"), methods, [3, 5, 7, 9], Bisection(jobs=2))
     _check_agreement(df)
 
 
@@ -120,11 +120,11 @@ def test_prediction_is_a_fixed_point_in_h():
 
 
 def test_cli_writes_table_and_figure(tmp_path):
-    from daebench.cli import stability as cli_stability
+    from daebench.cli import sweeps as cli_sweeps
 
     app = typer.Typer()
     app.command("noop")(lambda: None)
-    cli_stability.register(app)
+    cli_sweeps.register(app)
     res = CliRunner().invoke(app, ["stability", "beam-impact", "-m", "baumgarte", "--n", "3", "--tol", "0.3",
                                    "--h-min", "1e-4", "--h-max", "1e-3", "--out", str(tmp_path)])
     assert res.exit_code == 0, res.output
@@ -140,7 +140,7 @@ def test_linear_theory_predicts_when_a_full_run_diverges():
     ABM4-PECE's principal root grows 0.15 % a step; the top bending mode, seeded by gravity,
     passes the driver's threshold in free flight before the first impact. Predicted 0.704 s,
     measured 0.705 s (the first output time after the crossing; outputs every 1 ms)."""
-    from daebench.harness.runner import make_integrator, run_scene
+    from daebench.harness.running.runner import make_integrator, run_scene
 
     sc = load_scene("beam-impact", {"discretization.n": 5, "hub.inertia": 1.0})
     t_pred = divergence_time(AbmPece(), linearize(sc), 1e-4)
@@ -162,7 +162,7 @@ def test_hub_variant_is_beam_impact_with_a_hub():
 
 
 def _baumgarte_run(n: int, h: float):
-    from daebench.harness.runner import make_integrator, run_scene
+    from daebench.harness.running.runner import make_integrator, run_scene
 
     sc = load_scene("beam-impact-hub", {"discretization.n": n})
     return run_scene(sc, make_integrator("baumgarte", {"h": h, "h_contact": 1e-6}), write=False)[1]

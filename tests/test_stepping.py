@@ -22,7 +22,7 @@ from daebench.integrators.hht import HHT
 from daebench.core.linalg import lu_factor, lu_solve
 from daebench.models import build_system
 from daebench.core.problem import Problem
-from daebench.harness.runner import run_scene
+from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
 from daebench.driver.simulate import Driver
 from daebench.stepping import watch as W
@@ -142,7 +142,7 @@ def test_interpreted_path_equals_compiled():
     read at import)."""
     code = textwrap.dedent("""
         import json, numba
-        from daebench.harness.runner import run_scene
+        from daebench.harness.running.runner import run_scene
         from daebench.models.scenes import load_scene
         sc = load_scene("pendulum", ["t_end=0.2", "output.dt=0.05"])
         out = {}

@@ -1,4 +1,4 @@
-"""`daebench survey` (daebench.harness.survey): protocols, rounds within the budget,
+"""`daebench survey` (daebench.workflows.survey): protocols, rounds within the budget,
 resume, scoring across cases; determinism of history digests across executors."""
 
 from __future__ import annotations
@@ -10,7 +10,10 @@ import pandas as pd
 import pytest
 
 from daebench.core.params import ParamError
-from daebench.harness import bench, compare, digest, survey as S
+from daebench.harness.sweeps import digest, sweep as bench
+from daebench.workflows import compare, survey as S
+from daebench.harness.sweeps.options import Execution, Storage, SweepOptions, Timing
+from daebench.harness.sweeps.plan import plan_sweep
 
 
 def test_halvings_and_protocols():
@@ -107,12 +110,14 @@ def test_digest_is_equal_across_executors(tmp_path):
     """The same runs inline, on 2 worker processes and on a local Dask cluster give
     histories with identical digests."""
     sc = S.case_scene("pendulum", quick=True).with_overrides({"t_end": 0.05})
-    specs = bench.plan_sweep(sc, ["hht", "newmark"], steps=[1e-3])
+    specs = plan_sweep(sc, ["hht", "newmark"], steps=[1e-3])
     digests = {}
     for how, kw in (("inline", dict(executor="inline")), ("jobs2", dict(jobs=2)),
                     ("dask", dict(executor="dask", jobs=1))):
-        df = S.execute_specs(specs, sc, reference_mode="none", repeats=1, warmup=False,
-                             history_dir=tmp_path / how, **kw)
+        options = SweepOptions(reference="none", timing=Timing(repeats=1, warmup=False),
+                               execution=Execution(progress=False, **kw),
+                               storage=Storage(write=False, history_dir=tmp_path / how))
+        df = bench.run_specs(specs, sc, options)
         digests[how] = [digest.history_digest(pd.read_parquet(p)) for p in df["history"]]
     assert digests["inline"] == digests["jobs2"] == digests["dask"]
     assert len(set(digests["inline"])) == 2                       # two different runs, two digests

@@ -1,4 +1,4 @@
-"""One worker pool across many sweeps (daebench.harness.executors.shared_pool, used by
+"""One worker pool across many sweeps (daebench.harness.sweeps.executors.shared_pool, used by
 `daebench survey` for all its cases and rounds): the same processes serve every sweep,
 what a worker loaded stays loaded, and nothing is lost — a crash, a hung run and an
 interrupted sweep each cost one row (or none), and the pool goes on with a new worker."""
@@ -11,7 +11,7 @@ import time
 import pytest
 
 from daebench.core.params import ParamError
-from daebench.harness import executors as X
+from daebench.harness.sweeps import executors as X
 
 _LOADED: set[str] = set()   # what this worker has "loaded" (a kernel, in a real sweep)
 

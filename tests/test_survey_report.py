@@ -10,7 +10,7 @@ import re
 
 from PIL import Image
 
-from daebench.harness import report
+from daebench.workflows import report
 from tests.test_report_browser import _survey
 
 

@@ -19,7 +19,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness import bench, options, references
+from daebench.harness.references import reference as references
+from daebench.harness.sweeps import options, sweep as bench
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
 from daebench.models.scenes import load_scene
@@ -28,7 +29,7 @@ pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
 
 
 def sweep(scene, integrators, **keywords):
-    """A sweep with the API's keyword names (:func:`daebench.harness.options.from_keywords`)."""
+    """A sweep with the API's keyword names (:func:`daebench.harness.sweeps.options.from_keywords`)."""
     return bench.run_sweep(scene, *options.from_keywords(integrators, keywords))
 
 
@@ -115,7 +116,7 @@ def test_run_cap_under_dask_leaves_a_timeout_row_and_the_sweep_goes_on(plugins, 
     pytest.importorskip("dask.distributed")
     from dask.distributed import Client, LocalCluster
 
-    from daebench.harness.runner import run_scene
+    from daebench.harness.running.runner import run_scene
 
     run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded: the cap measures the run alone
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster, \
@@ -258,7 +259,8 @@ def test_wall_time_cap_waits_for_numba_compilation():
 
     import numba
 
-    from daebench.harness.guards import COMPILE_DEPTH, RunTimeout, deadline
+    from daebench.harness.running.compile_events import COMPILE_DEPTH
+    from daebench.harness.running.deadline import RunTimeout, deadline
 
     @numba.njit
     def fresh(x):                       # a new dispatcher: its first call compiles (≫ 10 ms)

@@ -1,8 +1,12 @@
-"""The `daebench` command: :mod:`.app` holds the Typer application and the core commands
-(list, show, run, bench, reference, paper, perf); one module per further command group
-(:mod:`.compare`, :mod:`.capture`, :mod:`.plot`, :mod:`.seed003`, :mod:`.stability`)
-registers itself on it; :mod:`.common` is what they share (output lines, refusal with
-exit 2), :mod:`.textout` the plain-text tables.
+"""The `daebench` command: :mod:`.app` holds the Typer application, small; one module per
+command group registers its commands on it the one way (``register(app)``):
+:mod:`.catalogue` (list, show), :mod:`.runs` (run, reference), :mod:`.sweeps` (bench,
+compare, survey, report, effects, stability), :mod:`.studies` (paper, averaged-gap,
+interactive-mode, capture), :mod:`.perf` (perf, compile-report) and :mod:`.plot`.
+:mod:`.common` is what they share (output lines, refusal with exit 2, exit codes of the
+API's errors), :mod:`.textout` the plain-text tables. Each command parses its arguments,
+calls the API and prints.
 
-May import: every layer (it is the top one); nothing imports it.
+May import: :mod:`daebench.api` only (and its own modules; ``tests/test_layers.py``
+checks it); nothing imports it.
 """

@@ -1,25 +1,24 @@
-"""`daebench plot …`: figures from sweep tables and run histories."""
+"""`daebench plot …`: figures from sweep tables and run histories (:mod:`daebench.api.figures`)."""
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
 from typing import Optional
 
 import typer
 
-from daebench.core.params import ParamError
+from daebench.cli.common import refusals
 
 plot_app = typer.Typer(no_args_is_help=True, help="Figures from sweep tables and run histories.")
 
 
-def _fail(msg: str) -> None:
-    from daebench.cli.common import fail
+def register(app: typer.Typer) -> None:
+    """Add `daebench plot wp|order|history` to ``app``."""
+    plot_app.command("wp")(plot_wp)
+    plot_app.command("order")(plot_order)
+    plot_app.command("history")(plot_history)
+    app.add_typer(plot_app, name="plot")
 
-    fail(msg)
 
-
-@plot_app.command("wp")
 def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv)"),
             x: str = typer.Option("wall_s", "--x", help="cost column (wall_s, cpu_s, steps, ...)"),
             y: str = typer.Option("err_theta_max_trusted", "--y",
@@ -31,34 +30,14 @@ def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .c
             group: str = typer.Option("label", "--group", help="one line per value of this column"),
             out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
     """Work-precision diagram (log–log, Pareto front marked) as PNG and SVG; one panel per
-    --y column (the error measures every sweep row stores: see daebench/harness/impact_metrics.py)."""
-    from daebench.harness import plots, provenance
-    from daebench.harness.sweepstore import read_table
+    --y column (the error measures every sweep row stores: see daebench/harness/scoring/impact_metrics.py)."""
+    from daebench import api
 
-    p = Path(table)
-    try:
-        df = read_table(p)
-    except ParamError as exc:
-        _fail(str(exc))
-    if "label" not in df.columns or "status" not in df.columns:
-        _fail(f"'{p}' is not a sweep table (no 'label'/'status' columns); `daebench plot history` plots run histories")
-    side = p.with_suffix(".json")
-    try:
-        prov = json.loads(side.read_text())["provenance"]
-    except (OSError, ValueError, KeyError, TypeError):
-        prov = provenance.collect()
-    ys = [c.strip() for c in y.split(",") if c.strip()]
-    stem = Path(out) if out else p.with_name(f"{p.stem}-wp-{'+'.join(ys)}-vs-{x}")
-    try:
-        _, files = plots.work_precision(df, x, ys, group, stem, prov, title=plots.sweep_title(df))
-    except KeyError as exc:
-        _fail(str(exc.args[0]))
-    except OSError as exc:
-        _fail(f"cannot write the figure at {stem}: {exc.strerror or exc}")
+    with refusals():
+        files = api.plot_work_precision(table, x, y, group, out)
     typer.echo("wrote " + ", ".join(map(str, files)))
 
 
-@plot_app.command("order")
 def plot_order(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv) over --steps or --tols"),
                x: str = typer.Option("h", "--x", help="h (fixed steps) or tol"),
                y: str = typer.Option("err_pre_theta_max,err_impact1_t", "--y",
@@ -67,44 +46,20 @@ def plot_order(table: str = typer.Argument(..., help="a sweep table (.parquet or
                out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
     """Convergence: error against h (log–log), one panel per --y column, the measured order of
     each line in its legend, a slope-2 guide."""
-    from daebench.harness import plots, provenance
-    from daebench.harness.sweepstore import read_table
+    from daebench import api
 
-    p = Path(table)
-    try:
-        df = read_table(p)
-    except ParamError as exc:
-        _fail(str(exc))
-    ys = [c.strip() for c in y.split(",") if c.strip()]
-    stem = Path(out) if out else p.with_name(f"{p.stem}-order-{'+'.join(ys)}")
-    try:
-        _, files = plots.convergence(df, x, ys, group, stem, provenance.collect(),
-                                     title=plots.sweep_title(df, "convergence"))
-    except KeyError as exc:
-        _fail(str(exc.args[0]))
+    with refusals():
+        files = api.plot_convergence(table, x, y, group, out)
     typer.echo("wrote " + ", ".join(map(str, files)))
 
 
-@plot_app.command("history")
 def plot_history(files: list[str] = typer.Argument(..., help="history files written by `daebench run`"),
                  out: str = typer.Option("results/figures/history", "--out", help="output stem"),
                  modal: bool = typer.Option(True, "--modal/--no-modal", help="also W_i(t) if present")) -> None:
     """θ, energy residual and constraint residuals |C|, |Ċ|, |C̈| against t, one panel each
     (and modal participation), one line per run labelled by integrator and settings."""
-    from daebench.harness import plots, provenance
+    from daebench import api
 
-    try:
-        hists = {}
-        for f in files:
-            h = plots.read_history(f)
-            hists[plots.history_label(f, set(hists))] = h
-    except ParamError as exc:
-        _fail(str(exc))
-    prov = provenance.collect()
-    try:
-        written = plots.history(hists, out, prov)[1]
-        if modal and any(c.startswith("W") and c[1:].isdigit() for h in hists.values() for c in h.columns):
-            written += plots.modal_participation(hists, f"{out}-modal", prov)[1]
-    except OSError as exc:
-        _fail(f"cannot write the figure at {out}: {exc.strerror or exc}")
+    with refusals():
+        written = api.plot_histories(files, out, modal)
     typer.echo("wrote " + ", ".join(map(str, written)))

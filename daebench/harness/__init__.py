@@ -1,12 +1,13 @@
-"""Everything around a run that turns it into a verdict: making an integrator for a
-scene and running it (:mod:`.runner`), input checks and wall-time caps (:mod:`.guards`),
-references (:mod:`.references`, :mod:`.fingerprints`), one scoring pipeline
-(:mod:`.scoring`, against an exact solution or the reference, with the measures of
-:mod:`.metrics`, :mod:`.impact_metrics` and others), timing (:mod:`.timing`), sweeps
-with their options, row store and executors (:mod:`.options`, :mod:`.bench`,
-:mod:`.sweeprun`, :mod:`.sweepstore`, :mod:`.executors`),
-the comparison protocol (:mod:`.compare`), provenance, progress and figures.
+"""Everything around a run that turns it into a verdict, one folder per concept, read
+bottom-up: :mod:`.running` (one scene with one integrator: the pre-run checks, the
+wall-time cap, the history file, progress, timing, provenance), :mod:`.scoring` (one
+pipeline that scores a run against an exact solution or a reference, and its measures),
+:mod:`.references` (trusted references: computed, checked, cached, shipped), :mod:`.sweeps`
+(many runs → one stored table: options, plan, executors, row store) and :mod:`.analysis`
+(what the numbers mean: cost to reach a target, performance profiles, recommendations,
+figures). :mod:`.files` is where results go and how they are written.
 
-May import: every layer below it (core, stepping, models, integrators, driver);
-never :mod:`daebench.api`, :mod:`daebench.studies` or :mod:`daebench.cli`.
+May import: every layer below it (core, stepping, models, integrators, driver), and a
+folder here only the folders before it in that list; never :mod:`daebench.workflows`,
+:mod:`daebench.studies`, :mod:`daebench.api` or :mod:`daebench.cli`.
 """

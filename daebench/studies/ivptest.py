@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from daebench.models import build_system
-from daebench.harness.runner import make_integrator, run_scene
+from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.core.scene import Scene
 from daebench.models.scenes import load_scene
 

@@ -1,0 +1,114 @@
+"""What there is: the named scenes, the registered integrators, and one of either
+described (`daebench list`, `daebench show`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable
+
+import pandas as pd
+
+from daebench.core.params import Param, ParamError, did_you_mean
+from daebench.core.scene import Scene, SceneError, UnknownScene, list_scenes
+from daebench.harness.running import checks
+from daebench.integrators import base
+from daebench.integrators.base import Capabilities, IntegratorError
+from daebench.models import build_system
+from daebench.models.scenes import load_scene as _load_scene
+
+SceneLike = str | Path | Scene
+
+
+def load_scene(scene: SceneLike, overrides: Iterable[str] | dict[str, Any] | None = None) -> Scene:
+    """A validated scene: a case name (``"beam-impact"``), a path to a TOML file, or a
+    :class:`~daebench.core.scene.Scene`, with ``overrides`` ({key: value} or ["key=value"])."""
+    if isinstance(scene, Scene):
+        return scene.with_overrides(overrides) if overrides else scene
+    return _load_scene(scene, overrides or ())
+
+
+@dataclass(frozen=True)
+class IntegratorInfo:
+    """What an integrator declares: settings (type, default, range, meaning) and capabilities."""
+
+    name: str
+    description: str
+    distribution: str
+    capabilities: Capabilities | None
+    settings: tuple[Param, ...] = ()
+    error: str = ""          # why a plugin could not be loaded (then capabilities is None)
+
+    def settings_table(self) -> pd.DataFrame:
+        """One row per setting: name, type/range, default, unit-bearing meaning."""
+        return pd.DataFrame([{"setting": p.name, "type / range": p.describe(), "default": p.default,
+                              "meaning": p.doc} for p in self.settings])
+
+
+def integrator_infos() -> dict[str, IntegratorInfo]:
+    """Every registered integrator (built-in and plugins), by name."""
+    out = {}
+    for name, reg in base.registry().items():
+        cls = reg.cls
+        out[name] = IntegratorInfo(name, cls.description if cls else "", reg.distribution,
+                                   cls.capabilities if cls else None, tuple(cls.settings_spec) if cls else (),
+                                   reg.error)
+    return out
+
+
+def integrator_info(name: str) -> IntegratorInfo:
+    """One integrator's declaration; ``name`` is case-insensitive (did-you-mean on a typo)."""
+    return integrator_infos()[checks.resolve_integrator(name)]
+
+
+def cases() -> pd.DataFrame:
+    """The named scenes (``cases/``): name, model and description."""
+    rows = []
+    for name, desc in list_scenes():
+        rows.append({"case": name, "model": _load_scene(name).model, "description": desc})
+    return pd.DataFrame(rows)
+
+
+@dataclass(frozen=True)
+class SceneInfo:
+    """A scene as `daebench show` describes it: the scene, its size once built (``n``
+    coordinates, bilateral constraints, contact points, contact law), or why it cannot be
+    built (``error``)."""
+
+    scene: Scene
+    n: int = 0
+    n_bilateral: int = 0
+    n_contacts: int = 0
+    contact_law: str = ""
+    error: str = ""
+
+
+def show(name: str, overrides: Iterable[str] | dict[str, Any] | None = None,
+         keys: bool = False) -> IntegratorInfo | SceneInfo:
+    """``name`` described: an integrator's declaration, or a scene with its size (a name
+    that is both, or given with ``overrides`` or ``keys``, is the scene).
+
+    Raises
+    ------
+    ParamError
+        Neither an integrator nor a scene (with the closest names), or a bad override.
+    """
+    try:
+        checks.resolve_integrator(name)
+        is_integrator = not overrides and not keys and name.lower() not in {n.lower() for n, _ in list_scenes()}
+    except IntegratorError:
+        is_integrator = False
+    if is_integrator:
+        return integrator_info(name)      # a plugin that cannot be loaded: capabilities None, its error
+    try:
+        sc = load_scene(name, overrides)
+    except UnknownScene:  # not 'unknown scene key' of an override
+        known = list(integrator_infos()) + [n for n, _ in list_scenes()]
+        raise SceneError(f"'{name}' is neither an integrator nor a scene{did_you_mean(name.lower(), known)} "
+                         f"Integrators and cases: `daebench list`.") from None
+    try:
+        system = build_system(sc)
+    except ParamError as exc:
+        return SceneInfo(sc, error=str(exc))
+    return SceneInfo(sc, system.n, system.n_bilateral, system.n_contacts,
+                     system.contact_law.name if system.contact_law else "")

@@ -1,0 +1,143 @@
+"""Many runs: a sweep (`daebench bench`), a case's comparison (`daebench compare`), the
+survey of every case and its page (`daebench survey`, `daebench report`), what each effect
+costs (`daebench effects`) and the largest stable step (`daebench stability`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable, Iterable, Sequence
+
+import pandas as pd
+
+from daebench.api.catalogue import SceneLike, load_scene
+from daebench.harness.analysis import costs
+from daebench.harness.files import OutputWriteError
+from daebench.harness.scoring import pipeline
+from daebench.harness.sweeps import sweep
+from daebench.harness.sweeps.options import Execution, Plan, SweepOptions, from_keywords
+from daebench.workflows import compare as _compare
+from daebench.workflows import effects as _effects
+from daebench.workflows import report as _report
+from daebench.workflows import stability as _stability
+from daebench.workflows import survey as _survey
+
+Overrides = Iterable[str] | dict[str, Any] | None
+
+
+def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *, overrides: Overrides = None,
+          plan: Plan | None = None, options: SweepOptions | None = None, **keywords: Any) -> pd.DataFrame:
+    """Sweep integrators × grid × steps (or tolerances) on a scene; one scored row per run.
+
+    What to run is a :class:`~daebench.harness.sweeps.options.Plan` (``plan``), how to run
+    it a :class:`~daebench.harness.sweeps.options.SweepOptions` (``options``: reference
+    mode, timing, execution, storage); or, for convenience, these keyword arguments
+    (mapped onto them by :func:`daebench.harness.sweeps.options.from_keywords`; ``timing``,
+    ``storage`` and ``execution`` may also be given as values):
+
+    Parameters
+    ----------
+    scene, overrides : as for :func:`daebench.run`
+    integrators : names, or one comma-separated string (``"hht,newmark"``)
+    steps, tols : fixed steps h [s], or tolerances (adaptive runs: rtol = tol, atol = tol/100)
+    grid : {key: values}: an integrator setting or a scene key
+    options : integrator settings fixed for every run that has them (a dict; a
+        :class:`SweepOptions` value is the run options above)
+    reference : 'auto' (score if a reference is cached), 'compute', 'require', 'none'; a
+        model with an exact solution is scored against it
+    force : allow runs beyond the step-count limit
+    jobs : worker processes (a crashing run costs only its own row)
+    scheduler : Dask scheduler address, 'local', or a Client
+    executor : 'process' (default), 'inline' (this process, no isolation) or 'dask'
+    progress : progress bars on stderr (default False)
+    name, folder, write, resume, overwrite : the table results/bench/<name>.parquet (unique
+        name by default; ``folder`` instead of results/bench; rows stored as they finish;
+        ``resume`` completes an interrupted sweep)
+    run_cap : wall-time cap of one run [s]; a run over it is a 'timeout' row
+    repeats : timed runs (minimum taken) after a warm-up run, made while a run takes
+        under a second (:data:`daebench.harness.running.timing.REPEATS`); 1: one cold run, no warm-up
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run: label, settings, status, verdict, wall_s, counters, errors
+        (``err_<observable>_{final,max,l2}``), energy and constraint residuals.
+    """
+    sc = load_scene(scene, overrides)
+    if options is not None and not isinstance(options, SweepOptions):   # integrator settings, by the keyword's name
+        keywords["options"], options = options, None
+    given = dict(plan=plan, options=options, **{k: keywords.pop(k) for k in ("timing", "storage", "execution")
+                                                if k in keywords})
+    return sweep.run_sweep(sc, *from_keywords(integrators, keywords, given))
+
+
+def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides: Overrides = None,
+            out: str | Path | None = None, report: bool = False,
+            protocol: _compare.Protocol | None = None) -> _compare.CompareResult:
+    """Every applicable integrator at the case's protocol, scored against the reference;
+    the table, the work–precision figure and (``report``) one HTML page in ``out``
+    (default results/compare/<case>-<hash>). ``options``: as
+    :data:`daebench.workflows.compare.DEFAULT_OPTIONS` (two workers, the reference computed
+    when missing) unless given. The result's ``ok`` is the exit rule: every run gave a
+    verdict and every history equals the previous comparison's (``changed`` says which
+    did not)."""
+    sc = load_scene(scene, overrides)
+    res = _compare.run_compare(sc, options or _compare.DEFAULT_OPTIONS, out, protocol)
+    if report:
+        try:
+            res.page = _report.write_compare_report(res, sc, res.folder / "report.html")
+        except OutputWriteError as exc:   # the comparison is done: it stays reachable
+            exc.result = res
+            raise
+    return res
+
+
+def survey(options: _survey.SurveyOptions | None = None, report: bool = False) -> _survey.SurveyResult:
+    """Every case's protocol within a per-case budget (:class:`daebench.workflows.survey.SurveyOptions`):
+    the cost to reach target errors, performance profiles and a recommendation per case,
+    written under results/survey/<name>/; ``report``: also the HTML page."""
+    res = _survey.run_survey(options or _survey.SurveyOptions())
+    if report:
+        res.files.append(_report.write_survey_report(res))
+    return res
+
+
+def report(name: str, out: str | Path | None = None, compact: bool = False) -> Path:
+    """One self-contained HTML page of the survey ``name`` (results/survey/<name>/); its path."""
+    return _report.write_survey_report(_report.load_survey(name), Path(out) if out else None, compact=compact)
+
+
+def effects(scene: SceneLike, integrator: str = "hht", settings: dict[str, Any] | None = None, *,
+            overrides: Overrides = None, out: str | Path | None = None,
+            options: SweepOptions | None = None) -> _effects.EffectsResult:
+    """The case with each switchable effect turned off in turn: the change of every
+    observable and of the cost (:func:`daebench.workflows.effects.run_effects`)."""
+    sc = load_scene(scene, overrides)
+    return _effects.run_effects(sc, integrator, settings, Path(out) if out else None,
+                                options or SweepOptions(execution=Execution(progress=False)))
+
+
+def stability(scene: SceneLike, methods: Sequence[str] | None = None, n: str = "auto",
+              search: _stability.Bisection | None = None, *, overrides: Overrides = None,
+              out: str | Path = "results/stability", name: str | None = None,
+              progress: Callable[[str], None] | None = None) -> _stability.StabilityResult:
+    """The largest stable fixed step per integrator setting and N, measured by bisection
+    on whole runs beside the linear prediction
+    (:func:`daebench.workflows.stability.run_stability`; ``methods`` default to
+    :data:`daebench.workflows.stability.DEFAULT_METHODS`; ``search.mark_h``: a step drawn
+    as a line)."""
+    sc = load_scene(scene, overrides)
+    return _stability.run_stability(sc, methods or _stability.DEFAULT_METHODS, n, search or _stability.Bisection(),
+                                    Path(out), name, progress)
+
+
+def error_columns(scene: SceneLike) -> list[str]:
+    """The max-error columns `daebench bench` prints for ``scene``: each observable and
+    point its model declares to be scored around impacts, else its headline observable."""
+    sc = load_scene(scene)
+    obs, pos = pipeline.declared(sc.model).windowed(list(sc.get("output.observables") or []))
+    return [f"err_{d.score_name}_max" for d in (*obs, *pos)] or [f"err_{pipeline.headline(sc).score_name}_max"]
+
+
+def parse_targets(spec: Iterable[str]) -> dict[str, list[float]] | None:
+    """``["MEASURE=v1,v2", …]`` (the survey's --target) as {measure: targets}; None when empty."""
+    return costs.parse_targets(spec) or None

@@ -1,0 +1,295 @@
+"""The commands of many runs (:mod:`daebench.api.sweeps`): `daebench bench` (a sweep),
+`compare` (every applicable integrator at a case's protocol), `survey` (every case within
+a budget), `report` (a survey's HTML page), `effects` (what each switchable effect costs)
+and `stability` (the largest stable step, measured and predicted)."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+import time
+from typing import Any, Optional
+
+import typer
+
+from daebench.cli import textout
+from daebench.cli.common import fail, floats, load_scene_or_exit, out, print_table, refusals
+
+
+def register(app: typer.Typer) -> None:
+    """Add `daebench bench`, `compare`, `survey`, `report`, `effects` and `stability` to ``app``."""
+    for name, fn in (("bench", bench), ("compare", compare), ("survey", survey), ("report", report),
+                     ("effects", effects), ("stability", stability)):
+        app.command(name)(fn)
+
+
+def _again(name: Optional[str], resume: bool, exc: Any) -> str:
+    """The command that continues an interrupted sweep."""
+    return shlex.join(["daebench", *sys.argv[1:]] + ([] if name else ["--name", exc.name or "?"])
+                      + ([] if resume else ["--resume"]))
+
+
+def _grid(items: list[str]) -> dict[str, list[str]]:
+    grid: dict[str, list[str]] = {}
+    for it in items:
+        if "=" not in it:
+            fail(f"--grid needs key=v1,v2,... (e.g. --grid alpha=0,-0.15); got '{it}'")
+        k, v = it.split("=", 1)
+        vals = [x.strip() for x in v.split(",") if x.strip()]
+        if not vals:
+            fail(f"--grid {k.strip()} has no values")
+        if k.strip() in grid:
+            fail(f"--grid {k.strip()} is given twice; put all its values in one --grid")
+        grid[k.strip()] = vals
+    return grid
+
+
+def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml file"),
+          integrators: str = typer.Option(..., "--integrators", "-i", help="comma-separated names, e.g. hht,baumgarte"),
+          grid: list[str] = typer.Option([], "--grid", help="key=v1,v2,...: an integrator setting or a scene key"),
+          steps: Optional[str] = typer.Option(None, "--steps", help="fixed steps h, e.g. 1e-3,5e-4"),
+          tols: Optional[str] = typer.Option(None, "--tols", help="tolerances (adaptive runs), e.g. 1e-4,1e-6"),
+          opt: list[str] = typer.Option([], "--opt", help="fixed integrator setting name=value for every run"),
+          set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
+          jobs: int = typer.Option(1, "--jobs", "-j", help="worker processes (a crashing run costs only its row)"),
+          scheduler: Optional[str] = typer.Option(
+              None, "--scheduler",
+              help="run on Dask: a scheduler address (tcp://host:8786), or 'local' for a local cluster of --jobs workers"),
+          ref_mode: str = typer.Option("require", "--reference",
+                                       help="require (error if missing) | compute | auto (score if cached) | none"),
+          repeats: int = typer.Option(3, "--repeats", help="timed runs after a warm-up, for runs under 1 s "
+                                      "(min taken; 1: one cold run, no warm-up)"),
+          name: Optional[str] = typer.Option(None, "--name", help="table name under results/bench/ (default: unique)"),
+          resume: bool = typer.Option(False, "--resume", help="complete the interrupted sweep --name (same arguments)"),
+          overwrite: bool = typer.Option(False, "--overwrite", help="replace the existing table --name"),
+          run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
+          force: bool = typer.Option(False, "--force", help="allow runs beyond the step-count limit")) -> None:
+    """Sweep integrators × grid × steps/tols on a scene; one scored row per run, stored as it finishes."""
+    from daebench import api
+
+    sc = load_scene_or_exit(scene, set_)
+    try:
+        with refusals():
+            settings = api.parse_pairs(opt, "--opt", "h_contact=1e-6") if opt else {}
+            plan = api.Plan(integrators, steps=floats(steps, "--steps"), tols=floats(tols, "--tols"), grid=_grid(grid),
+                            options=settings, force=force)
+            options = api.SweepOptions(reference=ref_mode, timing=api.Timing.for_repeats(repeats, run_cap),
+                                       storage=api.Storage(name=name, resume=resume, overwrite=overwrite),
+                                       execution=api.Execution(jobs=jobs, scheduler=scheduler, progress=True))
+            df = api.bench(sc, plan=plan, options=options)
+    except api.SweepInterrupted as exc:
+        done = int((exc.table["status"] != "interrupted").sum())
+        sys.stderr.write(f"interrupted: {done} of {len(exc.table)} runs finished; their rows are in {exc.path}\n"
+                         f"continue with: {_again(name, resume, exc)}\n")
+        raise typer.Exit(130)
+    _bench_report(df, sc, api.error_columns(sc))
+    bad = df[df["status"].isin(api.HARNESS_FAILURES)]
+    if len(bad):
+        sys.stderr.write(f"{len(bad)} run(s) gave no verdict ({', '.join(sorted(set(bad['status'])))}); "
+                         f"see the 'message' column\n")
+        raise typer.Exit(1)
+
+
+def _bench_report(df: Any, sc: Any, errs: list[str]) -> None:
+    """The sweep's table on stdout: the max error of each observable and point the model
+    declares to be scored around impacts (else of its headline observable), energy and
+    constraint residuals."""
+    cols = [c for c in ("label", "h", "tol", "status", "wall_s", "steps", *errs, "energy_resid_max", "Cdot_max")
+            if c in df.columns]
+    print_table(cols, [[r[c] for c in cols] for _, r in df.iterrows()], f"{sc.name}: {len(df)} runs")
+    if "path" in df.attrs:
+        out(f"table: {df.attrs['path']}")
+
+
+def compare(case: str = typer.Argument(..., help="scene name or path to a .toml file"),
+            set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
+            jobs: int = typer.Option(2, "--jobs", "-j", help="worker processes"),
+            reference: str = typer.Option("compute", "--reference",
+                                          help="compute (when missing, with a progress bar) | require | auto"),
+            run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
+            out_dir: Optional[str] = typer.Option(None, "--out",
+                                                  help="output folder (default results/compare/<case>-<hash>)"),
+            json_out: bool = typer.Option(False, "--json", help="print the table as JSON records only"),
+            report_page: bool = typer.Option(False, "--report",
+                                             help="also write report.html (one self-contained page) in the folder")) -> None:
+    """Run every applicable integrator at the case's protocol (daebench/workflows/compare.py: PROTOCOLS),
+    score each run against the reference, print one table and write the work-precision figure."""
+    from daebench import api
+
+    sc = load_scene_or_exit(case, set_)
+    t0 = time.perf_counter()
+    try:
+        options = api.SweepOptions(reference=reference, timing=api.Timing(run_cap=run_cap),
+                                   execution=api.Execution(jobs=jobs, progress=True))
+        res = api.compare(sc, options, out=out_dir, report=report_page)
+    except api.OutputWriteError as exc:  # the work is done: show it, say what was not saved, exit 1
+        if getattr(exc, "result", None) is not None:
+            _compare_table(exc.result, sc)
+        fail(str(exc), 1)
+    except api.ParamError as exc:
+        fail(str(exc))
+    if json_out:
+        sys.stdout.write(res.as_json() + "\n")
+    else:
+        _compare_table(res, sc)
+        for line in res.summary_lines():
+            out(line)
+        out(f"written: {', '.join(str(p) for p in res.files if p.suffix in ('.png', '.csv'))}")
+    if res.page is not None:
+        (sys.stderr.write if json_out else out)(f"report page: {res.page}" + ("\n" if json_out else ""))
+    if not json_out:
+        out(f"wall time of the comparison: {time.perf_counter() - t0:.1f} s")
+    for line in res.changed:   # a run whose history differs from its last time
+        sys.stderr.write(line + "\n")
+    if len(res.failures):
+        sys.stderr.write(f"{len(res.failures)} run(s) gave no verdict; see the 'message' column\n")
+    if not res.ok:
+        raise typer.Exit(1)
+
+
+def _compare_table(res: Any, sc: Any) -> None:
+    cols, rows = res.table_rows()
+    for line in textout.table_lines(cols, rows, title=f"{sc.name}: {res.protocol.why}"):
+        out(line)
+
+
+def _print_survey(res: Any) -> None:
+    for r in res.cases:
+        st = r.table["status"].value_counts().to_dict() if len(r.table) else {}
+        out(f"{r.case}: {len(r.table)} runs ({', '.join(f'{v} {k}' for k, v in st.items())}), "
+            f"{r.rounds_run}/{r.rounds} rounds, {r.wall_s:.1f} s" + (f"; {r.note}" if r.note else ""))
+    if len(res.profile):
+        cols = ["measure", "target", "setting", "cases", "rho_1", "rho_4", "rho_inf"]
+        print_table(cols, [[x[c] for c in cols] for _, x in res.profile.iterrows()],
+                    "performance profiles (wall time): ρ(1) cheapest, ρ(4) within 4×, ρ(∞) reached")
+    out("")
+    for p in res.paragraphs.values():
+        out(p)
+        out("")
+    for m in res.mismatches():
+        sys.stderr.write(f"DETERMINISM: {m['case']} run {m['run']} ({m['label']}): digest {m['digest'][:12]} in the "
+                         f"sweep, {str(m['repeat'])[:12]} when repeated\n")
+
+
+def _names(text: Optional[str]) -> tuple[str, ...]:
+    return tuple(x.strip() for x in text.split(",") if x.strip()) if text else ()
+
+
+def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-separated case names (default: all)"),
+           integrators: Optional[str] = typer.Option(None, "--integrators", "-i",
+                                                     help="only these integrators (default: every registered one)"),
+           quick: bool = typer.Option(False, "--quick",
+                                      help="reduced protocol for CI: pendulum, ball, spring-wall; t_end ≤ 0.5 s; "
+                                           "each integrator at its default step and one halving"),
+           budget: Optional[float] = typer.Option(None, "--budget",
+                                                  help="seconds per case (default 300, 30 with --quick); rounds "
+                                                       "of halved steps beyond it are 'skipped-budget' rows"),
+           jobs: int = typer.Option(2, "--jobs", "-j", help="worker processes (or Dask workers)"),
+           scheduler: Optional[str] = typer.Option(None, "--scheduler", help="run on Dask: 'local' or tcp://host:8786"),
+           target: list[str] = typer.Option([], "--target",
+                                            help="MEASURE=v1,v2: target errors in the measure's units "
+                                                 "(default: decades of the errors reached)"),
+           name: Optional[str] = typer.Option(None, "--name", help="survey name (default: unique)"),
+           resume: bool = typer.Option(False, "--resume", help="complete the survey --name (same arguments)"),
+           overwrite: bool = typer.Option(False, "--overwrite", help="replace the survey --name"),
+           run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
+           reference: str = typer.Option("compute", "--reference", help="compute | require | auto | none"),
+           report_page: bool = typer.Option(False, "--report", help="also write the HTML report page")) -> None:
+    """Run the protocol of every case within a per-case budget; print the performance profiles and a
+    recommendation per case; write results/survey/<name>/ (table, reach = cost to reach each target,
+    profiles, recommendations)."""
+    from daebench import api
+
+    t0 = time.perf_counter()
+    try:
+        with refusals():
+            opts = api.SurveyOptions(cases=_names(cases), integrators=_names(integrators), quick=quick,
+                                     budget_s=budget, jobs=jobs, scheduler=scheduler, name=name, resume=resume,
+                                     overwrite=overwrite, run_cap=run_cap, targets=api.parse_targets(target),
+                                     reference=reference)
+            res = api.survey(opts, report=report_page)
+    except api.SweepInterrupted as exc:
+        sys.stderr.write(f"interrupted; the finished rows are stored. continue with: {_again(name, resume, exc)}\n")
+        raise typer.Exit(130)
+    _print_survey(res)
+    out(f"written: {res.folder} ({', '.join(p.name for p in res.files)})")
+    pool = f"; {res.workers_started} worker process(es) for every case and round" \
+        if res.workers_started is not None else ""
+    out(f"wall time of the survey: {time.perf_counter() - t0:.1f} s (name {res.name}; "
+        f"resume with --resume --name {res.name}{pool})")
+    if not res.ok:
+        raise typer.Exit(1)
+
+
+def report(name: str = typer.Argument(..., help="a survey name (results/survey/<name>/)"),
+           out_path: Optional[str] = typer.Option(None, "--out", help="the HTML file (default: in the survey)"),
+           compact: bool = typer.Option(False, "--compact",
+                                        help="a small page: no per-case work–precision figures, the profile "
+                                             "figure scaled down, tables without digests and messages")) -> None:
+    """Write one self-contained HTML page of a survey: recommendations, sortable tables, figures,
+    the reference's trusted span where known, provenance."""
+    from daebench import api
+
+    with refusals():
+        path = api.report(name, out_path, compact=compact)
+    out(f"written: {path} ({path.stat().st_size / 1e3:.0f} kB)")
+
+
+def effects(case: str = typer.Argument(..., help="scene name or path to a .toml file"),
+            integrator: str = typer.Option("hht", "--integrator", "-i", help="integrator of every run"),
+            opt: list[str] = typer.Option([], "--opt", help="integrator setting name=value"),
+            set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
+            out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/effects)")) -> None:
+    """Run the case with each switchable effect (effects.* = true) turned off in turn: the change of
+    every observable (max |Δ| against the all-on run) and of the cost (wall time, steps)."""
+    from daebench import api
+
+    sc = load_scene_or_exit(case, set_)
+    with refusals():
+        settings = api.parse_pairs(opt, "--opt", "h=1e-4") if opt else {}
+        res = api.effects(sc, integrator, settings, out=out_dir, options=api.SweepOptions())
+    cols, rows = res.table_rows()
+    print_table(cols, rows, f"{sc.name}: each effect off in turn ({integrator})")
+    out(f"written: {', '.join(str(p) for p in res.files)}")
+
+
+def stability(case: str = typer.Argument(..., help="scene name or path to a .toml file"),
+              method: Optional[list[str]] = typer.Option(None, "--method", "-m",
+                                                         help="integrator:setting=value,... (repeat for each; "
+                                                              "default: the beam-impact paper's settings and four "
+                                                              "Newmark-family members)"),
+              n: str = typer.Option("auto", "--n",
+                                    help="values of --n-key, comma-separated; '' = the scene's own; auto = "
+                                         "3,5,7,9 if the scene has --n-key"),
+              n_key: str = typer.Option("discretization.n", "--n-key", help="the scene key N stands for"),
+              set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
+              t_end: float = typer.Option(0.0, "--t-end",
+                                          help="run length of each trial, s (0: --periods of the fastest mode, "
+                                               "capped at the scene's t_end)"),
+              periods: float = typer.Option(80.0, "--periods",
+                                            help="trial length in periods of the fastest mode (with --t-end 0)"),
+              h_min: float = typer.Option(1e-6, "--h-min", help="lower bisection bound, s"),
+              h_max: float = typer.Option(1e-2, "--h-max", help="upper bisection bound, s"),
+              tol: float = typer.Option(0.02, "--tol", help="relative width of the final bracket"),
+              jobs: int = typer.Option(1, "--jobs", "-j", help="worker processes"),
+              run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run, s"),
+              mark_h: float = typer.Option(0.0, "--mark-h", help="draw this step as a line, s (0: none)"),
+              out_dir: str = typer.Option("results/stability", "--out", help="output folder"),
+              name: Optional[str] = typer.Option(None, "--name", help="file stem (default <case>-stability)")) -> None:
+    """Largest stable fixed step per integrator setting and N, measured by bisection on
+    whole runs (completed, energy balance within the divergence threshold), beside the
+    linear prediction (start frequencies × the method's computed stability interval)."""
+    from daebench import api
+
+    try:
+        sc = api.load_scene(case, set_)
+        search = api.Bisection(n_key, t_end if t_end != 0.0 else None, periods, h_min, h_max, tol, jobs, run_cap,
+                               mark_h or None)
+        res = api.stability(sc, method or None, n, search, out=out_dir, name=name,
+                            progress=lambda line: sys.stderr.write(line + "\n"))
+    except api.ParamError as exc:
+        fail(str(exc))
+    typer.echo(res.markdown)
+    typer.echo(f"\n{res.summary}")
+    typer.echo("wrote " + ", ".join(map(str, res.files)))
+

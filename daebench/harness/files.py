@@ -1,0 +1,126 @@
+"""Where results go and how a file is written so that no reader sees half of it.
+
+:func:`results_dir` is the one root of everything daebench writes (``$DAEBENCH_RESULTS``
+or ./results). :func:`ensure_writable_dir` proves a folder writable before any work, so a
+run never finishes only to fail when it writes; :func:`atomic_write` writes through a
+temporary file and ``os.replace``, and a failure becomes :class:`OutputWriteError`, whose
+message names the file, the cause and what was kept. :func:`jsonable` is the one rule
+for values written as JSON.
+"""
+
+from __future__ import annotations
+
+import errno
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from daebench.core.params import ParamError
+
+
+def results_dir() -> Path:
+    """Where runs write: $DAEBENCH_RESULTS or ./results."""
+    return Path(os.environ.get("DAEBENCH_RESULTS", "results"))
+
+
+class OutputError(ParamError):
+    """An output folder or file name that cannot be used, refused before any work; the
+    message says what to change."""
+
+
+class OutputWriteError(OutputError):
+    """A result that was computed but could not be written (full disk, a folder removed
+    or made read-only meanwhile); the message says what was kept and what to do. The
+    command line exits 1 (the work ran; its input was fine)."""
+
+
+def ensure_writable_dir(path: str | Path, what: str = "output folder", longest_name: str = "") -> Path:
+    """Create ``path`` if needed and prove it writable (a file is made and removed), so
+    that a run never finishes only to fail when it writes. ``longest_name``: the longest
+    file name that will be written there, checked against the file system's limit."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
+        raise OutputError(f"{what} must be a folder path (a string), e.g. results/runs; got {path!r}")
+    p = Path(path)
+    try:
+        if p.exists() and not p.is_dir():
+            raise OutputError(f"{what} '{p}' is a file, not a folder; give a folder (it is created if missing)")
+        p.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=p, prefix=".write-test-"):
+            pass
+    except OSError as exc:
+        raise OutputError(f"cannot write to {what} '{str(p)[:120]}{'…' if len(str(p)) > 120 else ''}': "
+                         f"{describe_os_error(exc)}; choose a writable folder (--out, or the DAEBENCH_RESULTS "
+                         f"environment variable)") from None
+    if longest_name:
+        check_name_fits(p, longest_name, what)
+    return p
+
+
+def check_name_fits(folder: Path, name: str, what: str = "output folder") -> None:
+    """Refuse, before any work, a file name longer than ``folder``'s file system takes."""
+    try:
+        limit = os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    n = len(os.fsencode(name))
+    if n > limit:
+        raise OutputError(f"the file name {name[:40]!r}… would be {n} bytes, more than the {limit} the file system "
+                         f"of {what} '{folder}' takes; use a shorter scene name (--set name=short) or --name")
+
+
+def describe_os_error(exc: BaseException) -> str:
+    """'the disk is full (No space left on device)' and the like, for messages."""
+    code = getattr(exc, "errno", None)
+    text = getattr(exc, "strerror", None) or str(exc)
+    if code in (errno.ENOSPC, errno.EDQUOT) or "disk is full" in str(exc) or "No space left" in str(exc):
+        return f"the disk is full ({text})"
+    if code in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return f"it is not writable ({text})"
+    if code == errno.ENAMETOOLONG:
+        return f"the name is too long for the file system ({text})"
+    return f"{type(exc).__name__}: {text}"
+
+
+def atomic_write(path: Path, write: Callable[[Path], Any], what: str, kept: str = "") -> None:
+    """Write ``path`` through a temporary file beside it (``write(tmp)``, then ``os.replace``).
+    A failure removes the temporary file and raises :class:`OutputWriteError` naming the
+    file, the cause and ``kept`` (what is safe)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise write_error(exc, what, path, kept, tmp) from None
+
+
+def write_error(exc: BaseException, what: str, path: Path | str, kept: str = "",
+                tmp: Path | None = None) -> OutputWriteError:
+    """The :class:`OutputWriteError` of a failed write (the temporary file ``tmp`` removed)."""
+    if tmp is not None:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+    return OutputWriteError(f"could not write {what} {path}: {describe_os_error(exc)}. "
+                            + (f"{kept[0].upper()}{kept[1:]}. " if kept else "")
+                            + "Free space there or choose another folder (--out, or DAEBENCH_RESULTS), "
+                              "then run again; this is not a fault of the integrator")
+
+
+def jsonable(x: Any) -> Any:
+    """``x`` with numpy scalars as Python numbers and non-finite floats as None (JSON has no NaN)."""
+    if isinstance(x, dict):
+        return {k: jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return None if not math.isfinite(float(x)) else float(x)
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x

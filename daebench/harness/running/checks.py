@@ -1,0 +1,192 @@
+"""Checks made before a run takes its first step.
+
+Everything a run would only discover late — an observable the model does not have,
+~1e10 steps, an integrator that cannot handle the scene's contacts, a start through a
+rigid surface — is refused here, before any step, with a message that says what to
+change (:class:`GuardError`, a :class:`~daebench.core.params.ParamError`: exit code 2 on
+the command line).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from daebench.core.params import ParamError, did_you_mean
+from daebench.core.scene import list_scenes
+from daebench.integrators import base
+from daebench.integrators.base import Integrator, IntegratorError
+from daebench.models import build_system
+from daebench.models.scenes import load_scene
+
+MAX_STEPS = 1e8          # fixed steps a run may plan without force (≈ 3 min compiled, hours in Python)
+MAX_OUTPUT_ROWS = 1e7    # history rows (each ~30 floats: ~2.4 GB at this size)
+
+
+class GuardError(ParamError):
+    """A run refused before its first step; the message says what to change."""
+
+
+def resolve_integrator(name: str) -> str:
+    """The registered name of an integrator, matched case-insensitively.
+
+    Raises
+    ------
+    IntegratorError
+        For an unknown name, with the closest registered one.
+    """
+    reg = base.registry()  # looked up on the module: tests and plugins may replace it
+    if not isinstance(name, str) or not name.strip():
+        raise IntegratorError(f"an integrator name is needed, e.g. hht; available: {', '.join(reg)}")
+    if name in reg:
+        return name
+    lower = {n.lower(): n for n in reg}
+    if name.strip().lower() in lower:
+        return lower[name.strip().lower()]
+    raise IntegratorError(f"unknown integrator '{name}'{did_you_mean(name.lower(), reg)} "
+                          f"Available: {', '.join(reg)} (see `daebench list`).")
+
+
+def estimated_steps(scene: Any, integ: Integrator) -> float:
+    """Steps a fixed-step run plans over the scene (t_end / h); 0 when the integrator
+    chooses its own steps (adaptive, or no ``h`` setting)."""
+    h = integ.settings.get("h")
+    if integ.adaptive or not h:
+        return 0.0
+    return scene.t_end / float(h)
+
+
+def check_size(scene: Any, integ: Integrator) -> None:
+    """Refuse a run whose step count or history size is beyond reason (pass ``force``
+    to the caller to run it anyway)."""
+    n = estimated_steps(scene, integ)
+    if n > MAX_STEPS:
+        raise GuardError(
+            f"h = {integ.settings['h']:g} s over t_end = {scene.t_end:g} s is ≈ {n:.2g} steps, beyond the limit of "
+            f"{MAX_STEPS:.0e}; use a larger h (e.g. --opt h=1e-4) or a shorter t_end, or pass --force to run it anyway")
+    rows = scene.t_end / float(scene["output.dt"])
+    if rows > MAX_OUTPUT_ROWS:
+        raise GuardError(
+            f"output.dt = {scene['output.dt']:g} s over t_end = {scene.t_end:g} s is ≈ {rows:.2g} history rows, beyond "
+            f"the limit of {MAX_OUTPUT_ROWS:.0e}; use a larger output.dt (e.g. --set output.dt=1e-3), or pass --force")
+
+
+def check_observables(scene: Any, system: Any) -> list[str]:
+    """The scored observables (``output.observables``) this configuration produces.
+
+    A name the model never computes, whatever its effects, is refused (a typo); a name it
+    computes only with an effect this scene turns off (``gap`` without contact) is left
+    out of scoring and returned out of the list — callers report it, never silently."""
+    check_start(scene, system)
+    wanted = list(scene.get("output.observables") or [])
+    if not wanted:
+        return []
+    q, v = system.initial_state()
+    have = list(system.observables(0.0, q, v))
+    unknown = [o for o in wanted if o not in have]
+    if unknown:
+        vocabulary = set(have) | _all_effects_observables(scene)
+        typos = [o for o in unknown if o not in vocabulary]
+        if typos:
+            raise GuardError(
+                f"scene key 'output.observables': '{typos[0]}' is not an observable of model '{scene.model}'"
+                f"{did_you_mean(typos[0], vocabulary)} Observables: {', '.join(sorted(vocabulary))}.")
+    return [o for o in wanted if o in have]
+
+
+START_GAP_TOL = 1e-9   # m: a start this far inside a rigid (impact-law) contact is refused
+
+
+def check_start(scene: Any, system: Any) -> None:
+    """Refuse a start with a body through a surface whose contact is an impact law
+    (constraint, complementarity): such a run would begin with the contact violated and
+    blow up (beam-impact at θ = -30°: gap -0.5 m, 9e5 J). Continuous laws (Hertz,
+    penalty) accept a penetrating start: their force is defined there.
+
+    Raises
+    ------
+    GuardError
+        Naming the contact, its gap and the fix.
+    """
+    if not getattr(system, "n_contacts", 0) or not scene.get("effects.contact", True):
+        return
+    law = getattr(system, "contact_law", None)
+    if law is not None and law.continuous:
+        return
+    q, _ = system.initial_state()
+    gap = [float(g) for g in system.gap(q)]
+    inside = [(i, g) for i, g in enumerate(gap) if g < -START_GAP_TOL]
+    if inside:
+        i, g = min(inside, key=lambda x: x[1])
+        raise GuardError(
+            f"scene '{scene.name}' starts with contact {i} {-g:.3g} m through its surface (gap {g:.3g} m at t = 0); "
+            f"a rigid contact cannot start violated. Start outside it (gap ≥ 0: change the start.* keys, "
+            f"`daebench show {scene.name} --keys`), or use a continuous law (--set contact.law=hertz)")
+
+
+def _all_effects_observables(scene: Any) -> set[str]:
+    """What the model computes with every effect of the scene switched on."""
+
+    effects = {k: True for k in scene.values if k.startswith("effects.")}
+    try:
+        system = build_system(scene.with_overrides(effects))
+        q, v = system.initial_state()
+        return set(system.observables(0.0, q, v))
+    except Exception:  # a combination the model refuses: only what this scene produces counts
+        return set()
+
+
+def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
+    """An integrator that resolves contacts itself needs a scene with contacts that are left
+    to it ('complementarity') or closed by the ``constraint`` law (whose restitution it
+    applies; :func:`daebench.integrators.base.check_capabilities` is the driver's rule);
+    name a scene key value the scene accepts, or the scenes that offer one. A scene with
+    Coulomb friction (``contact.friction`` > 0, contacts on) needs an integrator that applies
+    it under the scene's law (:func:`daebench.integrators.base.applies_friction`)."""
+    if (scene.get("contact.friction", 0.0) or 0.0) > 0.0 and scene.get("effects.contact", True) \
+            and not base.applies_friction(cls, scene.get("contact.law")):
+        raise IntegratorError(base.friction_refusal(cls.name, f"scene '{scene.name}'"))
+    if not cls.capabilities.contacts:
+        return
+    law = scene.schema.get("contact.law")
+    current = scene.get("contact.law")
+    if current in cls.contact_laws and scene.get("effects.contact", True):
+        return
+    if law is not None and law.choices:
+        fits = [c for c in cls.contact_laws if c in law.choices]
+        if fits:
+            raise IntegratorError(f"integrator '{cls.name}' resolves contacts itself; run it with "
+                                  + " or ".join(f"`--set contact.law={c}`" for c in fits)
+                                  + (" and `--set effects.contact=true`" if scene.get("effects.contact") is False else "")
+                                  + f" (scene '{scene.name}' uses '{current}')")
+
+    offer = []
+    for name, _ in list_scenes():
+        p = load_scene(name).schema.get("contact.law")
+        if p is not None and p.choices and any(c in p.choices for c in cls.contact_laws):
+            offer.append(name)
+    laws = " or ".join(f"'{c}'" for c in cls.contact_laws)
+    hint = f"scenes that offer it: {', '.join(offer)}" if offer else "no installed scene offers it"
+    raise IntegratorError(f"integrator '{cls.name}' resolves contacts itself (contact law {laws}), which "
+                          f"scene '{scene.name}' (model {scene.model}) does not offer; {hint}")
+
+
+def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> None:
+    """Refuse, before anything runs, an integrator that cannot run this scene: the contact
+    fit (:func:`check_contacts_fit`) and the capability check the driver makes at its
+    start (:func:`daebench.integrators.base.check_capabilities`, with the driver's
+    arguments: constraints are needed for bilateral joints, and for impact-law contacts
+    the integrator does not resolve itself). Refusals an integrator makes only in its own
+    start (e.g. a model type it does not support) still come at run time.
+
+    Raises
+    ------
+    IntegratorError
+    """
+    check_contacts_fit(scene, cls)
+    system = system if system is not None else build_system(scene)
+    law = system.contact_law
+    needs_constraints = system.n_bilateral > 0 or (law is not None and not law.continuous and system.n_contacts > 0
+                                                   and not cls.capabilities.contacts)
+    base.check_capabilities(cls, needs_constraints, contacts_by_integrator=system.contacts_by_integrator,
+                       contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
+                       what=f"scene '{scene.name}'")

@@ -1,0 +1,136 @@
+"""One run from a scene: build the system and the integrator, check the run before its
+first step (:mod:`.checks`), simulate under its wall-time cap (:mod:`.deadline`), write
+the history (:mod:`.history_io`), and return the run's record (:class:`RunRecord`, the one
+result of a run: the API's run object is a view of it). Used by the Python API,
+`daebench run` and sweeps."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+from daebench.core.params import ParamError, parse_pairs
+from daebench.core.scene import Scene
+from daebench.driver.simulate import RunResult, simulate
+from daebench.harness.files import OutputWriteError, ensure_writable_dir, jsonable
+from daebench.harness.running import checks
+from daebench.harness.running.deadline import deadline
+from daebench.harness.running.history_io import history_dir, history_name, write_history
+from daebench.integrators.base import Integrator, IntegratorError, get_integrator
+from daebench.models import build_system
+
+DEFAULT_INTEGRATOR = "ida"
+
+
+def make_integrator(name: str, options: Iterable[str] | dict[str, Any] = ()) -> Integrator:
+    """An integrator from its registered name (case-insensitive) and ``name=value``
+    options (validated).
+
+    Raises
+    ------
+    IntegratorError
+        For an unknown name or setting, a bad value, or a plugin whose constructor raises.
+    """
+    cls = get_integrator(checks.resolve_integrator(name))
+    if isinstance(options, dict):
+        opts = dict(options)
+    else:
+        try:
+            opts = parse_pairs(options, "--opt", "h=1e-4")
+        except ParamError as exc:
+            raise IntegratorError(str(exc)) from None
+    try:
+        return cls(**opts)
+    except IntegratorError:
+        raise
+    except Exception as exc:  # a plugin's own bug: still a clean refusal before any step
+        raise IntegratorError(f"integrator '{cls.name}' raised while being configured: "
+                              f"{type(exc).__name__}: {exc}") from None
+
+
+@dataclass
+class RunRecord:
+    scene: str
+    scene_hash: str
+    integrator: str
+    settings: dict[str, Any]
+    status: str
+    message: str
+    wall_s: float
+    counters: dict[str, int]
+    energy_residual: float
+    observables: dict[str, float]
+    history: str | None
+    impacts: list[dict[str, Any]] = field(default_factory=list)
+    constraint_max: dict[str, float] = field(default_factory=dict)
+    t_final: float = math.nan
+    impact_law: str = ""   # the driver's impact law (daebench.driver.events.impact_law_name; "": none applied)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: jsonable(v) for k, v in self.__dict__.items()}
+
+    def to_json(self) -> str:
+        return json.dumps(self.as_dict(), indent=2)
+
+
+def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
+              options: Iterable[str] | dict[str, Any] = (), out_dir: str | Path | None = None,
+              write: bool = True, *, force: bool = False, run_cap: float | None = None,
+              progress: Callable[[float], None] | None = None,
+              record_states: bool = False) -> tuple[RunRecord, RunResult]:
+    """Run ``scene`` with ``integrator`` (an instance, or a name plus ``options``).
+
+    Parameters
+    ----------
+    scene, integrator, options : what to run
+    out_dir, write : where the history goes (default results/runs), and whether it is written
+    force : run even when the step count or history size is beyond :mod:`.checks`' limits
+    run_cap : wall-time cap in seconds (:class:`.deadline.RunTimeout` beyond it)
+    progress : called with the simulated time, at most every 0.25 s of wall time
+    record_states : keep the integrator's (t, q, v, a, λ) at the output times (``RunResult.states``)
+
+    Raises
+    ------
+    ParamError
+        (GuardError, IntegratorError) before the first step: bad settings, an output
+        folder that cannot be written, an unknown observable, a run beyond the limits.
+    """
+    integ = integrator if isinstance(integrator, Integrator) else make_integrator(integrator, options)
+    checks.check_contacts_fit(scene, type(integ))
+    if not force:
+        checks.check_size(scene, integ)
+    if write:  # the folder and the longest name written there are checked before any step
+        ensure_writable_dir(history_dir(out_dir), "history folder",
+                                   longest_name=f".{history_name(scene, integ)}.json.{os.getpid()}.tmp")
+    system = build_system(scene)
+    checks.check_observables(scene, system)
+    # the history keeps every observable (modal participations included); the scene's
+    # output.observables are the ones scored (see bench)
+    with deadline(run_cap):
+        result = simulate(system, integ, scene.t_end, scene["output.dt"], progress=progress,
+                          record_states=record_states)
+    path = None
+    if write:
+        try:
+            path = write_history(result, scene, integ, out_dir)
+        except OutputWriteError as exc:
+            exc.result = result  # what was computed stays reachable (the API's callers)
+            raise
+    final = {}
+    if len(result.history):
+        last = result.history.iloc[-1]
+        final = {k: float(last[k]) for k in result.history.columns
+                 if k != "t" and not k.startswith(("E_", "W_")) and not isinstance(last[k], str)}
+        final["t"] = float(last["t"])
+    rec = RunRecord(
+        scene=scene.name, scene_hash=scene.hash, integrator=integ.name, settings=dict(integ.settings),
+        status=result.status, message=result.message, wall_s=result.wall_s, counters=result.counters,
+        energy_residual=result.energy_residual, observables=final, history=str(path) if path else None,
+        impacts=[i.as_dict() for i in result.impacts], constraint_max=result.constraint_max,
+        t_final=result.t_final, impact_law=result.impact_law,
+    )
+    return rec, result

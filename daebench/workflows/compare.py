@@ -1,0 +1,339 @@
+"""`daebench compare CASE`: every applicable integrator at the case's protocol, each run
+scored against the reference, one table and one work-precision figure.
+
+**Where a protocol is declared.** Here, in :data:`PROTOCOLS`, keyed by scene name — not
+in the scene file. A protocol names integrators and their settings (plugins, validated by
+each integrator's own settings when the sweep is planned), while a scene file describes
+physics: every scene key is typed and range-checked by the model's schema, and the scene
+hash that keys the cached references covers all of it, so a protocol inside the scene
+would re-key every reference when a step list changes. A scene without an entry gets
+:func:`default_protocol`: every registered integrator at its default settings, one run
+each.
+
+**Applicable.** An integrator the scene's contact law and constraints allow
+(:func:`daebench.harness.running.checks.check_applicable`, the driver's own rule, checked before anything
+runs). An integrator that refuses the model only in its own start (e.g. ``imm`` outside
+the planar FE models) comes back as a run that stopped at t = 0 without a step; it is
+listed as not applicable too, with its message.
+
+**Scored.** Every row is an ordinary sweep row (:func:`daebench.harness.sweeps.row.execute`): the
+verdict, the timing rule of :data:`daebench.harness.running.timing.REPEATS`, the whole-run errors, the
+impact-aware measures of :mod:`daebench.harness.scoring.impact_metrics`, energy and constraint residuals.
+The reference is the cached one, computed first (with a progress bar) when missing, and
+checked against a shipped fingerprint (:mod:`daebench.harness.references.fingerprints`) where one exists.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import pandas as pd
+
+from daebench.core.params import ParamError
+from daebench.core.scene import Scene
+from daebench.harness.analysis import plots
+from daebench.harness.files import ensure_writable_dir, results_dir, write_error
+from daebench.harness.references import fingerprints
+from daebench.harness.references.reference import ReferenceMissing, load_reference
+from daebench.harness.running import checks, provenance, timing
+from daebench.harness.running.progress import run_progress_factory
+from daebench.harness.scoring import pipeline
+from daebench.harness.sweeps import digest, sweep
+from daebench.harness.sweeps.options import Execution, SweepOptions
+from daebench.harness.sweeps.sweep import HARNESS_FAILURES
+from daebench.harness.sweeps.plan import RunSpec, plan_sweep
+from daebench.integrators import base
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One integrator of a protocol: fixed steps or tolerances (neither: one run at its
+    defaults) and fixed settings."""
+
+    integrator: str
+    steps: tuple[float, ...] = ()
+    tols: tuple[float, ...] = ()
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """What `daebench compare` runs on a case and which error measures it plots; in a
+    measure ``{obs}`` stands for the case's headline observable
+    (:func:`daebench.harness.scoring.pipeline.headline`: what the model declares first)."""
+
+    entries: tuple[Entry, ...]
+    measures: tuple[str, ...] = ("err_{obs}_max_trusted",)
+    why: str = ""
+
+    def resolved(self, obs: str) -> "Protocol":
+        """This protocol with ``{obs}`` replaced by the score name ``obs``."""
+        return replace(self, measures=tuple(m.format(obs=obs) for m in self.measures))
+
+
+# beam-impact (docs/sources.md §G.2): the paper's h = 1e-4 s outside contact, 1e-6 s in contact, and
+# two halvings of h; IDA first (the longest run: a two-worker sweep then ends together).
+_PAPER = {"h_contact": 1e-6}
+_STEPS = (1e-4, 5e-5, 2.5e-5)
+_BEAM = Protocol(
+    entries=(Entry("ida", tols=(1e-4,)),
+             Entry("hht", _STEPS, options=_PAPER), Entry("newmark", _STEPS, options=_PAPER),
+             Entry("genalpha", _STEPS, options=_PAPER), Entry("baumgarte", _STEPS, options=_PAPER),
+             Entry("moreau", _STEPS), Entry("nsgenalpha", _STEPS)),
+    measures=("err_{obs}_max_trusted", "err_pre_{obs}_max", "err_impact1_t"),
+    why="the paper's steps (h = 1e-4 s, 1e-6 s in contact) and two halvings; the θ error over the "
+        "reference's trusted span beside the error before the first impact and the first impact's time error")
+# the nonsmooth cases with friction: both families at the same three steps, the reference a
+# fine Moreau–Jean run (daebench.harness.references.capturing); IDA and the integrators that cannot take the
+# case's friction are refused before running, each with its reason
+def _both_families(steps: tuple[float, ...]) -> tuple[Entry, ...]:
+    """The capturing and the event-driven integrators at ``steps``, and IDA at its default."""
+    return tuple(Entry(n, steps) for n in ("moreau", "nsgenalpha", "hht", "newmark", "genalpha")) + (Entry("ida"),)
+
+
+_ROCK = Protocol(
+    entries=_both_families((2e-3, 1e-3, 5e-4)),
+    measures=("err_{obs}_max_trusted", "err_omega_max_trusted"),
+    why="the event-capturing schemes and the event-driven ones (where they apply friction) at three halvings "
+        "of h; θ and ω over the capturing reference's trusted span")
+_CRANK = Protocol(
+    entries=_both_families((4e-5, 2e-5, 1e-5)),
+    measures=("err_{obs}_max", "err_{obs}_max_trusted", "err_y_max"),
+    why="the Siconos example's h = 1e-5 s and two doublings, both families; the crank angle over the whole run "
+        "(the reference's estimated θ digits stay ≥ 4 of the range throughout) and over its trusted span (the "
+        "chattering's bounces part from the coarse check run soon after the first impact), the slider's height")
+PROTOCOLS: dict[str, Protocol] = {"beam-impact": _BEAM, "beam-impact-hub": _BEAM, "rocking-block": _ROCK,
+                                  "slider-crank-clearance": _CRANK}
+
+
+def default_protocol(scene: Scene) -> Protocol:
+    """Every registered integrator, one run at its default settings."""
+    return Protocol(tuple(Entry(n) for n in sorted(base.registry())), ("err_{obs}_max_trusted",),
+                    "no protocol declared for this case: every integrator once, at its default settings")
+
+
+def protocol_for(scene: Scene) -> Protocol:
+    """The declared protocol of ``scene`` (by name), else :func:`default_protocol`; a
+    registered integrator the protocol does not name (a new plugin) is added with one run
+    at its defaults, so that the comparison covers every integrator."""
+    proto = PROTOCOLS.get(scene.name)
+    if proto is None:
+        return default_protocol(scene)
+    named = {e.integrator for e in proto.entries}
+    extra = tuple(Entry(n) for n in sorted(base.registry()) if n not in named)
+    return Protocol(proto.entries + extra, proto.measures, proto.why)
+
+
+@dataclass
+class CompareResult:
+    """The scored table, the integrators not applicable (name → why), written files, the
+    protocol (measures resolved), the headline observable's declaration, the folder, and
+    the determinism check: a line per run whose history digest differs from the previous
+    comparison in the same folder."""
+
+    table: pd.DataFrame
+    not_applicable: dict[str, str]
+    files: list[Path]
+    protocol: Protocol
+    reference: Any = None
+    headline: Any = None
+    folder: Path | None = None
+    changed: list[str] = field(default_factory=list)
+    page: Path | None = None          # the HTML page, when one was written
+
+    @property
+    def failures(self) -> pd.DataFrame:
+        """The rows of runs that gave no verdict (error, timeout, crashed)."""
+        return self.table[self.table["status"].isin(HARNESS_FAILURES)] if len(self.table) else self.table
+
+    @property
+    def ok(self) -> bool:
+        """Every run gave a verdict and every history equals its previous one (the exit rule)."""
+        return not len(self.failures) and not self.changed
+
+    def table_rows(self) -> tuple[list[str], list[list[Any]]]:
+        """The printed table (:func:`table_rows`)."""
+        return table_rows(self.table, self.headline)
+
+    def summary_lines(self) -> list[str]:
+        """What the table does not say (:func:`summary_lines`)."""
+        return summary_lines(self)
+
+    def as_json(self) -> str:
+        """The table as JSON records (for --json)."""
+        return as_json(self)
+
+
+def plan(scene: Scene, protocol: Protocol) -> tuple[list[RunSpec], dict[str, str]]:
+    """The runs of the protocol that apply to ``scene``, numbered in order, and the
+    integrators refused before running (name → the refusal)."""
+    specs: list[RunSpec] = []
+    refused: dict[str, str] = {}
+    for e in protocol.entries:
+        try:
+            cls = base.get_integrator(checks.resolve_integrator(e.integrator))
+            checks.check_applicable(scene, cls)
+            part = plan_sweep(scene, [cls.name], steps=list(e.steps) or None, tols=list(e.tols) or None,
+                              options=dict(e.options))
+        except ParamError as exc:
+            refused[e.integrator] = str(exc)
+            continue
+        for s in part:
+            s.index = len(specs)
+            specs.append(s)
+    return specs, refused
+
+
+def _refused_at_start(row: pd.Series) -> bool:
+    """A run that stopped at t = 0 without a step with an IntegratorError: the integrator
+    refused the model (any other error stays a row: it is a failure, not a refusal)."""
+    return row["status"] in ("failed", "error") and not (float(row.get("t_final", 0.0) or 0.0) > 0.0) \
+        and not (float(row.get("steps", 0) or 0) > 0) and "IntegratorError" in str(row.get("message", ""))
+
+
+#: what `daebench compare` runs with unless told otherwise: two workers, the reference
+#: computed when missing (with a progress bar)
+DEFAULT_OPTIONS = SweepOptions(reference="compute", execution=Execution(jobs=2))
+
+
+def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str | Path | None = None,
+                protocol: Protocol | None = None) -> CompareResult:
+    """Run the protocol of ``scene``, score every run, write the table and the figure, and
+    compare each run's history digest with the previous comparison in the same folder.
+
+    Parameters
+    ----------
+    scene : the case (overrides applied)
+    options : ``reference`` 'compute' (compute the reference when missing, with a progress
+        bar), 'require' (refuse without one) or 'auto'; ``execution`` (worker processes,
+        progress bars) and ``timing`` (its ``run_cap``: wall-time cap of one run [s])
+    out : output folder (default results/compare/<scene>-<hash>)
+    protocol : instead of the case's own
+
+    Raises
+    ------
+    ParamError
+        Before any run: no applicable integrator, a missing reference under 'require', a
+        cached reference that disagrees with the shipped fingerprint.
+    OutputWriteError
+        The runs finished but the files could not be written; ``.result`` holds the table.
+    """
+    head = pipeline.headline(scene)
+    proto = (protocol or protocol_for(scene)).resolved(head.score_name)
+    folder = Path(out) if out is not None else default_folder(scene)
+    ensure_writable_dir(folder, "compare folder (--out)",  # before any run: /dev/null, too long, read-only
+                        longest_name=f".wp-{scene.name}-{proto.measures[0] if proto.measures else 'e'}"
+                                     f".svg.{'9' * 7}.tmp")
+    previous = digest.previous_table(folder / "table.parquet")   # the last comparison: its digests
+    specs, refused = plan(scene, proto)
+    if not specs:
+        raise ParamError(f"no integrator applies to scene '{scene.name}': "
+                         + "; ".join(f"{k}: {v}" for k, v in refused.items()))
+    sweep.prepare_references(specs, scene, options.reference, run_progress_factory(options.execution.progress))
+    ref = None
+    if options.reference != "none":
+        try:
+            ref = load_reference(scene, mode="require")
+            fingerprints.check(scene, ref)
+        except ReferenceMissing:
+            ref = None
+    df = sweep.run_specs(specs, scene, options.scored_against("require" if ref is not None else "none"),
+                         description=f"compare {scene.name}")
+    gone = df.apply(_refused_at_start, axis=1) if len(df) else pd.Series([], dtype=bool)
+    for _, r in df[gone].iterrows():
+        refused.setdefault(r["integrator"], str(r["message"]))
+    df = df[~gone].reset_index(drop=True)
+    changed = digest.mismatch_lines(previous, df)   # a run whose history differs from its last time
+    try:
+        files = write(df, scene, proto, folder, refused, ref)
+    except OSError as exc:  # a full disk after the work: the table still reaches the caller
+        err = write_error(exc, "the comparison to", folder, "every run finished: the table is printed, "
+                          "not saved (run again to save it)")
+        err.result = CompareResult(df, refused, [], proto, ref, head, folder, changed)
+        raise err from None
+    return CompareResult(df, refused, files, proto, ref, head, folder, changed)
+
+
+def default_folder(scene: Scene) -> Path:
+    """results/compare/<scene>-<first 8 digits of its hash>"""
+    return results_dir() / "compare" / f"{scene.name}-{scene.hash[:8]}"
+
+
+def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
+    """The protocol's measures that at least one row has a finite value for."""
+    return [m for m in measures if m in df.columns and pd.to_numeric(df[m], errors="coerce").notna().any()]
+
+
+def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused: Mapping[str, str],
+          ref: Any) -> list[Path]:
+    """table.csv/.parquet, the work-precision figure (one panel per measure) and a JSON
+    sidecar (protocol, not-applicable integrators, reference, provenance)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    prov = provenance.collect([scene])
+    files = [folder / "table.csv", folder / "table.parquet"]
+    df.to_csv(files[0], index=False)
+    df.to_parquet(files[1], index=False)
+    ms = measures_present(df, proto.measures)
+    if ms:
+        title = f"{scene.name}: work–precision ({len(df)} runs, reference {ref.describe()})" if ref is not None \
+            else f"{scene.name}: work–precision"
+        files += plots.work_precision(df, "wall_s", ms, "label", folder / f"wp-{scene.name}", prov, title=title)[1]
+    side = folder / "compare.json"
+    provenance.write_sidecar(side, prov, scene=scene.name, scene_hash=scene.hash, why=proto.why,
+                             measures=list(proto.measures), not_applicable=dict(refused),
+                             reference=None if ref is None else str(ref.path),
+                             timing={"repeats": timing.REPEATS, "short_run_s": timing.SHORT_RUN_S,
+                                     "warmup_cap_s": timing.WARMUP_CAP_S})
+    return files + [side]
+
+
+def _setting(r: pd.Series) -> str:
+    h, tol = r.get("h"), r.get("tol")
+    if isinstance(tol, float) and math.isfinite(tol):
+        return f"tol={tol:g}"
+    return f"h={h:g}" if isinstance(h, float) and math.isfinite(h) else ""
+
+
+def table_rows(df: pd.DataFrame, head: Any) -> tuple[list[str], list[list[Any]]]:
+    """The printed table: one row per run — run, verdict, minimum wall time of its timed
+    repeats, steps, the error measures of the headline observable ``head`` (over the
+    reference's trusted span [0, trust_t], before the first impact), the first impact
+    time's error, impacts of the run / of the reference, max energy-balance residual.
+    The whole-run errors stay in the written table (``err_<obs>_max``)."""
+    sym = {"deg": "°"}.get(head.unit, head.unit)  # the table's compact unit
+    what, unit, obs = head.label or head.score_name, f"[{sym}]" if sym else "", head.score_name
+    cols = ["run", "status", "wall[s]", "steps", f"{what} trusted{unit}", f"{what} pre{unit}", "t1 err[s]", "impacts",
+            "E res[J]"]
+    rows = []
+    for _, r in df.iterrows():
+        imp = f"{_int(r.get('impacts'))}/{_int(r.get('impacts_ref'))}"
+        rows.append([f"{r['integrator']} {_setting(r)}".strip(), r["status"], r.get("wall_s"), _int(r.get("steps")),
+                     r.get(f"err_{obs}_max_trusted"), r.get(f"err_pre_{obs}_max"), r.get("err_impact1_t"), imp,
+                     r.get("energy_resid_max")])
+    return cols, rows
+
+
+def _int(x: Any) -> Any:
+    return int(x) if isinstance(x, (int, float)) and math.isfinite(x) else "-"
+
+
+def summary_lines(res: CompareResult) -> list[str]:
+    """What the table does not say: scoring coverage, integrators not applicable."""
+    df = res.table
+    lines = []
+    first = f"err_{res.headline.score_name}_max_trusted" if res.headline is not None else ""
+    scored = df[first].notna().sum() if first in df else 0
+    verdicts = df["status"].value_counts().to_dict() if len(df) else {}
+    lines.append(f"{len(df)} runs: " + ", ".join(f"{v} {k}" for k, v in verdicts.items())
+                 + f"; {scored} scored against the reference (a run that did not complete has no error)")
+    for k, v in res.not_applicable.items():
+        lines.append(f"not applicable: {k} — {v}")
+    return lines
+
+
+def as_json(res: CompareResult) -> str:
+    """The table as JSON records (for --json)."""
+    return res.table.to_json(orient="records", default_handler=str)

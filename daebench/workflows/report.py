@@ -1,0 +1,253 @@
+"""One self-contained HTML page of a survey (or of any set of scored tables): the
+recommendation first, then the tables (sortable: click a header), every figure embedded
+as a base64 PNG, the reference's trusted span where the rows carry it, and the
+provenance footer (versions, machine, scene hashes).
+
+No external file, script or font: the page is one file that opens anywhere. Loaded with
+``?selftest`` in its URL the page checks itself and writes the result as JSON into
+``<pre id="selftest">`` (what a headless browser's ``--dump-dom`` returns): the number of
+figures and those of zero size, the errors raised on the page, and — with
+``&table=I&col=J`` — table I's column J before and after a click on its header.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+import pandas as pd
+
+from daebench.core.params import ParamError
+from daebench.harness.analysis import plots, recommend
+from daebench.harness.files import atomic_write, results_dir
+from daebench.harness.running import provenance
+from daebench.workflows.compare import measures_present
+from daebench.workflows.survey import CaseResult, SurveyResult, scene_hashes
+
+#: columns the reference's trusted span may be recorded in (added by the reference's own check)
+TRUST_COLUMNS = ("trust_t", "trust_impacts")
+
+_CSS = """
+body{font-family:system-ui,sans-serif;max-width:1200px;margin:1.5em auto;padding:0 1em;color:#222}
+h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em;border-bottom:1px solid #ccc}
+p.rec{background:#f3f7ff;border-left:4px solid #36c;padding:.5em .8em}
+table{border-collapse:collapse;font-size:.82em;margin:.5em 0}
+th,td{border:1px solid #ddd;padding:2px 6px;text-align:right}
+th{background:#eee;cursor:pointer;user-select:none}th.asc::after{content:" \\25B2"}th.desc::after{content:" \\25BC"}
+td.s,th.s{text-align:left}figure{margin:1em 0}figure img{max-width:100%;border:1px solid #eee}
+footer{margin-top:2em;font-size:.75em;color:#666;border-top:1px solid #ccc;padding-top:.5em}
+"""
+
+_JS = r"""
+(function(){
+var errs=[];window.addEventListener('error',function(e){errs.push(String(e.message||e));});
+var ce=console.error;console.error=function(){errs.push(Array.prototype.join.call(arguments,' '));ce.apply(console,arguments);};
+function key(td){var t=td.getAttribute('data-v');if(t===null)t=td.textContent.trim();
+  var x=parseFloat(t);return (t!==''&&!isNaN(x)&&isFinite(Number(t)))?[0,x]:(t===''||t==='-'?[2,0]:[1,t.toLowerCase()]);}
+function cmp(a,b){if(a[0]!==b[0])return a[0]-b[0];return a[1]<b[1]?-1:(a[1]>b[1]?1:0);}
+function sortBy(th){var table=th.closest('table'),tb=table.tBodies[0],i=th.cellIndex;
+  var asc=!th.classList.contains('asc');
+  Array.prototype.forEach.call(th.parentNode.children,function(h){h.classList.remove('asc','desc');});
+  th.classList.add(asc?'asc':'desc');
+  var rows=Array.prototype.slice.call(tb.rows);
+  rows.sort(function(r1,r2){var c=cmp(key(r1.cells[i]),key(r2.cells[i]));return asc?c:-c;});
+  rows.forEach(function(r){tb.appendChild(r);});}
+document.querySelectorAll('table.sortable th').forEach(function(th){th.addEventListener('click',function(){sortBy(th);});});
+function selftest(){var q=new URLSearchParams(location.search);if(!q.has('selftest'))return;
+  var imgs=document.querySelectorAll('img'),zero=0;
+  imgs.forEach(function(im){var r=im.getBoundingClientRect();if(!(im.naturalWidth>0&&r.width>0&&r.height>0))zero++;});
+  var out={figures:imgs.length,zero_size:zero,tables:document.querySelectorAll('table.sortable').length};
+  if(q.has('table')){var t=document.querySelectorAll('table.sortable')[+q.get('table')],j=+(q.get('col')||0);
+    var col=function(){return Array.prototype.map.call(t.tBodies[0].rows,function(r){return r.cells[j].textContent.trim();});};
+    out.before=col();t.tHead.rows[0].cells[j].click();out.after=col();
+    out.header=t.tHead.rows[0].cells[j].textContent.trim();}
+  out.errors=errs;document.getElementById('selftest').textContent=JSON.stringify(out);}
+if(document.readyState==='complete')selftest();else window.addEventListener('load',selftest);
+})();
+"""
+
+
+def _cell(v: Any) -> str:
+    if isinstance(v, bool):
+        return html.escape(str(v))
+    if isinstance(v, float):
+        return "-" if math.isnan(v) else ("∞" if math.isinf(v) else f"{v:.4g}")
+    if v is None:
+        return "-"
+    return html.escape(str(v))
+
+
+def table_html(df: pd.DataFrame, columns: Sequence[str] | None = None, caption: str = "") -> str:
+    """A sortable HTML table (numbers right-aligned, text left; each cell's sort key in
+    ``data-v`` where the shown text is rounded)."""
+    cols = [c for c in (columns or list(df.columns)) if c in df.columns]
+    text = {c: not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]) for c in cols}
+    head = "".join(f'<th class="{"s" if text[c] else "n"}">{html.escape(str(c))}</th>' for c in cols)
+    body = []
+    for _, r in df[cols].iterrows():
+        cells = []
+        for c in cols:
+            v = r[c]
+            dv = f' data-v="{float(v)!r}"' if isinstance(v, float) and math.isfinite(v) else ""
+            cells.append(f'<td class="{"s" if text[c] else "n"}"{dv}>{_cell(v)}</td>')
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+    return f'<table class="sortable">{cap}<thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table>'
+
+
+def figure_html(path: str | Path, caption: str = "") -> str:
+    """A PNG embedded as base64, with its caption."""
+    data = base64.b64encode(Path(path).read_bytes()).decode()
+    alt = html.escape(caption or Path(path).stem)
+    return (f'<figure><img src="data:image/png;base64,{data}" alt="{alt}">'
+            f'<figcaption>{html.escape(caption)}</figcaption></figure>')
+
+
+def trusted_span(table: pd.DataFrame) -> pd.DataFrame:
+    """Per case, the reference's trusted span as the rows record it (the columns of
+    :data:`TRUST_COLUMNS` that exist; empty when none does)."""
+    cols = [c for c in TRUST_COLUMNS if c in table.columns]
+    if not cols or not len(table):
+        return pd.DataFrame()
+    return table.groupby("case", sort=False)[cols].first().reset_index()
+
+
+def page(title: str, paragraphs: Sequence[str], sections: Sequence[tuple[str, str]], prov: dict[str, Any]) -> str:
+    """The whole page: title, recommendations, then ``sections`` ((heading, html) in
+    order), the provenance footer, the inline script."""
+    recs = "".join(f'<p class="rec">{html.escape(p)}</p>' for p in paragraphs) or \
+        "<p>No setting reached a target (or nothing was scored).</p>"
+    secs = "".join(f"<h2>{html.escape(h)}</h2>{body}" for h, body in sections)
+    scenes = ", ".join(f"{html.escape(s['name'])}#{html.escape(s['hash'])}" for s in prov.get("scenes", []))
+    foot = (f"<footer>provenance: {html.escape(provenance.footer_text(prov))}"
+            + (f"<br>scene hashes: {scenes}" if scenes else "") + "</footer>")
+    return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+            f"<style>{_CSS}</style></head><body><h1>{html.escape(title)}</h1>"
+            f"<h2>Recommendation</h2>{recs}{secs}{foot}<pre id=\"selftest\"></pre>"
+            f"<script>{_JS}</script></body></html>")
+
+
+REACH_COLUMNS = ("case", "label", "measure", "target", "reach_wall_s", "reach_steps", "reach_kind", "runs",
+                 "completed", "best_err", "failure")
+RUN_COLUMNS = ("case", "label", "h", "tol", "status", "wall_s", "steps", "digest", "message")
+#: ``compact``: the columns kept (no digests, messages or failure texts: those are in table.csv)
+COMPACT_REACH = ("case", "label", "measure", "target", "reach_wall_s", "reach_steps", "reach_kind", "best_err")
+COMPACT_RUNS = ("case", "label", "h", "tol", "status", "wall_s", "steps")
+COMPACT_WIDTH = 900       # px: the profile figure's width in a compact page
+COMPACT_COLORS = 128      # palette of that PNG (32 merged the setting colours of the legend)
+
+
+def small_png(src: Path, dst: Path, width: int = COMPACT_WIDTH) -> Path:
+    """``src`` scaled down to ``width`` pixels (never up) as a :data:`COMPACT_COLORS`-colour
+    palette PNG (a line plot loses nothing visible)."""
+    from PIL import Image  # lazy: Pillow, only for a compact page's small figure
+
+    with Image.open(src) as im:
+        im = im.convert("RGB")
+        if im.width > width:
+            im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
+        im.quantize(colors=COMPACT_COLORS).save(dst, optimize=True)
+    return dst
+
+
+def write_survey_report(res: Any, path: Path | None = None, compact: bool = False) -> Path:
+    """The page of a survey (:class:`daebench.workflows.survey.SurveyResult`): recommendations,
+    profile table and figure, the cost to reach each target, a work–precision figure per
+    case, every run, the trusted span, provenance. Written to ``<survey>/report.html``.
+
+    ``compact``: a page small enough to keep under version control (a few hundred kB for
+    a dozen cases): the profile figure as a small palette PNG, no work–precision figure per
+    case, and the tables without digests and messages (:data:`COMPACT_REACH`,
+    :data:`COMPACT_RUNS`; the survey's CSV files have every column)."""
+    f = Path(res.folder)
+    figs = f / "figures"
+    figs.mkdir(parents=True, exist_ok=True)
+    prov = provenance.collect(scene_hashes(res.table))
+    sections: list[tuple[str, str]] = []
+    if len(res.profile):
+        sections.append(("Performance profiles (wall time)", table_html(
+            res.profile, caption="ρ(1): fraction of cases where the setting is cheapest; ρ(4): within 4× the "
+                                 "cheapest; ρ(∞): reaches the target at all")))
+    prof_png = f / "profile-wall.png"
+    if prof_png.exists():
+        shown = small_png(prof_png, figs / "profile-wall-small.png") if compact else prof_png
+        sections.append(("Profile figure", figure_html(shown, "performance profiles, cost = wall time")))
+    if len(res.reach):
+        sections.append(("Cost to reach each target", table_html(res.reach, COMPACT_REACH if compact else REACH_COLUMNS)))
+    wp = []
+    for r in res.cases:
+        if r.measures and len(r.table) and not compact:
+            files = plots.work_precision(r.table, "wall_s", r.measures, "label", figs / f"wp-{r.case}", prov,
+                                         title=f"{r.case}: work–precision")[1]
+            wp += [figure_html(p, f"{r.case}: work–precision") for p in files if Path(p).suffix == ".png"]
+    if wp:
+        sections.append(("Work–precision per case", "".join(wp)))
+    if len(res.table):
+        sections.append(("Every run", table_html(res.table, COMPACT_RUNS if compact else RUN_COLUMNS)))
+    ts = trusted_span(res.table)
+    sections.append(("The reference's trusted span",
+                     table_html(ts) if len(ts) else "<p>These rows do not record the reference's trusted span.</p>"))
+    refused = [(r.case, k, v) for r in res.cases for k, v in r.refused.items()]
+    if refused:
+        sections.append(("Not applicable", table_html(pd.DataFrame(refused, columns=["case", "integrator", "why"]))))
+    out = Path(path) if path is not None else f / "report.html"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(page(f"daebench survey {res.name}", list(res.paragraphs.values()), sections, prov),
+                   encoding="utf-8")
+    return out
+
+
+def write_compare_report(res: Any, scene: Any, path: Path) -> Path:
+    """The page of one `daebench compare` (:class:`daebench.workflows.compare.CompareResult`):
+    the recommendation, the work–precision figure, every run with the protocol's measures,
+    the reference and its trusted span, the integrators not applicable, provenance."""
+    measures = measures_present(res.table, res.protocol.measures)
+    recs = [line.removeprefix("recommendation — ") for line in recommend.compare_lines(res.table, measures)]
+    sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.protocol.why)}</p>")]
+    figs = [figure_html(p, f"{scene.name}: work–precision") for p in res.files if Path(p).suffix == ".png"]
+    if figs:
+        sections.append(("Work–precision", "".join(figs)))
+    cols = [c for c in (*RUN_COLUMNS, *measures) if c in res.table.columns and c != "case"]
+    sections.append(("Every run", table_html(res.table, cols)))
+    ref = res.reference
+    ts = trusted_span(res.table)
+    span = table_html(ts) if len(ts) else "<p>These rows do not record the reference's trusted span.</p>"
+    sections.append(("The reference and its trusted span",
+                     (f"<p>{html.escape(ref.describe())}</p>" if ref is not None else "<p>no reference</p>") + span))
+    if res.not_applicable:
+        sections.append(("Not applicable", table_html(pd.DataFrame(sorted(res.not_applicable.items()),
+                                                                   columns=["integrator", "why"]))))
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    text = page(f"daebench compare {scene.name}", recs, sections, provenance.collect([scene]))
+    atomic_write(out, lambda p: Path(p).write_text(text, encoding="utf-8"), "the report page",
+                 "the table and figure are written")
+    return out
+
+
+def load_survey(name: str, folder: Path | None = None) -> Any:
+    """A written survey (:class:`daebench.workflows.survey.SurveyResult`) back from
+    results/survey/<name>/, for `daebench report NAME`.
+
+    Raises
+    ------
+    ParamError
+        When there is no such survey.
+    """
+    f = Path(folder) if folder is not None else results_dir() / "survey" / name
+    side = f / "survey.json"
+    if not side.exists():
+        raise ParamError(f"no survey '{name}' in {f.parent} (run `daebench survey --name {name}` first)")
+    meta = json.loads(side.read_text())
+    tab = pd.read_parquet(f / "table.parquet") if (f / "table.parquet").exists() else pd.DataFrame()
+    reach = pd.read_csv(f / "reach.csv") if (f / "reach.csv").exists() else pd.DataFrame()
+    prof = pd.read_csv(f / "profiles.csv") if (f / "profiles.csv").exists() else pd.DataFrame()
+    paras = recommend.paragraphs(reach) if len(reach) else {}
+    cases = [CaseResult(c["case"], tab[tab["case"] == c["case"]] if len(tab) else tab, c["not_applicable"],
+                        c["measures"], c["wall_s"], c["rounds_run"], c["rounds"], c["note"], c["repeat_check"])
+             for c in meta["cases"]]
+    return SurveyResult(name, f, tab, reach, prof, paras, cases, float(meta["wall_s"]))

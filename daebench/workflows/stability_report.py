@@ -1,0 +1,99 @@
+"""The stability map's outputs: a markdown table, parquet/csv, and the figure h_max vs N."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+
+def _h(x: float) -> str:
+    return "∞" if x == math.inf else ("—" if not math.isfinite(x) else f"{x:.3g}")
+
+
+def _omega(x: float) -> str:
+    return "∞" if x == math.inf else ("n/a" if not math.isfinite(x) else f"{x:.3f}")
+
+
+def markdown(df: pd.DataFrame, h_max: float) -> str:
+    """One row per (setting, N): the measured bracket beside the prediction."""
+    lines = ["| integrator, settings | N | ω_max [rad/s] | trial [s] | method | strict interval hω "
+             "| run interval hω* | predicted h_max [s] | measured h_max [s]: stable – unstable | first unstable run "
+             "| agrees |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in df.itertuples():
+        if math.isfinite(r.h_stable) and math.isfinite(r.h_unstable):
+            meas = f"{r.h_stable:.4g} – {r.h_unstable:.4g}"
+        elif math.isfinite(r.h_stable):
+            meas = f"≥ {r.h_stable:.3g} (no instability up to the upper bound)"
+        else:
+            meas = f"< {r.h_unstable:.3g} (unstable at the lower bound)"
+        lines.append(f"| {r.label} | {'' if r.N is None or (isinstance(r.N, float) and math.isnan(r.N)) else int(r.N)} "
+                     f"| {r.omega_max:.5g} | {r.t_trial:.3g} | {r.method} | {_omega(r.interval_strict)} "
+                     f"| {_omega(r.interval)} "
+                     f"| {_h(r.h_pred)} | {meas} | {r.unstable_status or '—'} | {'yes' if r.agrees else 'NO'} |")
+    return "\n".join(lines)
+
+
+def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float | None = None) -> Path:
+    """h_max against N, one colour per integrator setting: measured (markers; ▲ = no
+    instability up to the bisection bound) and predicted (dashed lines), log axis."""
+    import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # lazy: as above
+    from matplotlib.lines import Line2D  # lazy: as above
+
+    fig, ax = plt.subplots(figsize=(10.0, 5.0))
+    labels = list(dict.fromkeys(df["label"]))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    handles = []
+    for i, lab in enumerate(labels):
+        d = df[df["label"] == lab]
+        n = d["N"].to_numpy(float) + 0.06 * (i - 0.5 * (len(labels) - 1))  # side by side, not on top
+        c = colours[i % len(colours)]
+        lo, hi = d["h_stable"].to_numpy(float), d["h_unstable"].to_numpy(float)
+        both = np.isfinite(lo) & np.isfinite(hi)
+        if both.any():
+            ax.errorbar(n[both], lo[both], yerr=[np.zeros(both.sum()), (hi - lo)[both]], fmt="o", color=c, ms=5,
+                        capsize=2)
+        up = np.isfinite(lo) & ~np.isfinite(hi)
+        if up.any():
+            ax.plot(n[up], lo[up], "^", color=c, ms=7)
+        pred = d["h_pred"].to_numpy(float)
+        fin = np.isfinite(pred)
+        if fin.any():
+            ax.plot(n[fin], pred[fin], "--", color=c, lw=1.2)
+        handles.append(Line2D([], [], color=c, marker="o", ls="", label=lab))
+    handles += [Line2D([], [], color="k", marker="o", ls="", label="measured (bar: last bracket)"),
+                Line2D([], [], color="k", marker="^", ls="", label="no instability up to the upper bound"),
+                Line2D([], [], color="k", ls="--", label="predicted (∞: not drawn)")]
+    if mark_h:
+        ax.axhline(mark_h, color="0.3", ls=":", lw=1.0)
+        handles.append(Line2D([], [], color="0.3", ls=":", label=f"h = {mark_h:g} s"))
+    ax.set_yscale("log")
+    ax.set_xlabel("modes per direction N [–]")
+    ax.set_ylabel("largest stable step h_max [s]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+    return path
+
+
+def write(df: pd.DataFrame, out_dir: Path, stem: str, title: str, h_max: float,
+          mark_h: float | None = None) -> list[Path]:
+    """<stem>.parquet, .csv, .md and .png in ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    flat = df.assign(settings=df["settings"].astype(str))
+    files = [out_dir / f"{stem}.parquet", out_dir / f"{stem}.csv", out_dir / f"{stem}.md"]
+    flat.to_parquet(files[0], index=False)
+    flat.to_csv(files[1], index=False, float_format="%.6g")
+    files[2].write_text(f"# {title}\n\n{markdown(df, h_max)}\n")
+    files.append(figure(df, out_dir / f"{stem}.png", title, h_max, mark_h))
+    return files
