@@ -173,7 +173,9 @@ class Driver:
             message = f"t = {self._t_last:.6g} s: {msg}"
         except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
             status, message = "failed", f"t = {self._t_last:.6g} s: {type(exc).__name__}: {exc}"
-        broken = impact_checks.violations(cs.impacts, self._restitution())
+        caps = self.integ.capabilities
+        broken = impact_checks.violations(cs.impacts, self._restitution(),
+                                          newton=not caps.contacts or caps.impact_law == "newton")
         if broken and status == "completed":
             status, message = "failed", impact_checks.verdict(broken)
         hist = frame(self.rows)
