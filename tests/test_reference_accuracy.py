@@ -161,3 +161,24 @@ def test_every_scored_row_carries_the_trusted_span():
     assert row["trust_t"] == 5.0 and row["trust_impacts"] == 0
     assert row["err_y_max_trusted"] == pytest.approx(1e-3, rel=1e-6)
     assert row["err_y_max"] == pytest.approx(1.0, rel=1e-6)
+
+
+def test_conditioning_amplification_of_known_differences():
+    """Synthetic perturbed runs whose difference from the reference is A·δ·R·sin(t) (R the
+    reference's range): the record gives A back for each δ, per observable, with the impacts."""
+    import numpy as np
+    import pandas as pd
+
+    from daebench.harness.references.accuracy import conditioning
+
+    t = np.linspace(0.0, 3.0, 301)
+    ref = pd.DataFrame({"t": t, "a": 2.0 * np.cos(t), "b": 0.5 * t})
+    R = {"a": float(ref["a"].max() - ref["a"].min()), "b": 1.5}
+    runs = {}
+    for d, A in ((1e-8, 3.0), (1e-4, 40.0)):
+        runs[d] = (pd.DataFrame({"t": t, "a": ref["a"] + A * d * R["a"] * np.sin(t),
+                                 "b": ref["b"] + 2.0 * d * R["b"] * np.sin(t)}), 7)
+    rec = conditioning(ref, runs, ["a", "b"])
+    assert rec["perturbations"] == [1e-8, 1e-4] and rec["impacts"] == [7, 7]
+    np.testing.assert_allclose(rec["amplification"]["a"], [3.0, 40.0], rtol=1e-6)
+    np.testing.assert_allclose(rec["amplification"]["b"], [2.0, 2.0], rtol=1e-6)

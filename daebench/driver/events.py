@@ -60,6 +60,9 @@ from daebench.driver.stickslip import (CONE_TOL, PAINLEVE_SLIP, SLIP_MIN, Fricti
 from daebench.integrators.base import StepFailure
 from daebench.stepping.watch import GAP_BAND, gap_event, near
 
+#: the revision of the contact law the driver applies (impacts, closing and opening): a
+#: reference computed under another one is recomputed (daebench.harness.references.reference)
+CONTACT_LAW_REVISION = 2  # 2: complementarity at velocity and acceleration level
 EVENT_TOL = 1e-13        # event times located to this (seconds)
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
 ZENO_FLIGHT = 1e-9       # a rebound whose free flight would last less than this (s) is plastic too

@@ -33,6 +33,19 @@ over the run):
   reference runs disagree by more than that, and an error measured there would measure
   the reference as much as the run;
 * ``trust_impacts``: the number of the reference's impacts at t ≤ trust_t.
+
+Conditioning (sidecar ``conditioning``, :func:`conditioning`): how the *problem* amplifies
+a start error, apart from any integrator. The reference is run again from starts moved by
+relative δ ∈ :data:`CONDITIONING_PERTURBATIONS` (1e-8, 1e-6, 1e-4; :func:`perturbed_start`)
+at a tolerance :data:`CONDITIONING_TOL_RATIO` × δ (the perturbation, not the solver, sets
+their difference), and per scored observable c the amplification is
+
+    A_c(δ) = max_t |y_δ(t) − y(t)| / (δ · R_c),
+
+the largest difference in units of the range per unit of relative start error. A_c near 1
+is a well-conditioned run; a large A_c, or one that grows with δ (a different event
+sequence), says how much of a run's error after an impact the problem itself makes of a
+small error before it. The impacts each perturbed run had are kept beside.
 """
 
 from __future__ import annotations
@@ -49,6 +62,8 @@ PERTURB_FACTOR = 10.0   # relative perturbation of the start / the reference's r
 TRUST_REL = 1e-4        # spread / range beyond which the reference is not trusted
 WINDOWS = 10            # time windows of the digits table
 DIGITS_CAP = 16.0       # digits reported when the runs agree to round-off
+CONDITIONING_PERTURBATIONS = (1e-8, 1e-6, 1e-4)  # relative start perturbations of the conditioning runs
+CONDITIONING_TOL_RATIO = 1e-2  # their tolerance / the perturbation (never tighter than the reference's)
 CONSTANT_RANGE = 1e-12  # a column whose range is below this (× its size when > 1) is constant: no trust limit
 
 
@@ -200,6 +215,28 @@ def perturbed_start(system: Any, rtol: float, factor: float = PERTURB_FACTOR) ->
     return qp, vp
 
 
+def conditioning(ref: pd.DataFrame, runs: dict[float, tuple[pd.DataFrame, int]],
+                 columns: Sequence[str]) -> dict[str, Any]:
+    """The conditioning record (module docstring): ``runs`` {δ: (history from the start moved
+    by δ, its number of impacts)} against the reference history ``ref``."""
+    ranges = observable_ranges(_unique(ref), columns)
+    deltas = sorted(runs)
+    amp: dict[str, list[float]] = {}
+    for c in columns:
+        amp[c] = []
+        for d in deltas:
+            _, sp = spreads(ref, [runs[d][0]], [c])
+            worst = float(np.nanmax(sp[c])) if np.isfinite(sp[c]).any() else math.nan
+            amp[c].append(worst / (d * ranges[c]) if ranges[c] > 0 and math.isfinite(worst) else math.nan)
+    return {"perturbations": deltas, "amplification": amp, "impacts": [int(runs[d][1]) for d in deltas]}
+
+
+def conditioning_tolerance(delta: float, rtol: float) -> float:
+    """The tolerance of the run from a start moved by ``delta``: CONDITIONING_TOL_RATIO × δ,
+    never tighter than the reference's own ``rtol``."""
+    return max(float(rtol), CONDITIONING_TOL_RATIO * float(delta))
+
+
 def with_start(system: Any, q: np.ndarray, v: np.ndarray) -> Any:
     """``system`` starting from (q, v) instead of its own start (this instance only)."""
     system.initial_state = lambda: (q.copy(), v.copy())
@@ -239,4 +276,13 @@ def summary_lines(meta: dict[str, Any], impacts: Sequence[float], t_end: float) 
         lines.append("sensitivity: the perturbed start's difference in digits of the range, per window:")
         for k, (a, b) in enumerate(sens["windows"]):
             lines.append(f"  {a:8.4g} – {b:<8.4g} " + " ".join(f"{sens[c][k]:10.1f}" for c in cols))
+    cond = meta.get("conditioning") or acc.get("conditioning")
+    if cond and cond.get("amplification"):
+        amp = cond["amplification"]
+        ccols = list(amp)
+        lines.append("conditioning: max |Δy| / (δ × range) from a start moved by relative δ (the problem's own "
+                     "amplification of a start error):")
+        lines.append("  δ          impacts " + " ".join(f"{c[:10]:>10s}" for c in ccols))
+        for k, d in enumerate(cond["perturbations"]):
+            lines.append(f"  {d:<10.0e} {cond['impacts'][k]:7d} " + " ".join(f"{amp[c][k]:10.3g}" for c in ccols))
     return lines

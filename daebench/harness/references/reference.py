@@ -33,6 +33,7 @@ import pandas as pd
 
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene, cases_dir
+from daebench.driver.events import CONTACT_LAW_REVISION
 from daebench.driver.simulate import simulate
 from daebench.harness.files import atomic_write, results_dir, write_error
 from daebench.harness.references import accuracy, capturing, modelprobe, side_runs
@@ -221,6 +222,10 @@ def validate(scene: Scene, path: Path) -> Reference:
         raise damaged(f"sidecar settings lack {key}") from None
     if not 0 < tol < 1:
         raise damaged(f"{key} {tol!r} in the sidecar")
+    rev = meta.get("contact_law_revision", 1)
+    if rev != CONTACT_LAW_REVISION:
+        raise damaged(f"computed under the driver's contact law revision {rev!r}, today's is {CONTACT_LAW_REVISION} "
+                      f"(its impacts and releases were decided otherwise)")
     probe = meta.get("model_probe")
     diff = [] if probe is None else modelprobe.differences(probe, modelprobe.probe(build_system(scene))) \
         if isinstance(probe, dict) else ["the model probe is not a mapping"]
@@ -386,6 +391,10 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
         if solver != REF_INTEGRATOR:
             jobs["loose"] = side(r * accuracy.LOOSE_FACTOR, a * accuracy.LOOSE_FACTOR)
         jobs["perturbed"] = side(r, a, start=accuracy.perturbed_start(build_system(scene), r))
+        for d in accuracy.CONDITIONING_PERTURBATIONS:  # the problem's own amplification of a start error
+            tol = accuracy.conditioning_tolerance(d, r)
+            jobs[f"conditioning {d:g}"] = side(tol, a * tol / r, start=accuracy.perturbed_start(build_system(scene),
+                                                                                              d, 1.0))
     with side_runs.SideRuns(jobs, parallel=parallel) as runs:
         integ, res = run(r, a, f"reference of {scene.name}: {solver} rtol {r:g}", tick=runs.start)
         if res.status != "completed":
@@ -409,6 +418,10 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
                                        loose_factor=f)
             acc_meta.update({"loose": loose.status, "perturbed": pert.status,
                              "perturbed_impacts": len(pert.impacts), "loose_impacts": len(loose.impacts)})
+            cond = {d: got[f"conditioning {d:g}"] for d in accuracy.CONDITIONING_PERTURBATIONS}
+            acc_meta["conditioning"] = accuracy.conditioning(
+                res.history, {d: (c.history, len(c.impacts)) for d, c in cond.items() if c.status == "completed"},
+                cols)
     return _store(scene, dense_scene, integ, res, agreement, acc_meta, {"kind": "ida"})
 
 
@@ -436,7 +449,7 @@ def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: di
     meta = {"scene": scene.name, "scene_hash": scene.hash, "scene_values": scene.values,
             "integrator": integ.name, "settings": integ.to_config(), "wall_s": res.wall_s,
             "counters": res.counters, "impacts": impacts, "output_dt": dense_scene["output.dt"], "agreement": agreement,
-            "accuracy": acc_meta,
+            "accuracy": acc_meta, "contact_law_revision": CONTACT_LAW_REVISION,
             "energy_residual_max": res.energy_residual, "model_probe": modelprobe.record(build_system(scene)),
             **extra, "sha256": sha256(path), "rows": len(hist),
             "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}

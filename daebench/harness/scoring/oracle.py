@@ -1,49 +1,63 @@
-"""An exact impact oracle per impact: the scene's Newton impact law applied to the run's own
-pre-impact state, against what the run did there.
+"""An exact impact oracle per impact: the scene's unilateral impact law applied to the run's
+own pre-impact state, solved independently of the driver, against what the run did there.
 
 A trajectory error after an impact mixes two things: how far the run had drifted before
 it (its pre-impact state is not the reference's) and how well it treats the impact itself.
 The oracle removes the first: at the run's own configuration q and pre-impact velocity v⁻
 (the impact record's, :class:`daebench.core.contact.Impact`), Newton's law with the
-scene's restitution e through the system's mass matrix M(q), gap Jacobian g_q(q) and
-bilateral constraint Jacobian C_q gives the exact post-impact velocity v⁺ and impulse Λ,
-computed by the one impact map of the package, :func:`daebench.core.contact.impact_map`
-(the driver applies the same function). Against it:
+restitution e — unilateral, for every contact that takes part —
 
-* the velocity jump, relative, in the kinetic-energy norm ‖x‖_M = √(xᵀ M x) (one norm for
-  coordinates of mixed units): ``err_impact_dv`` = ‖Δv_run − Δv_exact‖_M / ‖Δv_exact‖_M with
-  Δv = v⁺ − v⁻;
+    vn⁺ = vn⁻ + W Λ,   0 ≤ vn⁺ + e vn⁻ ⟂ Λ ≥ 0,   W = G M_B⁻¹ Gᵀ,
+
+gives the exact post-impact velocity v⁺ and impulses Λ. The contacts that take part are
+the record's and every other contact touching at q (|g| ≤ :data:`TOUCH`) that does not
+separate (vn⁻ ≤ 0); under the scene's ``sequential`` impact law only the record's, the
+other touching ones held as bilateral rows. The solution is computed here by a different
+route than the driver's (:mod:`daebench.core.frictional_impact`: an augmented solve and
+Murty's pivoting): M_B⁻¹ through an orthonormal null-space basis N of the bilateral
+Jacobian, M_B⁻¹ = N (Nᵀ M N)⁻¹ Nᵀ, and the LCP (W symmetric positive definite) as its
+equivalent convex quadratic program min ½ΛᵀWΛ + cᵀΛ, Λ ≥ 0 (c = (1 + e) vn⁻), written
+‖LᵀΛ + L⁻¹c‖ → min with W = LLᵀ and solved by Lawson–Hanson non-negative least squares
+(:func:`scipy.optimize.nnls`). So the oracle
+can fail where the driver errs: an adhesive impulse, an impact applied to a separating
+contact (the law gives Λ = 0 there), a wrong restitution.
+
+Against it:
+
+* the velocity jump in the kinetic-energy norm ‖x‖_M = √(xᵀ M x) (one norm for coordinates
+  of mixed units): ``err_impact_dv`` = ‖Δv_run − Δv_exact‖_M / max(‖Δv_exact‖_M, ‖Δv_run‖_M)
+  with Δv = v⁺ − v⁻ (1 where the law gives no jump and the run made one);
 * the impulse [N s]: ``err_impulse`` = |Λ_run − Λ| and relative ``err_impulse_rel`` = that / Λ.
 
-What the run's values are, per family:
+The restitution is the one the record says its law applied (the driver's records carry
+it: the scene's, or 0 where it closed a rebound too slow or too short to resolve), else the
+scene's. What the run's values are, per family:
 
-* event-driven runs (the driver's impact map): v⁻, v⁺ and Λ of the map at the located
-  impact; the oracle reproduces them to round-off unless the driver closed the contact
-  plastically (a rebound slower than its threshold, a Zeno re-impact) — the impact
-  treatment of these runs is exact, their post-impact error is the trajectory's;
+* event-driven runs (the driver's impact law): v⁻, v⁺ and Λ at the located impact; the
+  oracle reproduces them to round-off when the driver applied the law;
 * event-capturing runs (contact episodes, :mod:`daebench.stepping.episodes`): the state at
   the start of the episode's first step (v⁻), after that step (v⁺) and that step's impulse
   (``impact_impulse``). The step also carries the smooth forces over h (a Moreau step's
   impulse holds the weight m g h of the step as well as the impact's (1 + e) m |ġ⁻|), so
   these errors are O(h): the cost of resolving the impact inside a step.
 
-Checked are the records with a state (q, v⁻, v⁺) whose contact approaches at v⁻
-(g_q v⁻ < 0: Newton's law gives a jump); others (a grazing or separating start of an
-episode, a continuous-law episode, a record without state) are counted as skipped.
-Other contacts closed at the impact are not included (the record does not say which were
-closed; every shipped impact scene has one contact point).
+Checked are the records with a state (q, v⁻, v⁺) and an impulse; others (a continuous-law
+episode, a record without state) are counted as skipped.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Iterable
+from typing import Any, Iterable, NamedTuple
 
 import numpy as np
+import scipy.linalg as sl
+from scipy.optimize import nnls
 
-from daebench.core.contact import ImpactResult, impact_map
 from daebench.core.params import ParamError
+
+TOUCH = 1e-9  # m: a contact within this of its surface at the impact takes part in it
 
 
 @dataclass(frozen=True)
@@ -52,7 +66,7 @@ class ImpactCheck:
 
     t: float
     contact: int
-    dv_rel: float             # ‖Δv_run − Δv_exact‖_M / ‖Δv_exact‖_M
+    dv_rel: float             # ‖Δv_run − Δv_exact‖_M / max(‖Δv_exact‖_M, ‖Δv_run‖_M)
     impulse_run: float        # Λ of the run [N s]
     impulse_exact: float      # Λ of the exact law at the run's pre-impact state [N s]
 
@@ -61,11 +75,21 @@ class ImpactCheck:
         return abs(self.impulse_run - self.impulse_exact)
 
 
+class ExactImpact(NamedTuple):
+    """Newton's unilateral law at one state: v⁺, and per taking-part contact Λ, vn⁻, vn⁺."""
+
+    v_plus: np.ndarray
+    contacts: np.ndarray
+    impulse: np.ndarray
+    vn_minus: np.ndarray
+    vn_plus: np.ndarray
+
+
 def exact_impact(system: Any, q: np.ndarray, v_minus: np.ndarray, contact: int, restitution: float,
-                 t: float = 0.0) -> ImpactResult:
-    """The Newton impact of ``contact`` at (q, v⁻) with restitution e, respecting the
-    system's bilateral constraints C_q v = 0: :func:`daebench.core.contact.impact_map` on
-    M(q), the contact's row of g_q(q) and C_q(t, q)."""
+                 t: float = 0.0) -> ExactImpact:
+    """Newton's unilateral law at (q, v⁻) with restitution e for ``contact`` and the contacts
+    that take part with it (module docstring), the system's bilateral constraints
+    C_q v = 0 kept; solved by the oracle's own route (null space, non-negative least squares)."""
     e = float(restitution)
     if not (math.isfinite(e) and 0.0 <= e <= 1.0):
         raise ParamError(f"the restitution of the impact oracle must lie in [0, 1], got {restitution!r}")
@@ -74,11 +98,35 @@ def exact_impact(system: Any, q: np.ndarray, v_minus: np.ndarray, contact: int, 
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
         raise ParamError("the impact oracle needs a finite pre-impact state (q, v⁻)")
     M = np.atleast_2d(system.mass(q))
+    n = M.shape[0]
     G = np.atleast_2d(system.gap_jacobian(q))
     if not 0 <= int(contact) < G.shape[0]:
         raise ParamError(f"contact {contact} does not exist: the system has {G.shape[0]} contact point(s)")
-    Cb = np.atleast_2d(system.constraint_jacobian(t, q)).reshape(-1, M.shape[0])
-    return impact_map(M, G[[int(contact)]], v, e, Cb if Cb.shape[0] else None)
+    B = np.atleast_2d(system.constraint_jacobian(t, q)).reshape(-1, n)
+    part, held = _taking_part(system, q, v, G, int(contact))
+    N = sl.null_space(np.vstack([B, G[held]])) if (B.shape[0] or held) else np.eye(n)
+    Minv = N @ np.linalg.solve(N.T @ M @ N, N.T)          # M_B⁻¹ on the constraint-respecting velocities
+    Gp = G[part]
+    W = Gp @ Minv @ Gp.T
+    vn = Gp @ v
+    c = (1.0 + e) * vn
+    L = np.linalg.cholesky(W + 1e-300 * np.eye(len(part)))
+    lam, _ = nnls(L.T, -np.linalg.solve(L, c))            # min ½ΛᵀWΛ + cᵀΛ, Λ ≥ 0
+    v_plus = v + Minv @ Gp.T @ lam
+    return ExactImpact(v_plus, np.array(part), lam, vn, Gp @ v_plus)
+
+
+def _taking_part(system: Any, q: np.ndarray, v: np.ndarray, G: np.ndarray, contact: int
+                 ) -> tuple[list[int], list[int]]:
+    """(contacts that take part in the impact, touching contacts held as bilateral rows)."""
+    gap = getattr(system, "gap", None)
+    g = np.atleast_1d(gap(q)) if gap is not None else np.zeros(G.shape[0])
+    vn = G @ v
+    touching = [c for c in range(G.shape[0]) if c != contact and abs(g[c]) <= TOUCH and vn[c] <= 0.0]
+    law = getattr(system, "contact_law", None)
+    if getattr(law, "impact_law", "simultaneous") == "sequential":
+        return [contact], touching
+    return sorted([contact] + touching), []
 
 
 def _m_norm(M: np.ndarray, x: np.ndarray) -> float:
@@ -94,23 +142,27 @@ def run_impulse(record: Any) -> float:
 
 def check_impact(system: Any, record: Any, restitution: float) -> ImpactCheck | None:
     """The oracle at one record's own pre-impact state; None when the record cannot be
-    checked (no state, or its contact does not approach at v⁻)."""
+    checked (no state, no impulse, or no jump in either the run or the law)."""
     q, vm, vp = (getattr(record, k, None) for k in ("q", "v_minus", "v_plus"))
     if q is None or vm is None or vp is None:
         return None
     q, vm, vp = (np.asarray(x, float) for x in (q, vm, vp))
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(vm)) and np.all(np.isfinite(vp))):
         return None
-    res = exact_impact(system, q, vm, int(record.contact), restitution, float(record.t))
-    if not res.vn_minus[0] < 0.0:
-        return None
+    P = run_impulse(record)
+    if not math.isfinite(P):
+        return None  # a continuous-law episode: no impulse
+    e_rec = float(getattr(record, "restitution", math.nan))
+    res = exact_impact(system, q, vm, int(record.contact), e_rec if math.isfinite(e_rec) else restitution,
+                       float(record.t))
     M = np.atleast_2d(system.mass(q))
-    dv_exact = res.v_plus - vm
-    scale = _m_norm(M, dv_exact)
+    dv_exact, dv_run = res.v_plus - vm, vp - vm
+    scale = max(_m_norm(M, dv_exact), _m_norm(M, dv_run))
     if not scale > 0.0:
-        return None
-    return ImpactCheck(float(record.t), int(record.contact), _m_norm(M, (vp - vm) - dv_exact) / scale,
-                       run_impulse(record), float(res.impulse[0]))
+        return None  # no jump, none made
+    k = int(np.flatnonzero(res.contacts == int(record.contact))[0])
+    return ImpactCheck(float(record.t), int(record.contact), _m_norm(M, dv_run - dv_exact) / scale, P,
+                       float(res.impulse[k]))
 
 
 def oracle_scores(system: Any, impacts: Iterable[Any], restitution: float) -> dict[str, Any]:
@@ -131,7 +183,8 @@ def oracle_scores(system: Any, impacts: Iterable[Any], restitution: float) -> di
         return nan
     dv = np.array([c.dv_rel for c in checks])
     di = np.array([c.impulse_err for c in checks])
-    rel = di / np.array([c.impulse_exact for c in checks])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = di / np.array([c.impulse_exact for c in checks])
     return {"err_impact_dv_max": float(np.max(dv)),
             "err_impulse_max": float(np.nanmax(di)) if np.isfinite(di).any() else math.nan,
             "err_impulse_rel_max": float(np.nanmax(rel)) if np.isfinite(rel).any() else math.nan,
