@@ -98,12 +98,6 @@ class Capabilities:
         and contact laws. It takes over contacts with no law ('complementarity') and
         those with the ``constraint`` law, whose restitution it applies; it reports each
         contact episode with :meth:`Integrator.report_contact`.
-    impact_law : str
-        For an integrator that resolves contacts itself: ``"newton"`` (velocity-level impacts
-        with the scene's restitution, checked against Newton's law on every run record,
-        :mod:`daebench.core.impact_checks`) or ``"force"`` (contact forces over time — a
-        compliant or force-level treatment: its episodes are checked for impulses ≥ 0 and
-        no energy made only).
     friction : bool
         Whether it applies Coulomb friction at the contacts it resolves (a model's
         ``tangent`` kernel with μ > 0, scene key ``contact.friction``) — or, for an
@@ -121,14 +115,8 @@ class Capabilities:
     dense_output: bool = False
     contacts: bool = False
     friction: bool = False
-    impact_law: str = "newton"
-
-    def __post_init__(self) -> None:
-        if self.impact_law not in IMPACT_LAWS:
-            raise ValueError(f"Capabilities.impact_law = {self.impact_law!r}: one of {', '.join(IMPACT_LAWS)}")
 
 
-IMPACT_LAWS = ("newton", "force")  # how an integrator that resolves contacts treats them (Capabilities)
 DEFAULT_STEP = 1e-4  # s: the default fixed step (the paper's protocol outside contact)
 
 # Settings every stepping integrator shares: the paper's protocol and adaptivity.

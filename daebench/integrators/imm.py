@@ -98,7 +98,7 @@ class InteractiveMode(CompiledIntegrator):
     description: ClassVar[str] = ("interactive mode: global dynamics + local statics contact module, force "
                                   "lagged one step (planar FE models, contact.law = complementarity)")
     capabilities: ClassVar[Capabilities] = Capabilities(order=1, fixed_step=True, adaptive=False,
-                                                        constraints=False, contacts=True, impact_law="force")
+                                                        constraints=False, contacts=True)
     settings_spec: ClassVar[tuple[Setting, ...]] = (
         Setting("h", float, 1e-7, "fixed step size [s]", low=1e-12, high=1.0),
         Setting("global_method", str, "central", "integrator of the global dynamics module",

@@ -109,7 +109,7 @@ class LcpAvg(CompiledIntegrator):
     description: ClassVar[str] = ("the source's scheme: contact LCP on the gap averaged over h_avg inside each "
                                   "right-hand side of adaptive Dormand–Prince 5(4)")
     capabilities: ClassVar[Capabilities] = Capabilities(order=5, fixed_step=True, adaptive=True,
-                                                        constraints=False, contacts=True, impact_law="force")
+                                                        constraints=False, contacts=True)
     contact_laws: ClassVar[tuple[str, ...]] = ("complementarity",)  # no restitution: its own law only
     settings_spec: ClassVar[tuple[Setting, ...]] = STEP_SETTINGS + (
         Setting("adaptive", bool, True, "choose the step from the embedded 4th-order error estimate"),

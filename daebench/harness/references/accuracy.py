@@ -219,6 +219,7 @@ def conditioning(ref: pd.DataFrame, runs: dict[float, tuple[pd.DataFrame, int]],
                  columns: Sequence[str]) -> dict[str, Any]:
     """The conditioning record (module docstring): ``runs`` {δ: (history from the start moved
     by δ, its number of impacts)} against the reference history ``ref``."""
+    columns = [c for c in columns if c in ref]  # an observable of a switched-off effect is not there
     ranges = observable_ranges(_unique(ref), columns)
     deltas = sorted(runs)
     amp: dict[str, list[float]] = {}
