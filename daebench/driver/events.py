@@ -58,17 +58,16 @@ from daebench.core.system import MechanicalSystem, State
 from daebench.driver.stickslip import (CONE_TOL, PAINLEVE_SLIP, SLIP_MIN, FrictionPhase, stick_groups,
                                        tangent_row)
 from daebench.integrators.base import StepFailure
-from daebench.stepping.watch import GAP_BAND, gap_event, near
+from daebench.stepping.watch import GAP_BAND, GAP_ROUNDOFF, gap_event, near
 
 #: the revision of the contact law the driver applies (impacts, closing and opening): a
 #: reference computed under another one is recomputed (daebench.harness.references.reference)
 CONTACT_LAW_REVISION = 2  # 2: complementarity at velocity and acceleration level
 EVENT_TOL = 1e-13        # event times located to this (seconds)
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
-ZENO_FLIGHT = 1e-9       # a rebound whose free flight would last less than this (s) is plastic too
+ZENO_FLIGHT = 1e-9       # s: floor of the Zeno rule's time (ContactState.step: the step in force)
 REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes it (Zeno)
 PROJECTION_ITERS = 3     # Newton iterations of the position projection onto C(q) = 0
-BAND_ROUNDOFF = 1e-6 * GAP_BAND  # a gap this close to a threshold is on it (a rebound located there)
 MAX_HALVINGS = 10        # an approach not resolved at 2⁻¹⁰ of the contact step closes at that step's end
 FLIGHT_SAMPLES = 40      # a rebound's return is searched down to 2⁻⁴⁰ of a step (≈ 1e-16 s at h = 1e-4)
 
@@ -105,7 +104,8 @@ class ContactState:
     force_cache: tuple | None = None        # (q, t, λ) of the last step's new state (consistent multipliers)
     near_h: float = 0.0                     # proximity time: NEAR_STEPS free steps (0: no contact step)
     near: set[int] = field(default_factory=set)  # open contacts near their surface (stepping.watch.near)
-    halvings: int = 0                       # the contact step halved this often (unresolved approaches)
+    halvings: int = 0                       # the step halved this often (unresolved approaches)
+    step: float = 0.0                       # the fixed step in force (the Zeno rule's time scale; 0: adaptive)
     force_release_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per contact: its last
                                             # release located where its consistent force crossed zero
     changed_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per contact: when it last
@@ -248,7 +248,7 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
                 continue
             closes, arms = gap_event(g1[i], cs.armed[i])
             off = 0.0 if cs.armed[i] else GAP_BAND
-            if closes and g0[i] >= -off - BAND_ROUNDOFF:
+            if closes and g0[i] >= -off - GAP_ROUNDOFF:
                 # the band decides whether the contact closed; where is g = 0 when the
                 # step started on or above the plane
                 at = 0.0 if g0[i] >= 0.0 else off
@@ -256,7 +256,7 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
                 if tc < new.t and _normal_velocity(problem, dense(tc), i) > REBOUND_MIN:
                     # the dense output's root separates: the step does not resolve where the gap
                     # closed (a motion faster than the step). Take it again, finer (ContactState.halvings)
-                    if cs.near_h > 0.0 and cs.halvings < MAX_HALVINGS:
+                    if cs.halvings < MAX_HALVINGS:
                         cands.append(Event(prev.t, "refine", i))
                         continue
                     tc = new.t  # unresolved at the finest step: the closing is the step's end
@@ -353,7 +353,7 @@ def _closing_root(f: Callable[[float], float], prev: State, new: State) -> float
     A step that starts on the threshold (f = 0: the contact rebounded there) first rises:
     the return is bracketed by sampling the dense output — at 2⁻ᵏ of the step for a flight
     shorter than a step, then uniformly — so a rebound is never taken for a closing."""
-    if abs(f(prev.t)) > BAND_ROUNDOFF:
+    if abs(f(prev.t)) > GAP_ROUNDOFF:
         return _root(f, prev, new)
     h = new.t - prev.t
     taus = [h * 2.0 ** -k for k in range(FLIGHT_SAMPLES, 0, -1)] + [h * j / 16.0 for j in range(9, 17)]
@@ -477,9 +477,9 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
     e_c = np.full(len(part), 0.0 if zeno else e)
     res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i)
     if e_c.any():
-        # a rebound too slow, or whose free flight too short, to resolve is plastic: its Zeno
-        # accumulation of ever shorter bounces, 2ġ⁺/((1 − e)|g̈|) long in all, taken as instantaneous
-        short = _unresolvable_rebounds(base, t, q, part, res)
+        # a rebound too slow, or whose Zeno accumulation of ever shorter bounces (2ġ⁺/((1 − e)|g̈|)
+        # long in all) ends within the step in force, is plastic: taken as instantaneous
+        short = _unresolvable_rebounds(base, t, q, part, res, e, cs.step)
         if short.any():
             e_c[short] = 0.0
             res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i)
@@ -499,12 +499,15 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
     if cs.mu.any():
         cs.set_friction_state(part, t, q, res.v_plus)
     # below the band (where a rebound from −GAP_BAND lives) a gap is the integrator's drift
-    return res.v_plus, [c for c in part if c not in resting and g[c] < -GAP_BAND - BAND_ROUNDOFF]
+    return res.v_plus, [c for c in part if c not in resting and g[c] < -GAP_BAND - GAP_ROUNDOFF]
 
 
-def _unresolvable_rebounds(base: Problem, t: float, q: np.ndarray, part: list[int], res) -> np.ndarray:
-    """Which of the impacting contacts ``part`` rebound slower than REBOUND_MIN, or would fly
-    free for less than ZENO_FLIGHT (2ġ⁺/|g̈|, g̈ the gap acceleration with the contacts open)."""
+def _unresolvable_rebounds(base: Problem, t: float, q: np.ndarray, part: list[int], res, e: float,
+                           step: float) -> np.ndarray:
+    """Which of the impacting contacts ``part`` rebound slower than REBOUND_MIN, or whose
+    whole Zeno sequence of bounces, 2ġ⁺/((1 − e)|g̈|) long (g̈ the gap acceleration with the
+    contacts open), would end within ``step`` (the step in force; at least ZENO_FLIGHT): no
+    step resolves it, and it ends at rest."""
     vn_plus = res.vn_plus
     hit = (res.impulse_n > 0.0) & (vn_plus > 0.0)
     if not hit.any():
@@ -512,7 +515,8 @@ def _unresolvable_rebounds(base: Problem, t: float, q: np.ndarray, part: list[in
     a, _ = base.acceleration(t, q, res.v_plus)
     _, G, gam = base.gap_rows(q, res.v_plus)
     gdd = G[part] @ a - gam[part]
-    return hit & ((vn_plus < REBOUND_MIN) | (2.0 * vn_plus < ZENO_FLIGHT * np.maximum(-gdd, 0.0)))
+    zeno_time = max(step, ZENO_FLIGHT) * (1.0 - min(e, 1.0 - 1e-12))
+    return hit & ((vn_plus < REBOUND_MIN) | (2.0 * vn_plus < zeno_time * np.maximum(-gdd, 0.0)))
 
 
 def _law(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.ndarray, e: float,

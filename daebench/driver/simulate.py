@@ -217,6 +217,7 @@ class Driver:
                 cs.regroup(state.t, state.q)
                 return state
         h = self.integ.step_size(cs.in_contact) * 0.5 ** cs.halvings
+        cs.step = 0.0 if self.integ.adaptive else h  # an adaptive step resolves what it must itself
         self.integ.start(problem, state, h)
         if self.out_i == 0 and state.t == 0.0:
             self._record_until(state, state, problem, 0.0)

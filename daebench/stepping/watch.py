@@ -36,6 +36,7 @@ from daebench.core.borrow import uncounted
 from daebench.core import kernels, phase
 
 GAP_BAND = 1e-9  # m
+GAP_ROUNDOFF = 1e-6 * GAP_BAND  # a gap this close to its closing threshold is on it (a rebound located there)
 NEAR_STEPS = 2.0  # an open contact within this many free steps of its surface is near
 
 
@@ -80,9 +81,11 @@ def blind(n_contacts: int) -> Watch:
 @njit(cache=True, inline="always")
 def gap_event(g, armed):
     """(closes, arms) for an open contact at gap g: it crossed its closing threshold (0
-    once armed, −GAP_BAND before), or it left the band and re-arms."""
+    once armed, −GAP_BAND before; by more than the round-off GAP_ROUNDOFF, so that a contact
+    that rebounded on its threshold does not close again at once), or it left the band and
+    re-arms."""
     off = 0.0 if armed else GAP_BAND
-    if g < -off:
+    if g < -off - GAP_ROUNDOFF:
         return True, False
     return False, g > GAP_BAND
 
