@@ -234,6 +234,14 @@ def test_metadata_lines_name_the_row_and_give_its_cost(tmp_path):
     assert r["err_theta_max"] == pytest.approx(1e-5, rel=1e-8)
 
 
+def test_a_row_written_twice_is_no_error_and_no_impact_without_contacts(tmp_path):
+    t = np.linspace(0.0, 1.0, 1001)
+    df = pd.DataFrame({"t": t, "theta_deg": pendulum_theta_deg(t)})
+    df = pd.concat([df, df.iloc[[300]]]).sort_values("t", kind="stable")
+    r = _score_json("pendulum", str(_csv(tmp_path / "twice.csv", df)))
+    assert r["impacts"] == 0 and r["err_theta_max"] < 1e-12 and json.loads(r["settings"])["events"] == "none"
+
+
 def test_gap_events_start_where_the_gap_closes():
     from daebench.harness.scoring.external import gap_events
 

@@ -21,8 +21,9 @@ abscissa), ``steps`` (its step count); every other key (``code: Exudyn 1.13.6``,
 
 **Events.** The event sequence comes from an impacts table (columns ``t`` and optionally
 ``contact``; :func:`read_impacts`), else from the ``gap`` observable (an impact where the
-gap closes: :func:`gap_events`), else from the repeated times of an event-driven file
-(contact unknown), else there is none (the row's message says so).
+gap closes: :func:`gap_events`), else — for a case with contacts — from the repeated times
+of an event-driven file (contact unknown), else there is none (the row's message says so
+when the case has contacts).
 
 **Refusals.** Every problem is a :class:`ExternalDataError` (a ParamError: exit 2 at the
 command line) that names the column, row or value and the fix, raised before anything is
@@ -461,7 +462,7 @@ def load(data: Any, t_end: float, system: Any, declared: Observables, scored: Se
     elif "gap" in hist.columns:
         one = 0 if int(system.n_contacts) == 1 else ANY   # one gap column of several contacts: which is not known
         events, source_ev = gap_events(t, hist["gap"].to_numpy(float), one), "gap column"
-    elif (np.diff(t) == 0).any():
+    elif system.n_contacts and (np.diff(t) == 0).any():
         events, source_ev = repeated_time_events(t), "repeated times"
     else:
         events, source_ev = [], "none"
