@@ -111,7 +111,7 @@ def _pendulum(n=101, t_end=1.0):
 
 
 def _files(root) -> set:
-    return {p for p in root.rglob("*") if p.is_file()} if root.exists() else set()
+    return set(root.rglob("*")) if root.exists() else set()
 
 
 def _refused(results, *args) -> str:

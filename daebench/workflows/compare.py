@@ -241,14 +241,13 @@ def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str 
     head = pipeline.headline(scene)
     proto = (protocol or protocol_for(scene)).resolved(head.score_name)
     folder = Path(out) if out is not None else default_folder(scene)
+    others = [external.prepare(scene, src, "--include") for src in include]   # refused before the folder is made
     ensure_writable_dir(folder, "compare folder (--out)",  # before any run: /dev/null, too long, read-only
                         longest_name=f".wp-{scene.name}-{proto.measures[0] if proto.measures else 'e'}"
                                      f".svg.{'9' * 7}.tmp")
     previous = digest.previous_table(folder / "table.parquet")   # the last comparison: its digests
     if previous is not None:
         previous = previous[~external.is_external(previous)]
-    others = [external.prepare(scene, src, f"--include {src.data if isinstance(src.data, (str, Path)) else 'data'}")
-              for src in include]
     specs, refused = plan(scene, proto)
     if not specs:
         raise ParamError(f"no integrator applies to scene '{scene.name}': "

@@ -180,11 +180,11 @@ def score_file(scene: Scene, source: Source, reference_mode: str = "compute",
     ext = prepare(scene, source)
     folder = Path(out) if out is not None else default_folder(scene)
     name = f"{ext.label}-{history_digest(ext.history)[:8]}.json"   # one label may name a code's runs at several steps
-    if write:  # before any work: a folder that cannot take the file refuses now
-        ensure_writable_dir(folder, "score folder (--out)")
-        check_name_fits(folder, f".{name}.9999999.tmp", "score folder (--out)")
     mode = "compute" if reference_mode == "compute" else "require"
     tr = truth_for(scene, ext, lambda: load_reference(scene, mode=mode, progress=progress))
+    if write:  # after every check of the data (a refusal leaves no folder), before the scoring
+        ensure_writable_dir(folder, "score folder (--out)")
+        check_name_fits(folder, f".{name}.9999999.tmp", "score folder (--out)")
     res = ScoreResult(external_row(scene, ext, tr), ext, tr, scene)
     if write:
         path = folder / name
