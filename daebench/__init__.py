@@ -7,6 +7,7 @@ The Python API (:mod:`daebench.api`), available at the package top:
 >>> df = daebench.bench("pendulum", ["hht", "newmark"], steps=[1e-2, 5e-3])                  # doctest: +SKIP
 >>> daebench.cases(), daebench.integrator_infos(), daebench.load_scene("beam-impact")         # doctest: +SKIP
 >>> daebench.reference("pendulum"), daebench.compare("pendulum")                             # doctest: +SKIP
+>>> daebench.score("pendulum", "exudyn.csv").row, daebench.export_case("beam-impact")        # doctest: +SKIP
 >>> daebench.ParamError                                                                      # doctest: +SKIP
 
 The package reads top-down, one layer a subpackage, each importing only those before it
@@ -33,7 +34,7 @@ from daebench.core import numba_cache as _nc  # noqa: E402
 _nc.install()
 
 _API = ("run", "bench", "reference", "compare", "survey", "effects", "report", "stability", "load_scene", "cases",
-        "integrator_info", "integrator_infos", "RunOutput", "IntegratorInfo", "ParamError")
+        "integrator_info", "integrator_infos", "RunOutput", "IntegratorInfo", "ParamError", "score", "export_case")
 __all__ = list(_API)
 
 

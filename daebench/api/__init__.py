@@ -13,9 +13,10 @@ Every function validates its arguments as the command line does and raises
 :class:`ParamError` (or a subclass) with a message that says what to change. The
 functions live by concept: :mod:`.catalogue` (scenes and integrators), :mod:`.runs` (one
 run, one reference), :mod:`.sweeps` (bench, compare, survey, report, effects, stability),
-:mod:`.studies` (the reproduced papers, event capturing, speed) and :mod:`.figures`
-(plots); the values they take (:class:`Plan`, :class:`SweepOptions`, …) are built once and
-passed on unchanged.
+:mod:`.studies` (the reproduced papers, event capturing, speed), :mod:`.external` (other
+codes' trajectories scored, a case exported for another code) and :mod:`.figures` (plots);
+the values they take (:class:`Plan`, :class:`SweepOptions`, …) are built once and passed on
+unchanged.
 
 May import: every layer below it (workflows, studies, harness and the rest); nothing
 below imports it, and :mod:`daebench.cli` imports nothing else.
@@ -23,6 +24,7 @@ below imports it, and :mod:`daebench.cli` imports nothing else.
 
 from daebench.api.catalogue import (IntegratorInfo, SceneInfo, cases, integrator_info, integrator_infos, load_scene,
                                     show)
+from daebench.api.external import ExportResult, ScoreResult, Source, export_case, score
 from daebench.api.figures import plot_convergence, plot_histories, plot_work_precision
 from daebench.api.runs import reference, run
 from daebench.api.studies import (CapturePage, StudyTable, averaged_gap_chain, averaged_gap_pendulum, capture_page,
@@ -43,6 +45,8 @@ __all__ = [
     # catalogue, one run, references
     "load_scene", "cases", "integrator_infos", "integrator_info", "IntegratorInfo", "SceneInfo", "show",
     "run", "RunOutput", "Writing", "reference",
+    # other codes
+    "score", "ScoreResult", "Source", "export_case", "ExportResult",
     # many runs
     "bench", "compare", "survey", "report", "effects", "stability", "error_columns", "parse_targets",
     "Plan", "SweepOptions", "Timing", "Execution", "Storage", "SurveyOptions", "Bisection", "HARNESS_FAILURES",

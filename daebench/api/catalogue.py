@@ -12,6 +12,7 @@ import pandas as pd
 from daebench.core.params import Param, ParamError, did_you_mean
 from daebench.core.scene import Scene, SceneError, UnknownScene, list_scenes
 from daebench.harness.running import checks
+from daebench.harness.scoring import pipeline
 from daebench.integrators import base
 from daebench.integrators.base import Capabilities, IntegratorError
 from daebench.models import build_system
@@ -81,6 +82,8 @@ class SceneInfo:
     n_contacts: int = 0
     contact_law: str = ""
     error: str = ""
+    #: the history's observable columns: (name, unit, meaning), as another code's file names them
+    observables: tuple[tuple[str, str, str], ...] = ()
 
 
 def show(name: str, overrides: Iterable[str] | dict[str, Any] | None = None,
@@ -110,5 +113,8 @@ def show(name: str, overrides: Iterable[str] | dict[str, Any] | None = None,
         system = build_system(sc)
     except ParamError as exc:
         return SceneInfo(sc, error=str(exc))
+    q0, v0 = system.initial_state()
+    declared = pipeline.declared(sc.model)
+    obs = tuple((c, declared.get(c).unit, declared.get(c).label or c) for c in system.observables(0.0, q0, v0))
     return SceneInfo(sc, system.n, system.n_bilateral, system.n_contacts,
-                     system.contact_law.name if system.contact_law else "")
+                     system.contact_law.name if system.contact_law else "", observables=obs)

@@ -20,6 +20,7 @@ from daebench.workflows import effects as _effects
 from daebench.workflows import report as _report
 from daebench.workflows import stability as _stability
 from daebench.workflows import survey as _survey
+from daebench.workflows.score import Source
 
 Overrides = Iterable[str] | dict[str, Any] | None
 
@@ -72,16 +73,21 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *, o
 
 def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides: Overrides = None,
             out: str | Path | None = None, report: bool = False,
-            protocol: _compare.Protocol | None = None) -> _compare.CompareResult:
+            protocol: _compare.Protocol | None = None, include: Sequence[Any] = ()) -> _compare.CompareResult:
     """Every applicable integrator at the case's protocol, scored against the reference;
     the table, the work–precision figure and (``report``) one HTML page in ``out``
     (default results/compare/<case>-<hash>). ``options``: as
     :data:`daebench.workflows.compare.DEFAULT_OPTIONS` (two workers, the reference computed
-    when missing) unless given. The result's ``ok`` is the exit rule: every run gave a
-    verdict and every history equals the previous comparison's (``changed`` says which
-    did not)."""
+    when missing) unless given. ``include``: other codes' trajectories (paths, DataFrames or
+    :class:`daebench.workflows.score.Source` values, as :func:`daebench.score` takes them),
+    scored beside the runs and marked external; refused before any run when their data are.
+    The result's ``ok`` is the exit rule: every run gave a verdict and every history equals
+    the previous comparison's (``changed`` says which did not)."""
     sc = load_scene(scene, overrides)
-    res = _compare.run_compare(sc, options or _compare.DEFAULT_OPTIONS, out, protocol)
+    if isinstance(include, (str, Path, Source, pd.DataFrame)):
+        include = [include]
+    sources = [s if isinstance(s, Source) else Source(s) for s in include]
+    res = _compare.run_compare(sc, options or _compare.DEFAULT_OPTIONS, out, protocol, sources)
     if report:
         try:
             res.page = _report.write_compare_report(res, sc, res.folder / "report.html")

@@ -67,6 +67,10 @@ def show(name: str = typer.Argument(..., help="an integrator, a case name or a p
         fail(info.error)
     out(f"size: n = {info.n} coordinates, {info.n_bilateral} bilateral constraints, "
         f"{info.n_contacts} contact point(s)" + (f", contact law {info.contact_law}" if info.contact_law else ""))
+    scored = set(sc.get("output.observables") or [])
+    print_table(["observable", "unit", "meaning", "scored"],
+                [[n, u or "-", m, "yes" if n in scored else ""] for n, u, m in info.observables],
+                "observables (the columns of a history, and of a file for `daebench score`)")
 
 
 def _integrator(info) -> None:

@@ -111,7 +111,10 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
                                                   help="output folder (default results/compare/<case>-<hash>)"),
             json_out: bool = typer.Option(False, "--json", help="print the table as JSON records only"),
             report_page: bool = typer.Option(False, "--report",
-                                             help="also write report.html (one self-contained page) in the folder")) -> None:
+                                             help="also write report.html (one self-contained page) in the folder"),
+            include: list[str] = typer.Option([], "--include",
+                                              help="another code's trajectory (CSV/Parquet, as for `daebench score`), "
+                                                   "scored beside the runs and marked external; repeatable")) -> None:
     """Run every applicable integrator at the case's protocol (daebench/workflows/compare.py: PROTOCOLS),
     score each run against the reference, print one table and write the work-precision figure."""
     from daebench import api
@@ -121,7 +124,7 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
     try:
         options = api.SweepOptions(reference=reference, timing=api.Timing(run_cap=run_cap),
                                    execution=api.Execution(jobs=jobs, progress=True))
-        res = api.compare(sc, options, out=out_dir, report=report_page)
+        res = api.compare(sc, options, out=out_dir, report=report_page, include=include)
     except api.OutputWriteError as exc:  # the work is done: show it, say what was not saved, exit 1
         if getattr(exc, "result", None) is not None:
             _compare_table(exc.result, sc)

@@ -21,10 +21,19 @@ verdict, the timing rule of :data:`daebench.harness.running.timing.REPEATS`, the
 impact-aware measures of :mod:`daebench.harness.scoring.impact_metrics`, energy and constraint residuals.
 The reference is the cached one, computed first (with a progress bar) when missing, and
 checked against a shipped fingerprint (:mod:`daebench.harness.references.fingerprints`) where one exists.
+
+**Other codes beside daebench's runs.** Trajectories from other codes (``include``:
+:class:`daebench.workflows.score.Source`) are read and checked before anything runs, checked
+for unit errors against the truth before the first run, and scored after the runs by the
+same pipeline against the same truth (:func:`daebench.workflows.score.external_row`). Their
+rows join the table with ``integrator`` = ``external``, are marked ``[external]`` in the
+printed table, the figure and the report, stand on the work–precision figure when their
+metadata give a cost, and take no part in the recommendation or the determinism check.
 """
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -35,7 +44,7 @@ import pandas as pd
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene
 from daebench.harness.analysis import plots
-from daebench.harness.files import ensure_writable_dir, results_dir, write_error
+from daebench.harness.files import ensure_writable_dir, jsonable, results_dir, write_error
 from daebench.harness.references import fingerprints
 from daebench.harness.references.reference import ReferenceMissing, load_reference
 from daebench.harness.running import checks, provenance, timing
@@ -46,6 +55,7 @@ from daebench.harness.sweeps.options import Execution, SweepOptions
 from daebench.harness.sweeps.sweep import HARNESS_FAILURES
 from daebench.harness.sweeps.plan import RunSpec, plan_sweep
 from daebench.integrators import base
+from daebench.workflows import score as external
 
 
 @dataclass(frozen=True)
@@ -145,6 +155,11 @@ class CompareResult:
     page: Path | None = None          # the HTML page, when one was written
 
     @property
+    def external(self) -> pd.DataFrame:
+        """The rows scored from other codes' files."""
+        return self.table[external.is_external(self.table)]
+
+    @property
     def failures(self) -> pd.DataFrame:
         """The rows of runs that gave no verdict (error, timeout, crashed)."""
         return self.table[self.table["status"].isin(HARNESS_FAILURES)] if len(self.table) else self.table
@@ -200,7 +215,7 @@ DEFAULT_OPTIONS = SweepOptions(reference="compute", execution=Execution(jobs=2))
 
 
 def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str | Path | None = None,
-                protocol: Protocol | None = None) -> CompareResult:
+                protocol: Protocol | None = None, include: Sequence[external.Source] = ()) -> CompareResult:
     """Run the protocol of ``scene``, score every run, write the table and the figure, and
     compare each run's history digest with the previous comparison in the same folder.
 
@@ -212,22 +227,27 @@ def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str 
         progress bars) and ``timing`` (its ``run_cap``: wall-time cap of one run [s])
     out : output folder (default results/compare/<scene>-<hash>)
     protocol : instead of the case's own
+    include : trajectories of other codes, scored beside the runs (module docstring)
 
     Raises
     ------
     ParamError
         Before any run: no applicable integrator, a missing reference under 'require', a
-        cached reference that disagrees with the shipped fingerprint.
+        cached reference that disagrees with the shipped fingerprint, an included file that
+        is refused (:class:`daebench.harness.scoring.external.ExternalDataError`).
     OutputWriteError
         The runs finished but the files could not be written; ``.result`` holds the table.
     """
     head = pipeline.headline(scene)
     proto = (protocol or protocol_for(scene)).resolved(head.score_name)
     folder = Path(out) if out is not None else default_folder(scene)
+    others = [external.prepare(scene, src, "--include") for src in include]   # refused before the folder is made
     ensure_writable_dir(folder, "compare folder (--out)",  # before any run: /dev/null, too long, read-only
                         longest_name=f".wp-{scene.name}-{proto.measures[0] if proto.measures else 'e'}"
                                      f".svg.{'9' * 7}.tmp")
     previous = digest.previous_table(folder / "table.parquet")   # the last comparison: its digests
+    if previous is not None:
+        previous = previous[~external.is_external(previous)]
     specs, refused = plan(scene, proto)
     if not specs:
         raise ParamError(f"no integrator applies to scene '{scene.name}': "
@@ -240,6 +260,7 @@ def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str 
             fingerprints.check(scene, ref)
         except ReferenceMissing:
             ref = None
+    truths = [external.truth_for(scene, e, lambda: ref) for e in others]   # a unit error refuses before any run
     df = sweep.run_specs(specs, scene, options.scored_against("require" if ref is not None else "none"),
                          description=f"compare {scene.name}")
     gone = df.apply(_refused_at_start, axis=1) if len(df) else pd.Series([], dtype=bool)
@@ -247,6 +268,9 @@ def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str 
         refused.setdefault(r["integrator"], str(r["message"]))
     df = df[~gone].reset_index(drop=True)
     changed = digest.mismatch_lines(previous, df)   # a run whose history differs from its last time
+    if others:
+        rows = [external.external_row(scene, e, tr, len(df) + k) for k, (e, tr) in enumerate(zip(others, truths))]
+        df = pd.concat([df, pd.DataFrame(rows)], ignore_index=True)
     try:
         files = write(df, scene, proto, folder, refused, ref)
     except OSError as exc:  # a full disk after the work: the table still reaches the caller
@@ -260,6 +284,16 @@ def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str 
 def default_folder(scene: Scene) -> Path:
     """results/compare/<scene>-<first 8 digits of its hash>"""
     return results_dir() / "compare" / f"{scene.name}-{scene.hash[:8]}"
+
+
+def marked(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with the labels of external rows marked ``[external]`` (figures, pages)."""
+    ext = external.is_external(df)
+    if not ext.any():
+        return df
+    out = df.copy()
+    out.loc[ext, "label"] = out.loc[ext, "label"].astype(str) + " [external]"
+    return out
 
 
 def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
@@ -280,10 +314,14 @@ def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused
     if ms:
         title = f"{scene.name}: work–precision ({len(df)} runs, reference {ref.describe()})" if ref is not None \
             else f"{scene.name}: work–precision"
-        files += plots.work_precision(df, "wall_s", ms, "label", folder / f"wp-{scene.name}", prov, title=title)[1]
+        files += plots.work_precision(marked(df), "wall_s", ms, "label", folder / f"wp-{scene.name}", prov,
+                                      title=title)[1]
     side = folder / "compare.json"
+    ext = df[external.is_external(df)]
     provenance.write_sidecar(side, prov, scene=scene.name, scene_hash=scene.hash, why=proto.why,
                              measures=list(proto.measures), not_applicable=dict(refused),
+                             external=jsonable([{"label": r["label"], "settings": r["settings"], "cost_s": r["wall_s"],
+                                                 "steps": r["steps"]} for _, r in ext.iterrows()]),
                              reference=None if ref is None else str(ref.path),
                              timing={"repeats": timing.REPEATS, "short_run_s": timing.SHORT_RUN_S,
                                      "warmup_cap_s": timing.WARMUP_CAP_S})
@@ -310,7 +348,9 @@ def table_rows(df: pd.DataFrame, head: Any) -> tuple[list[str], list[list[Any]]]
     rows = []
     for _, r in df.iterrows():
         imp = f"{_int(r.get('impacts'))}/{_int(r.get('impacts_ref'))}"
-        rows.append([f"{r['integrator']} {_setting(r)}".strip(), r["status"], r.get("wall_s"), _int(r.get("steps")),
+        what = f"{r['label']} [external] {_int(r.get('steps'))} steps" if r["integrator"] == external.EXTERNAL \
+            else f"{r['integrator']} {_setting(r)}".strip()
+        rows.append([what, r["status"], r.get("wall_s"), _int(r.get("steps")),
                      r.get(f"err_{obs}_max_trusted"), r.get(f"err_pre_{obs}_max"), r.get("err_impact1_t"), imp,
                      r.get("energy_resid_max")])
     return cols, rows
@@ -322,13 +362,19 @@ def _int(x: Any) -> Any:
 
 def summary_lines(res: CompareResult) -> list[str]:
     """What the table does not say: scoring coverage, integrators not applicable."""
-    df = res.table
+    ext = external.is_external(res.table)
+    df = res.table[~ext]
     lines = []
     first = f"err_{res.headline.score_name}_max_trusted" if res.headline is not None else ""
     scored = df[first].notna().sum() if first in df else 0
     verdicts = df["status"].value_counts().to_dict() if len(df) else {}
     lines.append(f"{len(df)} runs: " + ", ".join(f"{v} {k}" for k, v in verdicts.items())
                  + f"; {scored} scored against the reference (a run that did not complete has no error)")
+    for _, r in res.table[ext].iterrows():
+        cost = f"cost {r['wall_s']:.4g} s (as its file says)" if math.isfinite(float(r["wall_s"])) else \
+            "no cost given: not on the work–precision figure"
+        lines.append(f"external: {r['label']} ({json.loads(r['settings']).get('source', '?')}), scored against the "
+                     f"{r['against']}; {cost}")
     for k, v in res.not_applicable.items():
         lines.append(f"not applicable: {k} — {v}")
     return lines

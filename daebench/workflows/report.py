@@ -25,7 +25,8 @@ from daebench.core.params import ParamError
 from daebench.harness.analysis import plots, recommend
 from daebench.harness.files import atomic_write, results_dir
 from daebench.harness.running import provenance
-from daebench.workflows.compare import measures_present
+from daebench.workflows.compare import marked, measures_present
+from daebench.workflows.score import is_external
 from daebench.workflows.survey import CaseResult, SurveyResult, scene_hashes
 
 #: columns the reference's trusted span may be recorded in (added by the reference's own check)
@@ -206,13 +207,24 @@ def write_compare_report(res: Any, scene: Any, path: Path) -> Path:
     the recommendation, the work–precision figure, every run with the protocol's measures,
     the reference and its trusted span, the integrators not applicable, provenance."""
     measures = measures_present(res.table, res.protocol.measures)
-    recs = [line.removeprefix("recommendation — ") for line in recommend.compare_lines(res.table, measures)]
+    own = res.table[~is_external(res.table)]
+    recs = [line.removeprefix("recommendation — ") for line in recommend.compare_lines(own, measures)]
     sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.protocol.why)}</p>")]
     figs = [figure_html(p, f"{scene.name}: work–precision") for p in res.files if Path(p).suffix == ".png"]
     if figs:
         sections.append(("Work–precision", "".join(figs)))
     cols = [c for c in (*RUN_COLUMNS, *measures) if c in res.table.columns and c != "case"]
-    sections.append(("Every run", table_html(res.table, cols)))
+    sections.append(("Every run", table_html(marked(res.table), cols,
+                                             caption="rows marked [external] are other codes' trajectories, "
+                                                     "scored by the same pipeline" if len(own) < len(res.table)
+                                             else "")))
+    if len(own) < len(res.table):
+        sections.append(("Other codes", "<p>" + html.escape(
+            "Trajectories from other codes (daebench score, compare --include), scored against the same truth "
+            "over the same trusted span by the same measures; their cost is what their files state (wall_s), "
+            "and they take no part in the recommendation.") + "</p>"
+            + table_html(res.table[is_external(res.table)], ("label", "settings", "wall_s", "steps", "against",
+                                                              *measures))))
     ref = res.reference
     ts = trusted_span(res.table)
     span = table_html(ts) if len(ts) else "<p>These rows do not record the reference's trusted span.</p>"
