@@ -39,7 +39,8 @@ expansion): classical Runge–Kutta (order 4) with each step bounded by
 * the impulse step: the primary's impulse grows by at most ΔP = P*/N in a step, P* =
   |ġ⁻_j| / W_jj the impulse that stops the first primary contact (the fastest approach);
 * the time step T*/N, T* = min_i δ*_i/|ġ⁻_j| with δ*_i = ((n+1) |ġ⁻_j|² / (2 W_ii K_i))^{1/(n+1)}
-  the two-body compression of contact i at the fastest approach speed;
+  the two-body compression of contact i at the fastest approach speed; e_i T*/N while
+  contact i expands (an expansion lasts e_i times its compression);
 * a grading (h ≤ (T*/N) ((s + h₀)/T*)^β, s the distance in τ from the first touch or to
   a predicted separation, β = 1 − (n+1)/:data:`GRADING`, h₀ = T* N^{−1/(1−β)}) towards
   the points where a contact touches or leaves at a finite speed: there F ∝ s^n is not
@@ -74,6 +75,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
+from typing import Callable
 
 import numpy as np
 from numba import njit
@@ -141,7 +144,7 @@ def lzb_impact(M: np.ndarray, GN: np.ndarray, v_minus: np.ndarray, stiffness: np
     N = steps if steps is not None else steps_for(accuracy)
     P, D = np.zeros(k), np.zeros(k)
     u0 = GN @ v_minus
-    status, n_steps, n_evals = _process(np.ascontiguousarray(GN @ X), u0, K, eta, e, int(N), P, D)
+    status, n_steps, n_evals = _process(np.array(GN @ X, order="C"), np.array(u0), K, eta, e, int(N), P, D)
     v_plus = v_minus + X @ P
     loss = 0.5 * float(v_minus @ M @ v_minus - v_plus @ M @ v_plus)
     return LZBImpact(v_plus, P, np.zeros(k), u0, GN @ v_plus, np.zeros(k), loss, int(status),
@@ -149,18 +152,23 @@ def lzb_impact(M: np.ndarray, GN: np.ndarray, v_minus: np.ndarray, stiffness: np
                      evaluations=int(n_evals), step_count=int(N))
 
 
-def lzb_contacts(system: object, part: list[int]) -> tuple[np.ndarray, float]:
-    """(K_i, n) of a system's contacts ``part``: its ``contact_stiffness`` (per contact) and
-    ``contact_exponent`` (default 1.5), what a model declares to offer the LZB law."""
+def lzb_law(system: object, part: list[int]) -> Callable[..., LZBImpact]:
+    """The LZB law of a system's contacts ``part``, called as ``law(M, GN, v_minus, e, B)``:
+    :func:`lzb_impact` with the stiffness K_i and exponent n a model declares to offer it
+    (``contact_stiffness`` per contact, ``contact_exponent``, default 1.5) and its accuracy
+    target (``lzb_accuracy``, default :data:`ACCURACY`)."""
     K = getattr(system, "contact_stiffness", None)
     if K is None or not np.all(np.asarray(K, float)[part] > 0.0):
         raise ValueError(f"contact.impact_law = 'lzb' needs the contacts' stiffness: model "
                          f"{type(system).__name__} declares no positive contact_stiffness")
-    return np.asarray(K, float)[part], float(getattr(system, "contact_exponent", 1.5))
+    return partial(lzb_impact, stiffness=np.asarray(K, float)[part],
+                   exponent=float(getattr(system, "contact_exponent", 1.5)),
+                   accuracy=float(getattr(system, "lzb_accuracy", ACCURACY)))
 
 
 def _per_contact(x: np.ndarray | float, k: int) -> np.ndarray:
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), (k,)))
+    """One value per contact, as a fresh writable array (one compiled signature for all calls)."""
+    return np.array(np.broadcast_to(np.asarray(x, float), (k,)))
 
 
 # -- the impact process, compiled -----------------------------------------------------------------
@@ -252,13 +260,12 @@ def _settle(W, K, eta, e, phase, y, u_scale, F):
 
 
 @njit(cache=True)
-def _step_size(K, eta, inv_e2, phase, y, tau, s):
-    """The step (module docstring): at most h_T, the primary's impulse step, graded near a
-    touch at τ = 0 and a predicted separation."""
+def _step_size(K, eta, e, inv_e2, phase, y, tau, s):
+    """The step (module docstring): at most h_T (e_i h_T while contact i expands), the
+    primary's impulse step, graded near a touch at τ = 0 and a predicted separation."""
     T, dP, hT, beta, h0, E_min = s[2], s[3], s[4], s[5], s[6], s[7]
-    h = hT
+    h = _graded(tau, T, hT, h0, beta)
     Ej, j = 0.0, -1
-    dist = tau
     for i in range(K.shape[0]):
         d = y[1, i]
         if phase[i] != OPEN and d > 0.0:
@@ -266,12 +273,17 @@ def _step_size(K, eta, inv_e2, phase, y, tau, s):
             if E > Ej:
                 Ej, j = E, i
             if phase[i] == EXPANSION and y[0, i] > 0.0 and E > E_min:
-                dist = min(dist, d / (inv_e2[i] * y[0, i]))
+                # an expansion lasts e_i times a compression: its scales shrink by e_i
+                h = min(h, _graded(d / (inv_e2[i] * y[0, i]), e[i] * T, e[i] * hT, e[i] * h0, beta))
     if j >= 0:
         h = min(h, dP / (K[j] * y[1, j] ** eta[j]))
-    if dist < T:
-        h = min(h, hT * ((dist + h0) / T) ** beta)
     return h
+
+
+@njit(cache=True)
+def _graded(dist, T, hT, h0, beta):
+    """h_T, graded towards a non-smooth point at distance ``dist``: h_T ((dist + h₀)/T)^β."""
+    return hT * ((dist + h0) / T) ** beta if dist < T else hT
 
 
 @njit(cache=True)
@@ -374,7 +386,7 @@ def _process(W, u0, K, eta, e, N, P, D):
             P[:] = y[2]
             D[:] = y[3]
             return 0, steps, evals
-        h = _step_size(K, eta, inv_e2, phase, y, tau, s)
+        h = _step_size(K, eta, e, inv_e2, phase, y, tau, s)
         dt, n_eval = _advance(W, K, eta, e, inv_e2, phase, y, h, s, ws, F, y1, ym, g0, g1, gm)
         tau += dt
         evals += n_eval

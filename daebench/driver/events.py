@@ -54,7 +54,7 @@ from daebench.core.contact import Impact
 from daebench.core.frictional_impact import failure_message, frictional_impact, law_name
 from daebench.core.kernels import friction_coefficients
 from daebench.core.linalg import solve_structured
-from daebench.core.lzb import NAME as LZB_NAME, failure_message as lzb_failure, lzb_contacts, lzb_impact
+from daebench.core.lzb import NAME as LZB_NAME, failure_message as lzb_failure, lzb_law
 from daebench.core.problem import Problem
 from daebench.core.resting_contacts import failure_message as resting_failure, resting_lcp
 from daebench.core.system import MechanicalSystem, State
@@ -474,11 +474,12 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
         held = np.vstack([B] + [Gq[[c]] for c in cs.active])
     mu = cs.mu[part] if cs.mu.size else np.zeros(len(part))
     e_c = np.full(len(part), 0.0 if zeno else e)
-    lzb = lzb_contacts(base.system, part) if cs.impact_law == "lzb" else None
+    lzb = lzb_law(base.system, part) if cs.impact_law == "lzb" else None
     res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i, lzb)
-    if e_c.any():
+    if e_c.any() and lzb is None:
         # a rebound too slow, or whose free flight too short, to resolve is plastic: its Zeno
         # accumulation of ever shorter bounces, 2ġ⁺/((1 − e)|g̈|) long in all, taken as instantaneous
+        # (not under LZB, where a contact's e shapes the whole wave: its slow rebounds rest, below)
         short = _unresolvable_rebounds(base, t, q, part, res)
         if short.any():
             e_c[short] = 0.0
@@ -516,12 +517,12 @@ def _unresolvable_rebounds(base: Problem, t: float, q: np.ndarray, part: list[in
 
 
 def _law(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.ndarray, e: float,
-         held: np.ndarray, t: float, i: int, lzb: tuple | None = None):
+         held: np.ndarray, t: float, i: int, lzb: Callable | None = None):
     """Newton's law (with Coulomb friction where μ > 0) for the contacts GN, as one LCP
     (:func:`daebench.core.frictional_impact.frictional_impact`; impact of contact i at t), or
-    with ``lzb`` = (stiffness, exponent) of the contacts the LZB law (:mod:`daebench.core.lzb`).
+    the LZB law ``lzb`` of these contacts (:func:`daebench.core.lzb.lzb_law`).
     Its failure ends the run, named."""
-    res = frictional_impact(M, GN, GT, mu, v, e, held) if lzb is None else lzb_impact(M, GN, v, *lzb, e, held)
+    res = frictional_impact(M, GN, GT, mu, v, e, held) if lzb is None else lzb(M, GN, v, e=e, B=held)
     if not res.ok:
         fail = failure_message if lzb is None else lzb_failure
         raise StepFailure(f"{fail(res.status)} (impact of contact {i})", t)
