@@ -39,6 +39,10 @@ that K_0 (s_i δ_i)ⁿ s_i = K_i δ_iⁿ is their force and K_i δ_i^{n+1}/(n+1)
 (the hysteresis term χ δ̇ is unchanged by the scaling); their ġ in the episode records is
 scaled alike. Under the constraint law gaps are unscaled.
 
+The LZB law's accuracy target is ``contact.lzb_accuracy`` (relative to the striker's speed;
+it sets the law's step in impulse). A chain is scored per ball (x_i, v_i) and on its final
+velocity distribution (:func:`final_velocities`).
+
 Closed forms: :func:`simultaneous_outcome` (the LCP solved by enumeration, any N, e),
 :func:`sequential_outcome` and :func:`two_ball_outcome` (Newton's law of two balls).
 Scenes: ``cases/newton-cradle.toml``, ``cases/hertz-chain.toml``, ``cases/tapered-chain.toml``.
@@ -55,6 +59,7 @@ from numba import njit
 
 from daebench.core import kernels
 from daebench.core.contact import contact_schema
+from daebench.core.lzb import ACCURACY
 from daebench.core.observables import Observable
 from daebench.core.params import Param
 from daebench.core.scene import Scene
@@ -90,6 +95,9 @@ SCHEMA: dict[str, Param] = {
               unit="m/s"),
         Param("effects.contact", bool, True, "the contacts (off: the balls pass through each other)"),
         *CONTACT.params,
+        Param("contact.lzb_accuracy", float, ACCURACY, "contact.impact_law = lzb: accuracy target of the "
+              "post-impact velocities relative to the fastest approach speed (sets the step in impulse, "
+              "daebench.core.lzb)", low=1e-13, high=0.1),
     )
 }
 
@@ -161,14 +169,15 @@ def hertz_stiffness(r: np.ndarray, modulus: float, poisson: float) -> np.ndarray
 class Cradle(KernelSystem):
     """N balls on a line (module docstring). ``mass`` and ``diameter``: of each ball (a
     number) or per ball (an array); ``stiffness``: the Hertz K_i per contact (a number for
-    all, or an array; 0: none declared); ``exponent``: the Hertz exponent n."""
+    all, or an array; 0: none declared); ``exponent``: the Hertz exponent n; ``lzb_accuracy``:
+    the LZB law's accuracy target."""
 
     n_bilateral = 0
     power_free = True
 
     def __init__(self, balls: int = 3, mass: Any = 0.1, diameter: Any = 0.05, gap: float = 0.01,
                  speed: float = 1.0, contact: bool = True, law: Any = None, restitution: float = 1.0,
-                 stiffness: Any = 0.0, exponent: float = 1.5) -> None:
+                 stiffness: Any = 0.0, exponent: float = 1.5, lzb_accuracy: float = ACCURACY) -> None:
         self.n = int(balls)
         self.masses = np.broadcast_to(np.asarray(mass, float), (self.n,)).copy()
         self.diameters = np.broadcast_to(np.asarray(diameter, float), (self.n,)).copy()
@@ -181,6 +190,7 @@ class Cradle(KernelSystem):
         #: Hertz stiffness K_i per contact and exponent n (the LZB law's stiffness ratios)
         self.contact_stiffness = np.broadcast_to(np.asarray(stiffness, float), (self.n - 1,)).copy()
         self.contact_exponent = float(exponent)
+        self.lzb_accuracy = float(lzb_accuracy)  # the LZB law's accuracy target (daebench.core.lzb)
         scale = np.ones(self.n - 1)
         if law is not None and law.continuous and self.contact_stiffness[0] > 0.0:
             scale = (self.contact_stiffness / law.stiffness) ** (1.0 / (law.exponent + 1.0))
@@ -218,11 +228,18 @@ def build(scene: Scene) -> Cradle:
     return Cradle(balls=n, mass=masses(r, s["cradle.mass"], s["cradle.density"]), diameter=2.0 * r,
                   gap=s["start.gap"], speed=s["start.speed"], contact=s["effects.contact"],
                   law=CONTACT.law(s, n - 1, hertz_stiffness=float(k[0])), restitution=s["contact.restitution"],
-                  stiffness=k, exponent=s["contact.hertz_exponent"])
+                  stiffness=k, exponent=s["contact.hertz_exponent"], lzb_accuracy=s["contact.lzb_accuracy"])
 
 
 def check_scene(scene: Scene) -> None:
     CONTACT.check(scene)
+
+
+def final_velocities(history: Any) -> np.ndarray:
+    """The balls' velocities v1 … vN in the last row of a run's history: the final velocity
+    distribution a chain is scored on (every ball's, against the reference's)."""
+    n = sum(1 for c in history.columns if c.startswith("v") and c[1:].isdigit())
+    return history[[f"v{i}" for i in range(1, n + 1)]].values[-1].astype(float)
 
 
 # -- closed forms -------------------------------------------------------------------------
