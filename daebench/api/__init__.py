@@ -32,7 +32,7 @@ from daebench.api.studies import (CapturePage, StudyTable, averaged_gap_chain, a
 from daebench.api.sweeps import bench, compare, effects, error_columns, parse_targets, report, stability, survey
 from daebench.core.params import Param, ParamError, parse_pairs
 from daebench.harness.files import OutputWriteError
-from daebench.harness.running.deadline import RunTimeout
+from daebench.core.interrupt import RunTimeout
 from daebench.harness.running.progress import RunProgress
 from daebench.harness.sweeps.options import Execution, Plan, Storage, SweepOptions, Timing
 from daebench.harness.sweeps.sweep import HARNESS_FAILURES, SweepInterrupted

@@ -39,7 +39,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from daebench.core import impact_checks
+from daebench.core import impact_checks, interrupt
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
 from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name, project, settle
@@ -227,6 +227,7 @@ class Driver:
             watch = self._watch(problem) if (batch and not powers0
                                              and self.out_i < len(self.t_out)) else None
             adv = self._advance(watch)
+            interrupt.check()  # a safe point: a wall-time cap's request is honoured here
             prev, new = adv.prev, adv.new
             self._t_last = new.t
             self._last_state = new

@@ -60,7 +60,7 @@ from daebench.core.params import ParamError
 from daebench.core.problem import Problem
 from daebench.core.scene import Scene
 from daebench.driver.history import DIVERGENCE_ENERGY
-from daebench.harness.running.deadline import RunTimeout
+from daebench.core.interrupt import RunTimeout
 from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.integrators.baumgarte import BaumgarteABM4
 from daebench.integrators.family import NewmarkFamily

@@ -89,7 +89,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
     scene, integrator, options : what to run
     out_dir, write : where the history goes (default results/runs), and whether it is written
     force : run even when the step count or history size is beyond :mod:`.checks`' limits
-    run_cap : wall-time cap in seconds (:class:`.deadline.RunTimeout` beyond it)
+    run_cap : wall-time cap in seconds (:class:`daebench.core.interrupt.RunTimeout` beyond it)
     progress : called with the simulated time, at most every 0.25 s of wall time
     record_states : keep the integrator's (t, q, v, a, λ) at the output times (``RunResult.states``)
 

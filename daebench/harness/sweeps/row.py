@@ -12,7 +12,7 @@ from typing import Any
 
 from daebench.core.scene import Scene
 from daebench.harness.references.reference import Reference, ReferenceMissing, load_reference
-from daebench.harness.running.deadline import RunTimeout
+from daebench.core.interrupt import RunTimeout
 from daebench.harness.running.history_io import keep_history
 from daebench.harness.running.runner import run_scene
 from daebench.harness.running.timing import WARMUP_CAP_S, time_call
