@@ -23,8 +23,8 @@ the kernel the model registered; model code does not change, and a plugin model 
 registers kernels only. The rebuilding code is generated once per data layout (field
 kinds, dtypes, array ranks — not sizes, so every mesh of a model shares it) into a small
 module under the numba cache directory (``NUMBA_CACHE_DIR``, else ``~/.cache/daebench``),
-named by daebench's source stamp, a plugin model's version and the code of the kernels the
-model registered, so it caches on disk like the rest (:func:`_generated_module`). A handle
+named by daebench's source stamp and the code of the kernels the model registered (and of what
+they reach: :func:`daebench.core.code_digest.functions_digest`), so it caches on disk like the rest (:func:`_generated_module`). A handle
 holds only numbers: passing it from Python costs what passing three arrays costs; it
 cannot be pickled (its addresses mean nothing in another process).
 
@@ -37,9 +37,7 @@ their data as it is: :func:`handle` returns it unchanged.
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
-import marshal
 import os
 import sys
 import tempfile
@@ -54,7 +52,7 @@ from numba.core import cgutils
 from numba.core.extending import intrinsic
 from numba.np.arrayobj import get_cfarray_intrinsic
 
-from daebench.core import kernels
+from daebench.core import code_digest, kernels
 from daebench.core.borrow import uncounted
 from daebench.core.kernels import KernelError
 
@@ -240,14 +238,10 @@ def _generated_module(layout: _Layout, expr: str) -> Any:
     made = (cls, impls, *layout.key)  # a kernel registered anew in this process makes a new module
     if made in _MODULES:
         return _MODULES[made]
-    # the registered kernels' own code is part of the name: a plugin (or a notebook's model)
-    # edited without a version bump must not load another kernel's cached machine code
-    digest = hashlib.sha256("|".join([_LAYOUT_VERSION, numba_cache.source_stamp(),
-                                      numba_cache._plugin_packages().get(cls.__module__.split(".")[0], ""),
-                                      *layout.key]).encode())
-    for f in impls:
-        digest.update(marshal.dumps(getattr(f, "py_func", f).__code__))
-    name = f"_daebench_handle_{cls.__name__.lower()}_{digest.hexdigest()[:16]}"
+    # the registered kernels' code, and what they reach, is part of the name: a plugin (or a
+    # notebook's model) edited without a version bump must not load another kernel's machine code
+    digest = code_digest.functions_digest(impls, [_LAYOUT_VERSION, numba_cache.source_stamp(), *layout.key])
+    name = f"_daebench_handle_{cls.__name__.lower()}_{digest[:16]}"
     path = _directory() / f"{name}.py"
     own = tuple(k for k, f in zip(kernels.KERNELS, impls) if _shared(k, f) is None)
     if not path.exists():
