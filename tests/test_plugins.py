@@ -37,6 +37,21 @@ def test_plugin_listed_with_its_distribution(plugin_site):
     assert "daebench-verlet" in line or "daebench_verlet" in line
 
 
+def test_a_plugin_that_shadows_a_builtin_is_refused_naming_both(plugin_site, tmp_path):
+    """The example package registers 'hht' too: `list` says it is refused, naming both
+    distributions, and `run -i hht` runs daebench's."""
+    out = daebench(plugin_site, "list")
+    assert out.returncode == 0, out.stderr
+    text = " ".join(out.stdout.split())
+    assert ("refused: integrator 'hht' of the installed distribution daebench-verlet (daebench_verlet:ShadowHHT) "
+            "is refused: daebench's built-in (daebench.integrators.hht:HHT) provides that name") in text
+    line = next(ln for ln in out.stdout.splitlines() if ln.split()[:1] == ["hht"])
+    assert "daebench" in line and "daebench-verlet" not in line
+    run = daebench(plugin_site, "run", "pendulum", "-i", "hht", "--opt", "h=1e-3", "--set", "t_end=0.01",
+                   "--out", str(tmp_path), "--json")
+    assert run.returncode == 0 and json.loads(run.stdout)["counters"]["newton_iterations"] > 0   # the built-in
+
+
 def test_plugin_runs_and_is_second_order(plugin_site, tmp_path):
     """The plugin runs the pendulum through the CLI; its error against the exact solution
     falls 4× when h halves (it is a 2nd-order method)."""

@@ -14,15 +14,15 @@ Every function validates its arguments as the command line does and raises
 functions live by concept: :mod:`.catalogue` (scenes and integrators), :mod:`.runs` (one
 run, one reference), :mod:`.sweeps` (bench, compare, survey, report, effects, stability),
 :mod:`.studies` (the reproduced papers, event capturing, speed) and :mod:`.figures`
-(plots); the values they take (:class:`Plan`, :class:`SweepOptions`, …) are built once and
-passed on unchanged.
+(plots); the values they take
+(:class:`Plan`, :class:`SweepOptions`, …) are built once and passed on unchanged.
 
 May import: every layer below it (workflows, studies, harness and the rest); nothing
 below imports it, and :mod:`daebench.cli` imports nothing else.
 """
 
-from daebench.api.catalogue import (IntegratorInfo, SceneInfo, cases, integrator_info, integrator_infos, load_scene,
-                                    show)
+from daebench.api.catalogue import (IntegratorInfo, SceneInfo, cases, integrator_info, integrator_infos,
+                                    integrator_refusals, load_scene, register, show)
 from daebench.api.figures import plot_convergence, plot_histories, plot_work_precision
 from daebench.api.runs import reference, run
 from daebench.api.studies import (CapturePage, StudyTable, averaged_gap_chain, averaged_gap_pendulum, capture_page,
@@ -42,6 +42,7 @@ from daebench.workflows.survey import SurveyOptions
 __all__ = [
     # catalogue, one run, references
     "load_scene", "cases", "integrator_infos", "integrator_info", "IntegratorInfo", "SceneInfo", "show",
+    "register", "integrator_refusals",
     "run", "RunOutput", "Writing", "reference",
     # many runs
     "bench", "compare", "survey", "report", "effects", "stability", "error_columns", "parse_targets",

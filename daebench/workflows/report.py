@@ -207,7 +207,8 @@ def write_compare_report(res: Any, scene: Any, path: Path) -> Path:
     the reference and its trusted span, the integrators not applicable, provenance."""
     measures = measures_present(res.table, res.protocol.measures)
     recs = [line.removeprefix("recommendation — ") for line in recommend.compare_lines(res.table, measures)]
-    sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.protocol.why)}</p>")]
+    sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.heading(scene.name))}</p>"
+                                                        f"<p>{html.escape(res.protocol.why)}</p>")]
     figs = [figure_html(p, f"{scene.name}: work–precision") for p in res.files if Path(p).suffix == ".png"]
     if figs:
         sections.append(("Work–precision", "".join(figs)))
