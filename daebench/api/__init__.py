@@ -13,8 +13,8 @@ Every function validates its arguments as the command line does and raises
 :class:`ParamError` (or a subclass) with a message that says what to change. The
 functions live by concept: :mod:`.catalogue` (scenes and integrators), :mod:`.runs` (one
 run, one reference), :mod:`.sweeps` (bench, compare, survey, report, effects, stability),
-:mod:`.studies` (the reproduced papers, event capturing, speed) and :mod:`.figures`
-(plots); the values they take
+:mod:`.studies` (the reproduced papers, event capturing, speed), :mod:`.figures`
+(plots) and :mod:`.verify` (an integrator's conformance run); the values they take
 (:class:`Plan`, :class:`SweepOptions`, …) are built once and passed on unchanged.
 
 May import: every layer below it (workflows, studies, harness and the rest); nothing
@@ -28,6 +28,7 @@ from daebench.api.runs import reference, run
 from daebench.api.studies import (CapturePage, StudyTable, averaged_gap_chain, averaged_gap_pendulum, capture_page,
                                   capture_rates, compile_report, hht_beam_impact, interactive_mode, numbers, perf)
 from daebench.api.sweeps import bench, compare, effects, error_columns, parse_targets, report, stability, survey
+from daebench.api.verify import Check, VerifyResult, verify
 from daebench.core.params import Param, ParamError, parse_pairs
 from daebench.harness.files import OutputWriteError
 from daebench.harness.running.deadline import RunTimeout
@@ -47,6 +48,8 @@ __all__ = [
     # many runs
     "bench", "compare", "survey", "report", "effects", "stability", "error_columns", "parse_targets",
     "Plan", "SweepOptions", "Timing", "Execution", "Storage", "SurveyOptions", "Bisection", "HARNESS_FAILURES",
+    # conformance
+    "verify", "VerifyResult", "Check",
     # studies and figures
     "hht_beam_impact", "averaged_gap_chain", "averaged_gap_pendulum", "interactive_mode", "StudyTable",
     "capture_page", "CapturePage", "capture_rates", "perf", "PerfSettings", "compile_report",
