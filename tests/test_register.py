@@ -10,6 +10,7 @@ import daebench
 from daebench.core.system import State
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator
+from daebench.stepping.control import land
 
 
 class NotebookVerlet(Integrator):
@@ -25,10 +26,10 @@ class NotebookVerlet(Integrator):
 
     def _step_impl(self, t_stop: float) -> State:
         s, p = self.state, self.problem
-        h = min(self.h, t_stop - s.t)
+        h, t1 = land(s.t, t_stop, self.h)
         q = s.q + h * s.v + 0.5 * h * h * s.a
-        a1, lam1 = p.acceleration(s.t + h, q, s.v + h * s.a)
-        return State(s.t + h, q, s.v + 0.5 * h * (s.a + a1), a1, lam1)
+        a1, lam1 = p.acceleration(t1, q, s.v + h * s.a)
+        return State(t1, q, s.v + 0.5 * h * (s.a + a1), a1, lam1)
 
 
 @pytest.fixture

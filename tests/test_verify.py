@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import re
 
-import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 import daebench
 from daebench.cli.app import app
-from daebench.core.system import State
 from daebench.integrators import base
-from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator
+from daebench.integrators.base import Capabilities
+from tests.test_contract import Stuck, WrongShape
+from tests.test_register import NotebookVerlet
 
 FAST = ["hht", "newmark", "genalpha", "baumgarte", "ida", "moreau", "imm"]
 SLOW = ["nsgenalpha", "central", "lcp", "lcp-avg"]
@@ -41,21 +41,8 @@ def test_verify_hht_prints_its_measured_order():
     assert any(ln.startswith("PASS  drift") for ln in out.stdout.splitlines())
 
 
-class Verlet(Integrator):
+class Verlet(NotebookVerlet):
     name = "t-verlet"
-    description = "velocity Verlet, acceleration level (test)"
-    capabilities = Capabilities(order=2, constraints=True, index=1)
-    settings_spec = STEP_SETTINGS
-
-    def _start(self) -> None:
-        pass
-
-    def _step_impl(self, t_stop: float) -> State:
-        s, p = self.state, self.problem
-        h = min(self.h, t_stop - s.t)
-        q = s.q + h * s.v + 0.5 * h * h * s.a
-        a1, lam1 = p.acceleration(s.t + h, q, s.v + h * s.a)
-        return State(s.t + h, q, s.v + 0.5 * h * (s.a + a1), a1, lam1)
 
 
 class ClaimsFourth(Verlet):
@@ -68,25 +55,9 @@ class ClaimsIndex3(Verlet):
     capabilities = Capabilities(order=2, constraints=True, index=3)
 
 
-class Stuck(Verlet):
-    name = "t-stuck-v"
-
-    def _step_impl(self, t_stop: float) -> State:
-        s = super()._step_impl(t_stop)
-        return State(self.state.t, s.q, s.v, s.a, s.lam)
-
-
-class WrongShape(Verlet):
-    name = "t-shape-v"
-
-    def _step_impl(self, t_stop: float) -> State:
-        s = super()._step_impl(t_stop)
-        return State(s.t, s.q[:1], s.v, s.a, s.lam)
-
-
 @pytest.fixture
 def plugins():
-    classes = (Verlet, ClaimsFourth, ClaimsIndex3, Stuck, WrongShape)
+    classes = (Verlet, ClaimsFourth, ClaimsIndex3, Stuck, WrongShape)   # the last two: tests/test_contract.py
     for c in classes:
         daebench.register(c)
     yield
@@ -112,14 +83,14 @@ def test_a_drifting_method_that_declares_index_3_fails(plugins):
 
 
 def test_a_step_that_does_not_advance_fails_the_contract(plugins):
-    (c,) = daebench.verify("t-stuck-v", properties=["contract"]).checks
+    (c,) = daebench.verify("t-stuck", properties=["contract"]).checks
     assert c.status == "fail" and "the step returned t = 0 s, which does not advance t" in c.text
 
 
 def test_a_wrong_shape_fails_the_contract_naming_the_array(plugins):
-    (c,) = daebench.verify("t-shape-v", properties=["contract"]).checks
-    assert c.status == "fail" and "q has shape (1,), expected (2,) (2 coordinates in this phase)" in c.text
-    out = CliRunner().invoke(app, ["verify", "t-shape-v", "--only", "contract"], env={"COLUMNS": "300"})
+    (c,) = daebench.verify("t-wrongshape", properties=["contract"]).checks
+    assert c.status == "fail" and "lam has shape (3,), expected (1,) (1 active constraints in this phase)" in c.text
+    out = CliRunner().invoke(app, ["verify", "t-wrongshape", "--only", "contract"], env={"COLUMNS": "300"})
     assert out.exit_code == 1 and "FAIL  contract" in out.stdout and "1 property fails" in out.stdout
 
 

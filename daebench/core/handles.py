@@ -110,23 +110,30 @@ _i64_at = _pointer_at(types.int64)
 _b1_at = _pointer_at(types.boolean)
 
 
+def function_value(fntype):
+    """The codegen of an intrinsic whose first argument is a compiled function's address: a
+    first-class function value of ``fntype``, called with numba's own calling convention
+    (its ``jit_addr``), so that its exception reaches the caller as from any compiled call."""
+
+    def codegen(context, builder, signature, args):
+        fn = cgutils.create_struct_proxy(fntype)(context, builder)
+        null = context.get_constant_null(types.voidptr)
+        fn.c_addr = null
+        fn.py_addr = null
+        fn.jit_addr = builder.inttoptr(args[0], context.get_value_type(types.voidptr))
+        return fn._getvalue()
+
+    return codegen
+
+
 def _function_at(sig):
-    """An intrinsic turning a compiled function's address into a first-class function value
-    of signature ``sig``, called with numba's own calling convention (its ``jit_addr``):
-    a kernel's exception reaches the caller as from any compiled call."""
+    """An intrinsic turning a kernel's address into a first-class function value of
+    signature ``sig`` (:func:`function_value`)."""
     fntype = types.FunctionType(sig)
 
     @intrinsic
     def at(typingctx, addr):
-        def codegen(context, builder, signature, args):
-            fn = cgutils.create_struct_proxy(fntype)(context, builder)
-            null = context.get_constant_null(types.voidptr)
-            fn.c_addr = null
-            fn.py_addr = null
-            fn.jit_addr = builder.inttoptr(args[0], context.get_value_type(types.voidptr))
-            return fn._getvalue()
-
-        return fntype(types.int64), codegen
+        return fntype(types.int64), function_value(fntype)
 
     return at
 

@@ -35,7 +35,6 @@ from typing import Any, NamedTuple
 import numba
 import numpy as np
 from numba import types
-from numba.core import cgutils
 from numba.extending import intrinsic
 
 from daebench.core import code_digest, handles, numba_cache
@@ -72,39 +71,24 @@ def accept_signature(cur: Any) -> Any:
     return types.none(_F, _I, types.float64, cur, cur)
 
 
-def _function_value(fntype: Any) -> Any:
-    """Codegen of a first-class function value of ``fntype`` at the address in the first
-    argument, called with numba's own calling convention (as :func:`daebench.core.handles._function_at`)."""
-
-    def codegen(context, builder, signature, args):
-        fn = cgutils.create_struct_proxy(fntype)(context, builder)
-        null = context.get_constant_null(types.voidptr)
-        fn.c_addr = null
-        fn.py_addr = null
-        fn.jit_addr = builder.inttoptr(args[0], context.get_value_type(types.voidptr))
-        return fn._getvalue()
-
-    return codegen
-
-
 # the entry at an address as a function value; its signature follows from the types of the
 # other arguments, which are read for typing only
 @intrinsic
 def _start_at(typingctx, addr, ph, cur, cnt):
     fntype = types.FunctionType(start_signature(ph, cur, cnt))
-    return fntype(addr, ph, cur, cnt), _function_value(fntype)
+    return fntype(addr, ph, cur, cnt), handles.function_value(fntype)
 
 
 @intrinsic
 def _step_at(typingctx, addr, ph, ctl, cur, cnt):
     fntype = types.FunctionType(step_signature(ph, ctl, cur, cnt))
-    return fntype(addr, ph, ctl, cur, cnt), _function_value(fntype)
+    return fntype(addr, ph, ctl, cur, cnt), handles.function_value(fntype)
 
 
 @intrinsic
 def _accept_at(typingctx, addr, cur):
     fntype = types.FunctionType(accept_signature(cur))
-    return fntype(addr, cur), _function_value(fntype)
+    return fntype(addr, cur), handles.function_value(fntype)
 
 
 def _h_start(meth, ws, ph, t, cur, cnt):
