@@ -180,7 +180,7 @@ print("THETA", repr(float(r.observables["theta_deg"].iloc[-1])), "MODULES", ",".
 def test_an_edit_of_a_compiled_plugin_is_never_served_stale_and_recompiles_its_code_only(plugin_site, tmp_path):
     """A compiled plugin's code keys what is compiled of it, not its version: an edit of its
     step (version unchanged) changes the answer at once, and what is compiled again is the
-    plugin's own entries — no daebench function (the loop reaches the plugin's stepper as
+    step's entry alone — no daebench function (the loop reaches the plugin's stepper as
     compiled values, daebench.stepping.method_handles)."""
     import shutil
     import time
@@ -207,4 +207,5 @@ def test_an_edit_of_a_compiled_plugin_is_never_served_stale_and_recompiles_its_c
     theta1, compiled = probe()
     assert abs(theta1 - theta0) > 1e-6                      # the edit runs
     assert compiled and not [m for m in compiled if m.startswith("daebench.")], compiled
-    assert any(m.startswith("_daebench_method_") for m in compiled)
+    entries = [m for m in compiled if m.startswith("_daebench_method_")]
+    assert entries and all("_step_" in m for m in entries), entries   # the step's entry alone
