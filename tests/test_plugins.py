@@ -30,18 +30,13 @@ def daebench(site, *args):
     return subprocess.run([sys.executable, "-m", "daebench.cli.app", *args], capture_output=True, text=True, env=env)
 
 
-def test_plugin_listed_with_its_distribution(plugin_site):
+def test_plugin_listed_with_its_distribution_and_a_shadowing_one_refused(plugin_site, tmp_path):
+    """Listed with its distribution; the example package registers 'hht' too: `list` says it
+    is refused, naming both distributions, and `run -i hht` runs daebench's."""
     out = daebench(plugin_site, "list")
     assert out.returncode == 0, out.stderr
     line = next(ln for ln in out.stdout.splitlines() if "verlet" in ln)
     assert "daebench-verlet" in line or "daebench_verlet" in line
-
-
-def test_a_plugin_that_shadows_a_builtin_is_refused_naming_both(plugin_site, tmp_path):
-    """The example package registers 'hht' too: `list` says it is refused, naming both
-    distributions, and `run -i hht` runs daebench's."""
-    out = daebench(plugin_site, "list")
-    assert out.returncode == 0, out.stderr
     text = " ".join(out.stdout.split())
     assert ("refused: integrator 'hht' of the installed distribution daebench-verlet (daebench_verlet:ShadowHHT) "
             "is refused: daebench's built-in (daebench.integrators.hht:HHT) provides that name") in text
