@@ -75,8 +75,12 @@ def test_protocols_are_the_integrators_declarations():
                        "h": [2e-3, 1e-3, 2e-3, 1e-3, 1e-4], "tol": [float("nan")] * 5})
     res = C.CompareResult(df, {}, [], proto)
     assert res.heading("rocking-block") == (
-        "rocking-block: 5 runs (the runs each integrator declares for this case; the others once at their defaults "
-        "(nothing declared for this case)) — moreau, nsgenalpha: h = 0.002, 0.001 s; central: one run at its defaults")
+        "rocking-block: 5 runs (the runs each integrator declares for this case; the others once at their defaults: "
+        "nothing declared for this case) — moreau, nsgenalpha: h = 0.002, 0.001 s; central: one run at its defaults")
+    df = pd.DataFrame({"integrator": ["hht", "ida"], "h": [1e-4, float("nan")], "tol": [float("nan")] * 2})
+    assert C.CompareResult(df, {}, [], C.default_protocol(sc)).heading("pendulum") == (
+        "pendulum: 2 runs (every integrator once at its defaults: none declares runs for this case) — hht, ida: "
+        "one run each at their defaults")
 
 
 def test_fingerprint_refuses_a_reference_that_disagrees(monkeypatch):

@@ -328,12 +328,16 @@ def heading(res: CompareResult, case: str) -> str:
             groups[-1][2].append(name)
         else:
             groups.append((what, e.declared, [name]))
-    parts = [f"{', '.join(names)}: {what}" for what, _, names in groups]
-    given = [g for g in groups if not g[1] and not g[0].startswith("one run at its defaults")]
+    defaults = "one run at its defaults"
+    parts = [f"{', '.join(names)}: " + (what.replace(defaults, "one run each at their defaults") if len(names) > 1
+                                        else what) for what, _, names in groups]
+    given = [g for g in groups if not g[1] and not g[0].startswith(defaults)]
+    rest = [g for g in groups if not g[1] and g not in given]
     sources = (["the runs each integrator declares for this case"] if any(g[1] for g in groups) else []) \
-        + (["runs given to compare"] if given else []) \
-        + (["the others once at their defaults (nothing declared for this case)"]
-           if any(not g[1] and g not in given for g in groups) else [])
+        + (["runs given to compare"] if given else [])
+    if rest:
+        sources.append("the others once at their defaults: nothing declared for this case" if sources
+                       else "every integrator once at its defaults: none declares runs for this case")
     return f"{case}: {len(df)} runs ({'; '.join(sources)}) — " + "; ".join(parts)
 
 
@@ -365,10 +369,13 @@ def summary_lines(res: CompareResult) -> list[str]:
     df = res.table
     lines = []
     first = f"err_{res.headline.score_name}_max_trusted" if res.headline is not None else ""
-    scored = df[first].notna().sum() if first in df else 0
+    scored = df[df[first].notna()] if first in df else df.iloc[:0]
     verdicts = df["status"].value_counts().to_dict() if len(df) else {}
+    against = ", ".join(f"{n} against the {w}" for w, n in (scored["against"].value_counts().items()
+                                                             if "against" in scored else ()))
     lines.append(f"{len(df)} runs: " + ", ".join(f"{v} {k}" for k, v in verdicts.items())
-                 + f"; {scored} scored against the reference (a run that did not complete has no error)")
+                 + f"; {len(scored)} scored" + (f" ({against})" if against else "")
+                 + " (a run that did not complete has no error)")
     for k, v in res.not_applicable.items():
         lines.append(f"not applicable: {k} — {v}")
     return lines
