@@ -1,5 +1,6 @@
 """What there is: the named scenes, the registered integrators, and one of either
-described (`daebench list`, `daebench show`)."""
+described (`daebench list`, `daebench show`); a class or model of this process registered
+(:func:`register`)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from daebench.harness.running import checks
 from daebench.harness.scoring import pipeline
 from daebench.integrators import base
 from daebench.integrators.base import Capabilities, IntegratorError
-from daebench.models import build_system
+from daebench.models import build_system, register_model
 from daebench.models.scenes import load_scene as _load_scene
 
 SceneLike = str | Path | Scene
@@ -55,6 +56,38 @@ def integrator_infos() -> dict[str, IntegratorInfo]:
                                    cls.capabilities if cls else None, tuple(cls.settings_spec) if cls else (),
                                    reg.error)
     return out
+
+
+def register(obj: Any, name: str | None = None) -> Any:
+    """Register an integrator class (a subclass of
+    :class:`daebench.integrators.base.Integrator`, under its ``name``) or a model (a module
+    or namespace with ``DESCRIPTION``, ``SCHEMA`` and ``build``, under ``name``) defined in
+    this process — a notebook's, a script's — so that it runs like an installed plugin:
+    ``daebench.run(scene, "myint")``, ``bench``, ``compare``, ``survey``, ``verify``. One call;
+    usable as a class decorator (``@daebench.register``). Registering the same class again (a
+    notebook cell run again) replaces it.
+
+    Raises
+    ------
+    ParamError
+        The class breaks the contract's declarations (the message lists what), or the name
+        is taken by a built-in, an installed plugin or another registered class (both
+        providers named).
+    """
+    if isinstance(obj, type) and issubclass(obj, base.Integrator):
+        if name is not None and name != obj.name:
+            raise IntegratorError(f"an integrator registers under its class attribute name ('{obj.name}'), not "
+                                  f"'{name}'; set name = '{name}' in the class")
+        return base.register(obj)
+    if hasattr(obj, "build") and hasattr(obj, "SCHEMA"):
+        return register_model(name if name is not None else getattr(obj, "NAME", None), obj)
+    raise ParamError(f"register() takes an Integrator subclass or a model (a module with DESCRIPTION, SCHEMA and "
+                     f"build); got {obj!r}")
+
+
+def integrator_refusals() -> list[str]:
+    """Installed plugins refused because a built-in or another plugin provides their name."""
+    return base.refusals()
 
 
 def integrator_info(name: str) -> IntegratorInfo:

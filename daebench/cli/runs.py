@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import sys
+import traceback
 from typing import Any, Optional
 
 import typer
@@ -26,7 +27,10 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
         out_dir: Optional[str] = typer.Option(None, "--out", help="folder for the history file (default results/runs)"),
         as_json: bool = typer.Option(False, "--json", help="print one JSON record (stdout holds nothing else)"),
         run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of the run [s]"),
-        force: bool = typer.Option(False, "--force", help="run even beyond the step-count / history-size limits")) -> None:
+        force: bool = typer.Option(False, "--force", help="run even beyond the step-count / history-size limits"),
+        show_traceback: bool = typer.Option(False, "--traceback",
+                                            help="when an exception ends the run, print where it was raised "
+                                                 "(the integrator's frames included) on stderr")) -> None:
     """Run a scene with one integrator; write the time history; print a summary."""
     from daebench import api
 
@@ -43,8 +47,13 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
         fail(f"{exc}; nothing was written (raise --run-cap, or use a larger step)", 1)
     except KeyboardInterrupt:
         fail("interrupted; nothing was written", 130)
-    except Exception as exc:  # a plugin's bug during the run: say so, no traceback
-        fail(f"the run raised {type(exc).__name__}: {exc} (a bug in integrator '{integrator}' or the model?)", 1)
+    except Exception as exc:  # a plugin's bug during the run: say so; the traceback on request
+        if show_traceback:
+            sys.stderr.write(traceback.format_exc())
+        fail(f"the run raised {type(exc).__name__}: {exc} (a bug in integrator '{integrator}' or the model?"
+             + ("" if show_traceback else " `--traceback` shows where") + ")", 1)
+    if show_traceback and r.traceback:
+        sys.stderr.write(r.traceback)
     if as_json:
         sys.stdout.write(r.record.to_json() + "\n")
     else:

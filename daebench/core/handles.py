@@ -23,8 +23,8 @@ the kernel the model registered; model code does not change, and a plugin model 
 registers kernels only. The rebuilding code is generated once per data layout (field
 kinds, dtypes, array ranks — not sizes, so every mesh of a model shares it) into a small
 module under the numba cache directory (``NUMBA_CACHE_DIR``, else ``~/.cache/daebench``),
-named by daebench's source stamp, a plugin model's version and the code of the kernels the
-model registered, so it caches on disk like the rest (:func:`_generated_module`). A handle
+named by daebench's source stamp and the code of the kernels the model registered (and of what
+they reach: :func:`daebench.core.code_digest.functions_digest`), so it caches on disk like the rest (:func:`_generated_module`). A handle
 holds only numbers: passing it from Python costs what passing three arrays costs; it
 cannot be pickled (its addresses mean nothing in another process).
 
@@ -37,9 +37,7 @@ their data as it is: :func:`handle` returns it unchanged.
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
-import marshal
 import os
 import sys
 import tempfile
@@ -54,7 +52,7 @@ from numba.core import cgutils
 from numba.core.extending import intrinsic
 from numba.np.arrayobj import get_cfarray_intrinsic
 
-from daebench.core import kernels
+from daebench.core import code_digest, kernels
 from daebench.core.borrow import uncounted
 from daebench.core.kernels import KernelError
 
@@ -112,23 +110,30 @@ _i64_at = _pointer_at(types.int64)
 _b1_at = _pointer_at(types.boolean)
 
 
+def function_value(fntype):
+    """The codegen of an intrinsic whose first argument is a compiled function's address: a
+    first-class function value of ``fntype``, called with numba's own calling convention
+    (its ``jit_addr``), so that its exception reaches the caller as from any compiled call."""
+
+    def codegen(context, builder, signature, args):
+        fn = cgutils.create_struct_proxy(fntype)(context, builder)
+        null = context.get_constant_null(types.voidptr)
+        fn.c_addr = null
+        fn.py_addr = null
+        fn.jit_addr = builder.inttoptr(args[0], context.get_value_type(types.voidptr))
+        return fn._getvalue()
+
+    return codegen
+
+
 def _function_at(sig):
-    """An intrinsic turning a compiled function's address into a first-class function value
-    of signature ``sig``, called with numba's own calling convention (its ``jit_addr``):
-    a kernel's exception reaches the caller as from any compiled call."""
+    """An intrinsic turning a kernel's address into a first-class function value of
+    signature ``sig`` (:func:`function_value`)."""
     fntype = types.FunctionType(sig)
 
     @intrinsic
     def at(typingctx, addr):
-        def codegen(context, builder, signature, args):
-            fn = cgutils.create_struct_proxy(fntype)(context, builder)
-            null = context.get_constant_null(types.voidptr)
-            fn.c_addr = null
-            fn.py_addr = null
-            fn.jit_addr = builder.inttoptr(args[0], context.get_value_type(types.voidptr))
-            return fn._getvalue()
-
-        return fntype(types.int64), codegen
+        return fntype(types.int64), function_value(fntype)
 
     return at
 
@@ -240,14 +245,10 @@ def _generated_module(layout: _Layout, expr: str) -> Any:
     made = (cls, impls, *layout.key)  # a kernel registered anew in this process makes a new module
     if made in _MODULES:
         return _MODULES[made]
-    # the registered kernels' own code is part of the name: a plugin (or a notebook's model)
-    # edited without a version bump must not load another kernel's cached machine code
-    digest = hashlib.sha256("|".join([_LAYOUT_VERSION, numba_cache.source_stamp(),
-                                      numba_cache._plugin_packages().get(cls.__module__.split(".")[0], ""),
-                                      *layout.key]).encode())
-    for f in impls:
-        digest.update(marshal.dumps(getattr(f, "py_func", f).__code__))
-    name = f"_daebench_handle_{cls.__name__.lower()}_{digest.hexdigest()[:16]}"
+    # the registered kernels' code, and what they reach, is part of the name: a plugin (or a
+    # notebook's model) edited without a version bump must not load another kernel's machine code
+    digest = code_digest.functions_digest(impls, [_LAYOUT_VERSION, numba_cache.source_stamp(), *layout.key])
+    name = f"_daebench_handle_{cls.__name__.lower()}_{digest[:16]}"
     path = _directory() / f"{name}.py"
     own = tuple(k for k, f in zip(kernels.KERNELS, impls) if _shared(k, f) is None)
     if not path.exists():

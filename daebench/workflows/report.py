@@ -209,7 +209,8 @@ def write_compare_report(res: Any, scene: Any, path: Path) -> Path:
     measures = measures_present(res.table, res.protocol.measures)
     own = res.table[~is_external(res.table)]
     recs = [line.removeprefix("recommendation — ") for line in recommend.compare_lines(own, measures)]
-    sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.protocol.why)}</p>")]
+    sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.heading(scene.name))}</p>"
+                                                        f"<p>{html.escape(res.protocol.why)}</p>")]
     figs = [figure_html(p, f"{scene.name}: work–precision") for p in res.files if Path(p).suffix == ".png"]
     if figs:
         sections.append(("Work–precision", "".join(figs)))

@@ -4,7 +4,8 @@ and ``daebench compare`` alike.
 
 **Against what.** The model's exact solution where it has one for this run — a system
 method ``exact_observables(t) -> {column: values}`` that raises ``ValueError`` outside
-its range (the pendulum's elliptic-function solution; a revolving pendulum has none) —
+its range (the pendulum's elliptic-function solution; a revolving pendulum has none), and
+``exact_impacts(t_end) -> times`` where the motion has impacts (the ball's) —
 else the scene's cached reference (:mod:`daebench.harness.references.reference`), else nothing.
 :func:`truth` picks it; :func:`score` scores against it.
 
@@ -129,8 +130,10 @@ def exact_truth(run: Run) -> Truth | None:
         return None
     if not set(run.scored_columns()) <= set(cols):
         return None
+    exact_impacts = getattr(run.system, "exact_impacts", None)   # a model with impacts: their exact times
+    impacts = tuple(float(x) for x in exact_impacts(float(t[-1]))) if exact_impacts is not None else ()
     return Truth(pd.DataFrame({"t": t, **{k: np.asarray(v, float) for k, v in cols.items()}}),
-                 (), "exact solution", trust_t=float(t[-1]), trust_impacts=0)
+                 impacts, "exact solution", trust_t=float(t[-1]), trust_impacts=len(impacts))
 
 
 def reference_truth(ref: Any) -> Truth:

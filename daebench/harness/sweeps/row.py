@@ -125,7 +125,7 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
         _nan_errors(row)
     except Exception as exc:  # never lose a row
         row.update(outcome_row(spec, scene, "error", f"{type(exc).__name__}: {exc}"))
-        row["traceback"] = traceback.format_exc(limit=4)
+        row["traceback"] = traceback.format_exc()   # whole: the integrator's own frames are the innermost
         _nan_errors(row)
     return row
 

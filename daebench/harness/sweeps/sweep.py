@@ -232,6 +232,10 @@ def run_sweep(scene: Scene, plan: Plan, options: SweepOptions = SweepOptions()) 
         if store is not None:
             df.attrs["path"] = write_table(df, store.name, [scene], store.folder, complete=True)
         return df
+    except Exception:   # refused before any run (a missing reference, bad options): nothing is left behind
+        if store is not None:
+            store.discard()
+        raise
     finally:
         if store is not None:
             store.close()
