@@ -44,6 +44,9 @@ COMMON_SCHEMA: dict[str, Param] = {
 }
 
 
+#: keys that change what is written or scored, not what is computed (left out of :attr:`Scene.hash`)
+OUTPUT_ONLY = ("output.format", "output.observables")
+
 #: a scene name is a file-name stem (histories are <name>-<integrator>-<id>.csv): no path
 #: separator, no leading '.' or '-', at most NAME_MAX characters (the file system takes
 #: 255 bytes per name; the rest is the integrator, the run id and the suffix)
@@ -183,8 +186,10 @@ class Scene:
 
     @property
     def hash(self) -> str:
-        """Content hash of the resolved physics (name and description excluded)."""
-        body = {k: v for k, v in sorted(self.values.items()) if k not in ("name", "description")}
+        """Content hash of the resolved physics: name, description and the output-only keys
+        (:data:`OUTPUT_ONLY`) excluded, so a history format or a choice of scored observables
+        uses the same cached reference."""
+        body = {k: v for k, v in sorted(self.values.items()) if k not in ("name", "description", *OUTPUT_ONLY)}
         return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
     def with_overrides(self, overrides: Iterable[str] | dict[str, Any]) -> "Scene":

@@ -174,6 +174,7 @@ def _make_row(spec: RunSpec, status: str, message: str, scene: Scene) -> dict[st
 def manifest(scene: Scene, specs: Sequence[RunSpec], reference_mode: str, repeats: int) -> dict[str, Any]:
     """What a resumed sweep must share with the original: scene, plan, scoring, timing."""
     return {"scene": scene.name, "scene_hash": scene.hash, "reference_mode": reference_mode, "repeats": repeats,
+            "observables": list(scene["output.observables"]),  # scored, yet outside the scene's hash
             "plan": [[s.index, s.integrator, s.options, s.scene_overrides, s.skip] for s in specs]}
 
 
