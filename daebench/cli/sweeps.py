@@ -277,21 +277,19 @@ def stability(case: str = typer.Argument(..., help="scene name or path to a .tom
               jobs: int = typer.Option(1, "--jobs", "-j", help="worker processes"),
               run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run, s"),
               mark_h: float = typer.Option(0.0, "--mark-h", help="draw this step as a line, s (0: none)"),
-              out_dir: str = typer.Option("results/stability", "--out", help="output folder"),
+              out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/stability)"),
               name: Optional[str] = typer.Option(None, "--name", help="file stem (default <case>-stability)")) -> None:
     """Largest stable fixed step per integrator setting and N, measured by bisection on
     whole runs (completed, energy balance within the divergence threshold), beside the
     linear prediction (start frequencies × the method's computed stability interval)."""
     from daebench import api
 
-    try:
+    with refusals():
         sc = api.load_scene(case, set_)
         search = api.Bisection(n_key, t_end if t_end != 0.0 else None, periods, h_min, h_max, tol, jobs, run_cap,
                                mark_h or None)
         res = api.stability(sc, method or None, n, search, out=out_dir, name=name,
                             progress=lambda line: sys.stderr.write(line + "\n"))
-    except api.ParamError as exc:
-        fail(str(exc))
     typer.echo(res.markdown)
     typer.echo(f"\n{res.summary}")
     typer.echo("wrote " + ", ".join(map(str, res.files)))
