@@ -479,3 +479,117 @@ def test_the_study_defaults_honour_the_results_root(tmp_path, monkeypatch):
         for p in inspect.signature(fn).parameters.values():
             d = getattr(p.default, "default", p.default)
             assert not (isinstance(d, str) and d.startswith("results/")), (fn.__qualname__, p.name, d)
+
+
+# ==== 6, 9: no traceback on deep or broken scene files; one broken thing blocks only itself =====
+@pytest.fixture()
+def odd_cases(tmp_path, monkeypatch):
+    import shutil
+
+    from daebench.core.scene import cases_dir
+
+    d = tmp_path / "cases"
+    d.mkdir()
+    shutil.copy(cases_dir() / "pendulum.toml", d)
+    (d / "deep.toml").write_text('model = "pendulum"\nx = ' + "[" * 3000 + "]" * 3000 + "\n")
+    (d / "broken.toml").write_text('model = "pendulum\n')
+    (d / "tables.toml").write_text('model = "pendulum"\n[' + ".".join(["a"] * 2500) + "]\nb = 1\n")
+    (d / "inline.toml").write_text('model = "pendulum"\nx = ' + "{a = " * 900 + "1" + "}" * 900 + "\n")
+    (d / "twice.toml").write_text('model = "ball"\n"contact.restitution" = 0.3\n[contact]\nrestitution = 0.9\n')
+    monkeypatch.setenv("DAEBENCH_CASES", str(d))
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path / "results"))
+    return d
+
+
+@pytest.mark.parametrize("case, why", [("deep", "nested too deeply"), ("broken", "not valid TOML"),
+                                       ("tables", "nested more than 16 deep"), ("inline", "nested too deeply"),
+                                       ("twice", "'contact.restitution' is given twice")])
+def test_a_deep_broken_or_conflicting_scene_file_is_refused_by_name(odd_cases, case, why):
+    r = cli(["run", case, "-i", "hht"])
+    assert r.exit_code == 2 and why in r.output, r.output
+    r = cli(["run", str(odd_cases / f"{case}.toml"), "-i", "hht"])
+    assert r.exit_code == 2 and why in r.output, r.output
+
+
+def test_one_broken_scene_file_does_not_block_the_others(odd_cases):
+    """An invalid TOML in DAEBENCH_CASES made `run pendulum` and `list` refuse."""
+    r = cli(["list"])
+    assert r.exit_code == 0 and "pendulum" in r.output and "cannot be read" in r.output, r.output
+    r = cli(["run", "pendulum", "-i", "hht", "--set", "t_end=0.01"])
+    assert r.exit_code == 0, r.output
+
+
+def test_one_broken_plugin_does_not_block_a_survey_of_others(monkeypatch):
+    """A plugin that fails to import made `survey` refuse even with -i naming others."""
+    from daebench.integrators import base
+    from daebench.models.scenes import load_scene
+    from daebench.workflows import survey
+
+    reg = {**base.registry(), "broken": base.Registered("broken", None, "bad-plugin", "ImportError: no module x")}
+    monkeypatch.setattr(base, "registry", lambda refresh=False: dict(reg))
+    proto = survey.survey_protocol(load_scene("pendulum"), quick=True)
+    assert any(e.integrator == "broken" for e in proto.entries)
+    assert any(e.integrator == "hht" and e.steps for e in proto.entries)
+
+
+# ==== 8: a refused sweep leaves nothing behind ===================================================
+B3 = ["bench", "pendulum", "-i", "hht", "--steps", "1e-2", "--set", "t_end=0.05", "--reference", "none",
+      "--repeats", "1"]
+
+
+@pytest.mark.parametrize("bad", [["-j", "0"], ["--repeats", "0"], ["--run-cap", "-1"]])
+def test_a_refused_sweep_leaves_no_store_and_the_corrected_command_runs(tmp_path, monkeypatch, bad):
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    args = [a for a in B3 if a not in ("--repeats", "1")] if bad[0] == "--repeats" else B3
+    r = cli(args + bad + ["--name", "x"])
+    assert r.exit_code == 2, r.output
+    assert not list((tmp_path / "bench").glob("*")) if (tmp_path / "bench").exists() else True
+    r = cli(B3 + ["--name", "x"])
+    assert r.exit_code == 0, r.output
+
+
+def test_a_sweep_refused_for_its_reference_leaves_no_store(tmp_path, monkeypatch):
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    args = ["bench", "beam-impact", "-i", "hht", "--steps", "1e-4", "--set", "t_end=0.01", "--reference", "require"]
+    for extra in (["--name", "y"], []):  # named, and with a unique name (no orphan store either)
+        r = cli(args + extra)
+        assert r.exit_code == 2 and "no reference" in r.output, r.output
+        assert sorted(p.name for p in (tmp_path / "bench").glob("*")) == []
+
+
+def test_a_reference_that_fails_to_compute_in_a_bench_exits_1(tmp_path, monkeypatch):
+    """It exited 2 ('input refused') though the input was fine."""
+    from daebench.harness.references import reference as references
+
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+
+    def fails(scene, **kw):
+        raise RuntimeError("reference run of 'beam-impact' failed: step size too small")
+
+    monkeypatch.setattr(references, "compute_reference", fails)
+    r = cli(["bench", "beam-impact", "-i", "hht", "--steps", "1e-4", "--set", "t_end=0.01", "--reference", "compute",
+             "--name", "z"])
+    assert r.exit_code == 1 and "could not be computed" in r.output, r.output
+    assert sorted(p.name for p in (tmp_path / "bench").glob("*")) == []
+
+
+# ==== 12: messages that say what to change =========================================================
+@pytest.mark.parametrize("args, fragment", [
+    (["stability", "pendulum", "--n", "abc", "--n-key", "pendulum.mass"], "--n takes whole numbers"),
+    (["stability", "pendulum", "-m", "hht:alpha"], "'alpha' is not name=value"),
+])
+def test_stability_options_say_what_they_take(tmp_path, monkeypatch, args, fragment):
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    r = cli(args)
+    assert r.exit_code == 2 and fragment in r.output, r.output
+
+
+def test_an_unwritable_folder_is_not_called_full():
+    import errno
+
+    from daebench.harness.files import write_error
+
+    msg = str(write_error(PermissionError(errno.EACCES, "Permission denied"), "the table", "/x/t.csv"))
+    assert "Free space" not in msg and "Make it writable" in msg
+    msg = str(write_error(OSError(errno.ENOSPC, "No space left on device"), "the table", "/x/t.csv"))
+    assert "Free space there" in msg

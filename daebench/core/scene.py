@@ -108,6 +108,9 @@ def read_toml(path: Path) -> dict[str, Any]:
         raise SceneError(f"{path}: not a text file (a scene is a UTF-8 TOML file)") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"{path}: nested too deeply to be a scene (a scene's keys are a few levels deep, "
+                         f"e.g. [contact] restitution = 0.3)") from None
 
 
 def cases_dir() -> Path:
@@ -131,23 +134,47 @@ def cases_dir() -> Path:
     raise SceneError("cannot find the cases/ folder; set DAEBENCH_CASES to it")
 
 
+def scene_names() -> list[str]:
+    """The names of the scene files in :func:`cases_dir` (their stems; no file is read)."""
+    return [p.stem for p in sorted(cases_dir().glob("*.toml"))]
+
+
 def list_scenes() -> list[tuple[str, str]]:
-    """(name, description) of every scene file in :func:`cases_dir`."""
+    """(name, description) of every scene file in :func:`cases_dir`; a file that cannot be
+    read has 'cannot be read: …' as its description (it affects only what names it)."""
     out = []
     for p in sorted(cases_dir().glob("*.toml")):
-        raw = read_toml(p)
-        out.append((p.stem, str(raw.get("description", ""))))
+        try:
+            desc = str(read_toml(p).get("description", ""))
+        except SceneError as exc:
+            desc = f"cannot be read: {exc}"
+        out.append((p.stem, desc))
     return out
 
 
-def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+#: the deepest nesting of tables a scene file may have (its keys are two or three levels deep)
+MAX_DEPTH = 16
+
+
+def flatten(d: dict[str, Any], prefix: str = "", depth: int = 0) -> dict[str, Any]:
+    """Tables as dotted keys; a key given twice (``"contact.restitution" = 0.3`` and
+    ``[contact] restitution = 0.9``) or tables nested beyond MAX_DEPTH are refused.
+
+    Raises
+    ------
+    SceneError
+    """
+    if depth > MAX_DEPTH:
+        raise SceneError(f"tables nested more than {MAX_DEPTH} deep under '{prefix[:60]}…'; a scene's keys are a "
+                         f"few levels deep, e.g. [contact] restitution = 0.3")
     out: dict[str, Any] = {}
     for k, v in d.items():
         key = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.update(flatten(v, key + "."))
-        else:
-            out[key] = v
+        part = flatten(v, key + ".", depth + 1) if isinstance(v, dict) else {key: v}
+        twice = sorted(set(part) & set(out))
+        if twice:
+            raise SceneError(f"scene key '{twice[0]}' is given twice (as a dotted key and in a table); keep one")
+        out.update(part)
     return out
 
 
@@ -280,7 +307,7 @@ def resolve_path(name_or_path: str | os.PathLike) -> Path:
         if not p.exists():
             raise SceneError(f"scene file '{p}' does not exist")
         return p
-    names = [n for n, _ in list_scenes()]
+    names = scene_names()
     match = [n for n in names if n.lower() == p.name.lower()]
     if match:
         return cases_dir() / f"{match[0]}.toml"

@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from daebench.core.params import ParamError, did_you_mean
-from daebench.core.scene import list_scenes
+from daebench.core.scene import scene_names
 from daebench.integrators import base
 from daebench.integrators.base import Integrator, IntegratorError
 from daebench.models import build_system
@@ -160,8 +160,11 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
                                   + f" (scene '{scene.name}' uses '{current}')")
 
     offer = []
-    for name, _ in list_scenes():
-        p = load_scene(name).schema.get("contact.law")
+    for name in scene_names():
+        try:
+            p = load_scene(name).schema.get("contact.law")
+        except ParamError:  # a broken scene file offers nothing
+            continue
         if p is not None and p.choices and any(c in p.choices for c in cls.contact_laws):
             offer.append(name)
     laws = " or ".join(f"'{c}'" for c in cls.contact_laws)
