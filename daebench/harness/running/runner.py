@@ -107,6 +107,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
         ensure_writable_dir(history_dir(out_dir), "history folder",
                                    longest_name=f".{history_name(scene, integ)}.json.{os.getpid()}.tmp")
     system = build_system(scene)
+    checks.check_memory(scene, system)
     checks.check_observables(scene, system)
     # the history keeps every observable (modal participations included); the scene's
     # output.observables are the ones scored (see bench)
