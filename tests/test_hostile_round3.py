@@ -610,3 +610,47 @@ def test_a_scene_too_large_for_the_machine_is_refused_before_the_run(tmp_path, m
     r = cli(["bench", "rod-wall", "-i", "hht", "--steps", "1e-6", "--set", "rod.elements=2000",
              "--set", "rod.elements_across=8", "--reference", "none", "--name", "big"])
     assert r.exit_code == 2 and "GiB" in r.output, r.output
+
+
+# ==== 10, 11: summaries that agree with themselves; the API's values checked like overrides ========
+def test_a_diverged_run_summary_says_where_it_stopped(tmp_path, monkeypatch):
+    """A diverged Baumgarte run printed 'max |E − E0 − W_nc + D_impacts| = 0 … 0 is exact' and
+    'final t 0' while the JSON said t_final 0.001."""
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    r = cli(["run", "spring-wall", "-i", "baumgarte", "--opt", "h=1e-2", "--set", "spring.stiffness=1e8",
+             "--set", "t_end=0.5"])
+    assert r.exit_code == 1 and "diverged" in r.output, r.output
+    assert "final t" not in r.output and "0 is exact" not in r.output
+    assert "last kept t [s]: 0" in r.output and "stopped at: t = 0.001 s" in r.output
+
+
+@pytest.mark.parametrize("key, value, why", [("t_end", -1, "'t_end' = -1"), ("output.dt", 0, "'output.dt' = 0"),
+                                             ("pendulum.length", -1.0, "'pendulum.length' = -1"),
+                                             ("t_end", "1", "not a value of its type")])
+def test_values_changed_in_place_are_refused_as_param_errors(key, value, why):
+    """scene.values["t_end"] = -1 raised ValueError, ["output.dt"] = 0 ZeroDivisionError, and a
+    negative pendulum length completed."""
+    import daebench
+
+    sc = daebench.load_scene("pendulum")
+    sc.values[key] = value
+    with pytest.raises(daebench.ParamError, match=why):
+        daebench.run(sc, "hht")
+
+
+def test_numpy_booleans_and_huge_integers():
+    import numpy as np
+
+    import daebench
+    from daebench.core.params import coerce
+
+    sc = daebench.load_scene("ball", {"effects.contact": np.bool_(False)})
+    assert sc["effects.contact"] is False
+    for v in ("9" * 800, 9 ** 900):
+        with pytest.raises(daebench.ParamError, match="-digit number \\(beyond any range; write e.g. 1e6\\)"):
+            coerce(v, float, "scene key 'x'")
+
+
+def test_compile_report_refuses_an_unknown_command():
+    r = cli(["compile-report", "--", "nosuchcmd"])
+    assert r.exit_code == 2 and "'nosuchcmd' is not a daebench command" in r.output, r.output

@@ -241,6 +241,27 @@ class Scene:
             check_name(values["name"], "--set name")
         return Scene(values.get("name") or self.name, self.model, values, self.schema, self.source, self.check, self.base).checked()
 
+    def revalidated(self) -> "Scene":
+        """This scene after every value is checked again by its declared parameter, with the
+        name and the model's cross-key checks: a ``Scene`` whose ``values`` or ``name`` were
+        changed in place after loading (``scene.values["t_end"] = -1``) is refused here with
+        the :class:`SceneError` an override would get, not with an error deep in a run.
+
+        Raises
+        ------
+        SceneError
+        """
+        check_name(self.name)
+        unknown = [k for k in self.values if k not in self.schema]
+        if unknown:
+            raise SceneError(f"unknown scene key '{unknown[0]}' in scene '{self.name}'"
+                             f"{did_you_mean(unknown[0], self.schema)}")
+        for key, value in self.values.items():
+            if validate_key(key, value, self.schema, "scene value") != value:
+                raise SceneError(f"scene key '{key}' holds {value!r}, which is not a value of its type "
+                                 f"({self.schema[key].type.__name__})")
+        return self.checked()
+
     def checked(self) -> "Scene":
         """Run the model's cross-key checks (e.g. a contact law needs effects.contact)."""
         if self.check is not None:

@@ -99,6 +99,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
         (GuardError, IntegratorError) before the first step: bad settings, an output
         folder that cannot be written, an unknown observable, a run beyond the limits.
     """
+    scene.revalidated()  # values changed in place after loading are refused like overrides
     integ = integrator if isinstance(integrator, Integrator) else make_integrator(integrator, options)
     checks.check_contacts_fit(scene, type(integ))
     if not force:
