@@ -654,3 +654,28 @@ def test_numpy_booleans_and_huge_integers():
 def test_compile_report_refuses_an_unknown_command():
     r = cli(["compile-report", "--", "nosuchcmd"])
     assert r.exit_code == 2 and "'nosuchcmd' is not a daebench command" in r.output, r.output
+
+
+def test_sigterm_during_reference_and_ctrl_c_after_compares_runs_are_said(tmp_path, monkeypatch):
+    """SIGTERM during `reference` and SIGINT during compare's last phase exited silently."""
+    import os
+    import signal
+
+    import daebench.api as api
+
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+
+    def terminated(*a, **kw):
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise AssertionError("SIGTERM was not turned into an interruption")
+
+    monkeypatch.setattr(api, "reference", terminated)
+    r = cli(["reference", "pendulum"])
+    assert r.exit_code == 130 and "interrupted (Ctrl-C or SIGTERM)" in r.output and "nothing was cached" in r.output
+
+    def ctrl_c(*a, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(api, "compare", ctrl_c)
+    r = cli(["compare", "pendulum"])
+    assert r.exit_code == 130 and "interrupted (Ctrl-C or SIGTERM)" in r.output, r.output

@@ -128,9 +128,15 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
     """Compute (or show) the cached reference of a scene: its trusted span, digits and check run."""
     from daebench import api
 
+    from daebench.harness.sweeps.executors import sigterm_as_interrupt
+
     sc = load_scene_or_exit(scene, set_)
     try:
-        ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True, ship=ship)
+        with sigterm_as_interrupt():  # SIGTERM ends it as Ctrl-C does: said, not silent
+            ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True, ship=ship)
+    except KeyboardInterrupt:
+        fail("interrupted (Ctrl-C or SIGTERM) before the reference was complete; nothing was cached (a reference "
+             "is written only whole): run the command again", 130)
     except api.OutputWriteError as exc:
         fail(str(exc), 1)
     except api.ParamError as exc:

@@ -125,6 +125,12 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
         options = api.SweepOptions(reference=reference, timing=api.Timing(run_cap=run_cap),
                                    execution=api.Execution(jobs=jobs, progress=True))
         res = api.compare(sc, options, out=out_dir, report=report_page, include=include)
+    except KeyboardInterrupt as exc:  # during the runs, or after them (scoring, figures): said, never silent
+        done = getattr(exc, "table", None)
+        kept = (f"{int((done['status'] != 'interrupted').sum())} of {len(done)} runs had finished; "
+                if done is not None else "")
+        fail(f"interrupted (Ctrl-C or SIGTERM); {kept}the comparison's table and figures were not written: "
+             f"run the command again", 130)
     except api.OutputWriteError as exc:  # the work is done: show it, say what was not saved, exit 1
         if getattr(exc, "result", None) is not None:
             _compare_table(exc.result, sc)
