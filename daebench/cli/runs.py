@@ -128,11 +128,9 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
     """Compute (or show) the cached reference of a scene: its trusted span, digits and check run."""
     from daebench import api
 
-    from daebench.harness.sweeps.executors import sigterm_as_interrupt
-
     sc = load_scene_or_exit(scene, set_)
     try:
-        with sigterm_as_interrupt():  # SIGTERM ends it as Ctrl-C does: said, not silent
+        with api.sigterm_as_interrupt():  # SIGTERM ends it as Ctrl-C does: said, not silent
             ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True, ship=ship)
     except KeyboardInterrupt:
         fail("interrupted (Ctrl-C or SIGTERM) before the reference was complete; nothing was cached (a reference "
