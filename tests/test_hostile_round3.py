@@ -310,7 +310,7 @@ def test_hht_at_extreme_values_is_not_completed():
 
 def test_a_capturing_step_through_a_rigid_obstacle_is_diverged(monkeypatch):
     """The penetration rule: a capturing run whose gap falls below −PENETRATION × the scene's
-    length scale (its largest start gap, here 1 m) is diverged with the reason; made strict, it
+    length scale (the size of its start, here 1 m) is diverged with the reason; made strict, it
     catches the O(h v) penetration every Moreau step has."""
     import daebench
     from daebench.driver import history
