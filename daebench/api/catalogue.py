@@ -11,7 +11,7 @@ from typing import Any, Iterable
 import pandas as pd
 
 from daebench.core.params import Param, ParamError, did_you_mean
-from daebench.core.scene import Scene, SceneError, UnknownScene, list_scenes
+from daebench.core.scene import Scene, SceneError, UnknownScene, list_scenes, scene_names
 from daebench.harness.running import checks
 from daebench.harness.scoring import pipeline
 from daebench.integrators import base
@@ -99,7 +99,11 @@ def cases() -> pd.DataFrame:
     """The named scenes (``cases/``): name, model and description."""
     rows = []
     for name, desc in list_scenes():
-        rows.append({"case": name, "model": _load_scene(name).model, "description": desc})
+        try:
+            model = _load_scene(name).model
+        except ParamError as exc:  # one broken scene file is listed as such; the others are unaffected
+            model, desc = "?", desc if desc.startswith("cannot be read") else f"cannot be loaded: {exc}"
+        rows.append({"case": name, "model": model, "description": desc})
     return pd.DataFrame(rows)
 
 
@@ -131,7 +135,7 @@ def show(name: str, overrides: Iterable[str] | dict[str, Any] | None = None,
     """
     try:
         checks.resolve_integrator(name)
-        is_integrator = not overrides and not keys and name.lower() not in {n.lower() for n, _ in list_scenes()}
+        is_integrator = not overrides and not keys and name.lower() not in {n.lower() for n in scene_names()}
     except IntegratorError:
         is_integrator = False
     if is_integrator:
@@ -139,7 +143,7 @@ def show(name: str, overrides: Iterable[str] | dict[str, Any] | None = None,
     try:
         sc = load_scene(name, overrides)
     except UnknownScene:  # not 'unknown scene key' of an override
-        known = list(integrator_infos()) + [n for n, _ in list_scenes()]
+        known = list(integrator_infos()) + scene_names()
         raise SceneError(f"'{name}' is neither an integrator nor a scene{did_you_mean(name.lower(), known)} "
                          f"Integrators and cases: `daebench list`.") from None
     try:

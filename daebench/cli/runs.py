@@ -75,11 +75,18 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
     declared = r.declared
     obs = r.record.observables
     finals = [("t", "s")] + [(o.name, o.unit) for o in declared.declared if o.summary]
+    stopped = r.status != "completed"
+    t_kept = obs.get("t")
     for k, unit in finals:
         if k in obs:
-            pairs.append((f"final {k}" + (f" [{unit}]" if unit else ""), f"{obs[k]:.10g}"))
+            pairs.append(((f"last kept {k}" if stopped else f"final {k}") + (f" [{unit}]" if unit else ""),
+                          f"{obs[k]:.10g}"))
+    t_final = getattr(r.record, "t_final", None)
+    if stopped and t_final is not None and t_kept is not None and t_final != t_kept:
+        pairs.append(("stopped at", f"t = {t_final:.10g} s (the history keeps the output rows before it)"))
     pairs.append(("energy balance", f"max |E − E0 − W_nc + D_impacts| = {r.energy_residual:.3e} J "
-                                    f"(bookkeeping error of the run; 0 is exact)"))
+                  + ("over the rows kept (the residual where the run stopped is in its status)" if stopped
+                     else "(bookkeeping error of the run; 0 is exact)")))
     if r.impacts:
         law = getattr(r.record, "impact_law", "")
         pairs.append(("impacts", f"{len(r.impacts)}; first at t = {r.impacts[0]['t']:.12g} s"
@@ -132,7 +139,11 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
 
     sc = load_scene_or_exit(scene, set_)
     try:
-        ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True, ship=ship)
+        with api.sigterm_as_interrupt():  # SIGTERM ends it as Ctrl-C does: said, not silent
+            ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True, ship=ship)
+    except KeyboardInterrupt:
+        fail("interrupted (Ctrl-C or SIGTERM) before the reference was complete; nothing was cached (a reference "
+             "is written only whole): run the command again", 130)
     except api.OutputWriteError as exc:
         fail(str(exc), 1)
     except api.ParamError as exc:

@@ -133,6 +133,12 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
         options = api.SweepOptions(reference=reference, timing=api.Timing(run_cap=run_cap),
                                    execution=api.Execution(jobs=jobs, progress=True))
         res = api.compare(sc, options, out=out_dir, report=report_page, include=include)
+    except KeyboardInterrupt as exc:  # during the runs, or after them (scoring, figures): said, never silent
+        done = getattr(exc, "table", None)
+        kept = (f"{int((done['status'] != 'interrupted').sum())} of {len(done)} runs had finished; "
+                if done is not None else "")
+        fail(f"interrupted (Ctrl-C or SIGTERM); {kept}the comparison's table and figures were not written: "
+             f"run the command again", 130)
     except api.OutputWriteError as exc:  # the work is done: show it, say what was not saved, exit 1
         if getattr(exc, "result", None) is not None:
             _compare_table(exc.result, sc)
@@ -287,21 +293,19 @@ def stability(case: str = typer.Argument(..., help="scene name or path to a .tom
               jobs: int = typer.Option(1, "--jobs", "-j", help="worker processes"),
               run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run, s"),
               mark_h: float = typer.Option(0.0, "--mark-h", help="draw this step as a line, s (0: none)"),
-              out_dir: str = typer.Option("results/stability", "--out", help="output folder"),
+              out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/stability)"),
               name: Optional[str] = typer.Option(None, "--name", help="file stem (default <case>-stability)")) -> None:
     """Largest stable fixed step per integrator setting and N, measured by bisection on
     whole runs (completed, energy balance within the divergence threshold), beside the
     linear prediction (start frequencies × the method's computed stability interval)."""
     from daebench import api
 
-    try:
+    with refusals():
         sc = api.load_scene(case, set_)
         search = api.Bisection(n_key, t_end if t_end != 0.0 else None, periods, h_min, h_max, tol, jobs, run_cap,
                                mark_h or None)
         res = api.stability(sc, method or None, n, search, out=out_dir, name=name,
                             progress=lambda line: sys.stderr.write(line + "\n"))
-    except api.ParamError as exc:
-        fail(str(exc))
     typer.echo(res.markdown)
     typer.echo(f"\n{res.summary}")
     typer.echo("wrote " + ", ".join(map(str, res.files)))

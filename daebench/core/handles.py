@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import stat
 import sys
 import tempfile
 import weakref
@@ -218,20 +219,30 @@ def _source(layout: _Layout, expr: str, names: tuple[str, ...]) -> str:
 
 
 def _directory() -> Path:
+    """A folder for the generated modules that only this user can write: owned by this user,
+    not writable by group or others (a shared temporary folder planted by someone else is
+    passed over), created 0700 when missing."""
     # outside the package: source scanners (layers test, packaging) must not see generated code
     roots = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []
     roots += [Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "daebench",
-              Path(tempfile.gettempdir()) / "daebench-numba"]
+              Path(tempfile.gettempdir()) / f"daebench-numba-{os.getuid()}"]
     for root in roots:
         d = root / "daebench-handles"
         try:
-            d.mkdir(parents=True, exist_ok=True)
-            if os.access(d, os.W_OK):
+            d.mkdir(mode=0o700, parents=True, exist_ok=True)
+            if _private(d):
                 return d
         except OSError:
             continue
-    raise OSError(f"no writable directory for daebench's generated kernel modules (tried {roots}); "
-                  "set NUMBA_CACHE_DIR to a writable directory")
+    raise OSError(f"no private writable directory for daebench's generated kernel modules (tried {roots}: each "
+                  f"must be owned by you and not writable by others); set NUMBA_CACHE_DIR to such a directory")
+
+
+def _private(d: Path) -> bool:
+    """``d`` is a real folder owned by this user, writable by it and by nobody else."""
+    st = os.lstat(d)
+    return (stat.S_ISDIR(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+            and os.access(d, os.W_OK))
 
 
 _MODULES: dict[tuple, Any] = {}
@@ -251,14 +262,22 @@ def _generated_module(layout: _Layout, expr: str) -> Any:
     name = f"_daebench_handle_{cls.__name__.lower()}_{digest[:16]}"
     path = _directory() / f"{name}.py"
     own = tuple(k for k, f in zip(kernels.KERNELS, impls) if _shared(k, f) is None)
-    if not path.exists():
+    text = _source(layout, expr, own)
+    # the file exists for numba's on-disk cache (it keys compiled code on the file); what runs is
+    # the text generated here, never what the file holds: a line planted in it does not run, and
+    # a file that differs (planted, truncated, older) is written anew before its code is cached
+    try:
+        same = path.read_bytes() == text.encode()
+    except OSError:
+        same = False
+    if not same:
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(_source(layout, expr, own))
+        tmp.write_text(text)
         os.replace(tmp, path)  # concurrent workers write the same text: either copy is right
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
-    spec.loader.exec_module(module)
+    exec(compile(text, str(path), "exec"), module.__dict__)
     module.__daebench_fns__ = np.array([_jit_address(getattr(module, k) if k in own else _shared(k, f), SIGNATURES[k])
                                         for k, f in zip(kernels.KERNELS, impls)], dtype=np.int64)
     module.__daebench_fns__.flags.writeable = False

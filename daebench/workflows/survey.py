@@ -46,7 +46,7 @@ from typing import Any, Iterator, Mapping, Sequence
 import pandas as pd
 
 from daebench.core.params import ParamError
-from daebench.core.scene import Scene, list_scenes
+from daebench.core.scene import Scene, scene_names
 from daebench.harness.analysis import costs, profiles, recommend
 from daebench.harness.files import atomic_write, results_dir
 from daebench.harness.references import fingerprints
@@ -188,7 +188,9 @@ def survey_protocol(scene: Scene, quick: bool = False) -> Protocol:
     default and one halving."""
     levels = QUICK_LEVELS if quick else LEVELS
     declared = {} if quick else compare.declared_entries(scene)
-    entries = list(declared.values()) + [halvings(n, levels) for n in sorted(base.registry()) if n not in declared]
+    # a plugin that cannot be loaded gets one entry, which planning lists as not applicable with the reason
+    entries = list(declared.values()) + [halvings(n, levels) if r.cls is not None else Entry(n)
+                                         for n, r in sorted(base.registry().items()) if n not in declared]
     measures = compare.protocol_for(scene).measures if declared else compare.default_protocol(scene).measures
     why = "each integrator's declared runs for this case, the others at their defaults and two halvings" \
         if declared else f"every integrator at its defaults and {levels - 1} halving(s)"
@@ -329,7 +331,7 @@ def repeat_check(df: pd.DataFrame, specs: Sequence[RunSpec], scene: Scene, ref_m
 
 def select_cases(opts: SurveyOptions) -> list[str]:
     """The cases of the survey: ``opts.cases``, else the quick set, else every case."""
-    names = [n for n, _ in list_scenes()]
+    names = scene_names()
     want = list(opts.cases) or (list(QUICK_CASES) if opts.quick else names)
     unknown = [c for c in want if c not in names]
     if unknown:

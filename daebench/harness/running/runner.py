@@ -99,6 +99,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
         (GuardError, IntegratorError) before the first step: bad settings, an output
         folder that cannot be written, an unknown observable, a run beyond the limits.
     """
+    scene.revalidated()  # values changed in place after loading are refused like overrides
     integ = integrator if isinstance(integrator, Integrator) else make_integrator(integrator, options)
     checks.check_contacts_fit(scene, type(integ))
     if not force:
@@ -107,6 +108,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
         ensure_writable_dir(history_dir(out_dir), "history folder",
                                    longest_name=f".{history_name(scene, integ)}.json.{os.getpid()}.tmp")
     system = build_system(scene)
+    checks.check_memory(scene, system)
     checks.check_observables(scene, system)
     # the history keeps every observable (modal participations included); the scene's
     # output.observables are the ones scored (see bench)

@@ -86,10 +86,14 @@ class Truth:
     #: impacts there; an exact solution: its whole span; a reference without an accuracy record: NaN, -1
     trust_t: float = math.nan
     trust_impacts: int = -1
+    #: what computed the reference, in a few words ('ida rtol 1e-11', 'moreau h 5e-06 (event capturing)')
+    made_by: str = ""
 
     @property
     def description(self) -> str:
-        return self.against if self.against != "reference" else f"cached reference (IDA rtol {self.rtol:g})"
+        if self.against != "reference":
+            return self.against
+        return f"cached reference ({self.made_by or f'ida rtol {self.rtol:g}'})"
 
 
 @dataclass(frozen=True)
@@ -140,7 +144,7 @@ def reference_truth(ref: Any) -> Truth:
     """A cached reference (:class:`daebench.harness.references.reference.Reference`) as a truth."""
     acc = ref.meta.get("accuracy") or {}
     return Truth(ref.history, tuple(float(x) for x in ref.impacts), "reference", float(ref.rtol),
-                 float(acc.get("trust_t", math.nan)), int(acc.get("trust_impacts", -1)))
+                 float(acc.get("trust_t", math.nan)), int(acc.get("trust_impacts", -1)), ref.describe())
 
 
 def truth(run: Run, reference: Callable[[], Any] | None) -> Truth | None:

@@ -212,6 +212,26 @@ class SweepStore:
                 os.close(self._lock_fd)
                 self._lock_fd = -1
 
+    def discard(self) -> None:
+        """Remove a store that was made for a sweep refused before any run (its rows file and
+        lock; the lock file is removed while still held, then released), so that nothing
+        is left behind and the corrected command starts afresh."""
+        rows = self.db.execute("SELECT COUNT(*) FROM rows").fetchone()[0]
+        self.db.close()
+        try:
+            if rows == 0:
+                for p in (self.path, self.path.with_name(self.path.name + "-journal"),
+                          self.folder / f"{self.name}.lock"):
+                    try:
+                        p.unlink()
+                    except FileNotFoundError:
+                        pass
+        finally:
+            if self._lock_fd >= 0:
+                fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
+                os.close(self._lock_fd)
+                self._lock_fd = -1
+
     def __enter__(self) -> "SweepStore":
         return self
 
