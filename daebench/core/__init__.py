@@ -1,5 +1,6 @@
 """The bottom layer: data and physics interfaces every other layer builds on. Settings
-and their validation (:mod:`.params`), the scene value (:mod:`.scene`), the kernel
+and their validation (:mod:`.params`), the scene value (:mod:`.scene`; files it is given are
+read by :mod:`.bounded_file`'s one rule), the kernel
 interface and its numba dispatch (:mod:`.kernels`, :mod:`.dispatch`), a smooth phase's
 data and solves (:mod:`.phase`, :mod:`.problem`), mechanical systems (:mod:`.system`),
 contact laws and impact records (:mod:`.contact`), what a model's observables mean to

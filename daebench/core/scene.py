@@ -16,12 +16,12 @@ import hashlib
 import json
 import os
 import re
-import stat
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
+from daebench.core.bounded_file import UnreadableFile, read_bounded
 from daebench.core.params import Param, ParamError, did_you_mean, parse_pairs
 
 
@@ -92,16 +92,9 @@ def read_toml(path: Path) -> dict[str, Any]:
     SceneError
     """
     try:
-        st = os.stat(path)
-        if not stat.S_ISREG(st.st_mode):
-            raise SceneError(f"{path}: not a regular file (a device, pipe or socket); give a .toml scene file")
-        if st.st_size > MAX_SCENE_BYTES:
-            raise SceneError(f"{path}: {st.st_size} bytes, larger than a scene file can be "
-                             f"({MAX_SCENE_BYTES} bytes); give a .toml scene file")
-        with open(path, "rb") as fh:
-            data = fh.read(MAX_SCENE_BYTES + 1)
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot be read: {exc.strerror or exc}") from None
+        data = read_bounded(path, MAX_SCENE_BYTES)
+    except UnreadableFile as exc:
+        raise SceneError(f"{path}: {exc}; give a .toml scene file") from None
     try:
         return tomllib.loads(data.decode("utf-8").removeprefix("\ufeff"))
     except UnicodeDecodeError:

@@ -14,13 +14,13 @@ import errno
 import json
 import math
 import os
-import stat
 import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+from daebench.core.bounded_file import UnreadableFile, read_bounded
 from daebench.core.params import ParamError
 
 
@@ -152,16 +152,9 @@ def read_json(path: str | Path, what: str = "the file", max_bytes: int = MAX_JSO
     """
     p = Path(path)
     try:
-        st = os.stat(p)
-        if not stat.S_ISREG(st.st_mode):
-            raise DamagedFile(f"{what} {p} is not a regular file")
-        if st.st_size > max_bytes:
-            raise DamagedFile(f"{what} {p} is {st.st_size} bytes, more than such a file can plausibly be "
-                              f"({max_bytes} bytes)")
-        with open(p, "rb") as fh:
-            data = fh.read(max_bytes + 1)
-    except OSError as exc:
-        raise DamagedFile(f"{what} {p} cannot be read: {exc.strerror or exc}") from None
+        data = read_bounded(p, max_bytes)
+    except UnreadableFile as exc:
+        raise DamagedFile(f"{what} {p} {exc}") from None
     return parse_json(data, f"{what} {p}")
 
 
