@@ -5,8 +5,12 @@ docs/_build/html``."""
 from __future__ import annotations
 
 import os
+import sys
+from pathlib import Path
 
 import daebench
+
+sys.path.insert(0, str(Path(__file__).parent / "_ext"))
 
 project = "daebench"
 author = "daebench developers"
@@ -18,7 +22,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.napoleon",     # numpy-style docstrings
     "sphinx.ext.mathjax",
-    "sphinx_click",            # the CLI reference, generated from the commands
+    "cli_reference",           # the CLI reference, generated from the commands (docs/_ext)
 ]
 
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb"}
@@ -40,6 +44,7 @@ autodoc_typehints = "description"
 autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": False}
 napoleon_numpy_docstring = True
 napoleon_google_docstring = False
+napoleon_use_ivar = True      # a class's Attributes section as fields, not a second description of its members
 
 html_theme = "pydata_sphinx_theme"
 html_title = "daebench"

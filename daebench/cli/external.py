@@ -35,8 +35,10 @@ def score(case: str = typer.Argument(..., help="scene name or path to a .toml fi
           out_dir: Optional[str] = typer.Option(None, "--out",
                                                 help="folder for the scored row (default results/score/<case>-<hash>)"),
           as_json: bool = typer.Option(False, "--json", help="print one JSON record, with a sweep row's keys")) -> None:
-    """Score another code's trajectory of a case against its exact solution or reference, with
-    every measure of a daebench run; write the row and print a summary."""
+    """Score another code's trajectory of a case as a daebench run is scored.
+
+    The trajectory is held to the case's exact solution or reference with every measure of a
+    daebench run; the scored row is written and a summary printed."""
     from daebench import api
 
     sc = load_scene_or_exit(case, set_)
@@ -65,9 +67,10 @@ def export(case: str = typer.Argument(..., help="scene name or path to a .toml f
                                                       "(default results/export/<case>-<hash>)"),
            as_json: bool = typer.Option(False, "--json", help="print the JSON sheet (stdout holds nothing else)")
            ) -> None:
-    """Write what another code needs to set a case up: every parameter with its unit, the initial
-    state, the contact law, the observables' definitions, t_end and the output times (JSON and
-    a Markdown sheet)."""
+    """Write what another code needs to set a case up, as JSON and a Markdown sheet.
+
+    Every parameter with its unit, the initial state, the contact law, the observables'
+    definitions, t_end and the output times."""
     from daebench import api
 
     sc = load_scene_or_exit(case, set_)

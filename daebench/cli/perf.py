@@ -26,8 +26,10 @@ def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke te
                                                     "structure (rod-wall banded scaling), new-model (a new model's "
                                                     "compile cost), cold-start (first commands on an empty cache)"),
          out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/perf)")) -> None:
-    """Speed figures in one run (Table 1 grid vs the published seconds, per-step scaling in N,
-    Exudyn side by side, adaptive steps), steps/s per integrator; writes results/perf/."""
+    """Measure the speed figures in one run and write them to results/perf/.
+
+    Table 1's grid beside the published seconds, per-step scaling in N, Exudyn side by side,
+    adaptive steps, and steps per second of every integrator."""
     from daebench import api
 
     s = api.PerfSettings.quick() if quick else api.PerfSettings(jobs=jobs)
@@ -46,8 +48,9 @@ def compile_report(ctx: typer.Context,
                                                      help="NUMBA_OPT for the command (default: the environment's)"),
                    top: int = typer.Option(20, "--top", min=1, help="rows of the function table"),
                    out_dir: Optional[str] = typer.Option(None, "--out", help="folder (default results/perf)")) -> None:
-    """Run a daebench command twice in a fresh process, first from an empty kernel cache,
-    and list every function numba compiled with its own compile time. Example:
+    """List what a daebench command compiles on a cold start, with each function's compile time.
+
+    The command runs twice in a fresh process, first from an empty kernel cache. Example:
     `daebench compile-report -- run beam-impact --integrator hht`."""
     from daebench import api
 

@@ -29,8 +29,10 @@ def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .c
                                        "energy_resid_max, …"),
             group: str = typer.Option("label", "--group", help="one line per value of this column"),
             out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
-    """Work-precision diagram (log–log, Pareto front marked) as PNG and SVG; one panel per
-    --y column (the error measures every sweep row stores: see daebench/harness/scoring/impact_metrics.py)."""
+    """Draw a work–precision diagram of a sweep table as PNG and SVG.
+
+    Log–log, the Pareto front marked, one panel per --y column (the error measures every sweep
+    row stores: see daebench/harness/scoring/impact_metrics.py)."""
     from daebench import api
 
     with refusals():
@@ -44,8 +46,10 @@ def plot_order(table: str = typer.Argument(..., help="a sweep table (.parquet or
                                      help="error column(s), comma-separated for one panel each"),
                group: str = typer.Option("label", "--group", help="one line per value of this column"),
                out: Optional[str] = typer.Option(None, "--out", help="output stem (default: next to the table)")) -> None:
-    """Convergence: error against h (log–log), one panel per --y column, the measured order of
-    each line in its legend, a slope-2 guide."""
+    """Draw the convergence of a sweep table: error against h, with the measured orders.
+
+    Log–log, one panel per --y column, the measured order of each line in its legend, a
+    slope-2 guide."""
     from daebench import api
 
     with refusals():
@@ -56,8 +60,10 @@ def plot_order(table: str = typer.Argument(..., help="a sweep table (.parquet or
 def plot_history(files: list[str] = typer.Argument(..., help="history files written by `daebench run`"),
                  out: Optional[str] = typer.Option(None, "--out", help="output stem (default results/figures/history)"),
                  modal: bool = typer.Option(True, "--modal/--no-modal", help="also W_i(t) if present")) -> None:
-    """θ, energy residual and constraint residuals |C|, |Ċ|, |C̈| against t, one panel each
-    (and modal participation), one line per run labelled by integrator and settings."""
+    """Draw run histories: θ, energy residual and constraint residuals against t.
+
+    One panel each for θ, the energy residual, |C|, |Ċ|, |C̈| (and the modal participation),
+    one line per run labelled by integrator and settings."""
     from daebench import api
 
     with refusals():

@@ -47,9 +47,10 @@ def paper(quick: bool = typer.Option(False, "--quick", help="reduced grid for CI
           variant: str = typer.Option("both", "--variant",
                                       help="published (beam-impact, h = 1e-4 s) | calibrated (beam-impact-hub, "
                                            "h = 2.5e-5 s) | both")) -> None:
-    """Regenerate the beam-impact study (HHT-α vs Baumgarte, Acta Physica Sinica 2017): Table 1
-    beside the published seconds, one figure and one computed verdict per claim, for the
-    published setting and for the calibrated variant (hub inertia and step at which this
+    """Reproduce the beam-impact paper (HHT-α vs Baumgarte): Table 1 and a verdict per claim.
+
+    Table 1 beside the published seconds, one figure and one computed verdict per claim, for
+    the published setting and for the calibrated variant (hub inertia and step at which this
     model shows the paper's stability pattern; see cases/beam-impact-hub.toml)."""
     from daebench import api
 
@@ -67,9 +68,10 @@ def interactive_mode(part: str = typer.Argument("rodwall", help="rodwall | slide
                      out_dir: Optional[str] = typer.Option(None, "--out",
                                                            help="folder for the JSON rows (default results/flexcontact)")
                      ) -> None:
-    """The interactive-mode paper (flexible bodies in contact, Acta Physica Sinica 2017): the runs
-    behind one of its tables — ACM, PFM and IMM on rod-wall, slider-slot or rod-plate, their cost,
-    or the slider figure."""
+    """Reproduce one table or figure of the interactive-mode paper (flexible bodies in contact).
+
+    The runs behind one of its tables — ACM, PFM and IMM on rod-wall, slider-slot or
+    rod-plate, their cost — or the slider figure."""
     from daebench import api
 
     with refusals():
@@ -96,7 +98,9 @@ def chain(windows: str = typer.Option("1e-4,5e-4,1e-3,2e-3", help="lcp-avg windo
           restitutions: str = typer.Option("0.1,0.2,0.3,0.5,0.8,1", help="Flores restitutions"),
           out_dir: Optional[str] = typer.Option(None, "--out",
                                                 help="folder for the CSV table (default results/averaged-gap)")) -> None:
-    """chain-impact: lcp-avg at several h_avg beside Hertz–Flores/LN under IDA (unclipped Flores force)."""
+    """Run lcp-avg on chain-impact at several windows beside Hertz–Flores under IDA.
+
+    The Hertz law with Flores' and Lankarani–Nikravesh's damping (unclipped Flores force)."""
     from daebench import api
 
     with refusals():
@@ -108,7 +112,9 @@ def pendulum(windows: str = typer.Option("1e-3,1e-2", help="lcp-avg windows h_av
              hertz: bool = typer.Option(True, "--hertz/--no-hertz", help="also the Hertz law under IDA"),
              out_dir: Optional[str] = typer.Option(None, "--out", help="folder for the CSV table and the figure "
                                                                        "(default results/averaged-gap)")) -> None:
-    """double-pendulum: event-driven IDA, lcp-avg and Hertz; outcome table and tip gap/force figure."""
+    """Run the flexible double pendulum under lcp-avg, event-driven IDA and Hertz.
+
+    Prints the outcome table and writes the tip gap and tip force figure."""
     from daebench import api
 
     with refusals():
@@ -145,8 +151,10 @@ def page(scene: str = typer.Argument("beam-impact", help="a case with contacts (
          out_dir: Optional[str] = typer.Option(None, "--out", help="folder for the figures (default results/capture)"),
          resume: bool = typer.Option(False, "--resume", help="complete the interrupted sweeps of this page"),
          overwrite: bool = typer.Option(False, "--overwrite", help="replace the sweep tables of an earlier page")) -> None:
-    """Sweep hht, moreau (projection off/on), nsgenalpha at --steps and ida at --tols against
-    the IDA reference; write one work–precision figure per error measure and a figure of
+    """Write the page of event-capturing beside event-driven contact on a case.
+
+    Sweeps hht, moreau (projection off/on), nsgenalpha at --steps and ida at --tols against
+    the IDA reference; writes one work–precision figure per error measure and a figure of
     penetration and energy over time (one run each at --h). Progress goes to stderr; the
     sweep tables are results/bench/<scene>-capture-e…-{fixed,ida}: run the page again with
     --resume (after an interruption) or --overwrite (to replace them)."""

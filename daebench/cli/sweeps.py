@@ -214,9 +214,11 @@ def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-sepa
                                          help="compute | require | auto | none (no reference: runs are scored only "
                                               "against a model's exact solution)"),
            report_page: bool = typer.Option(False, "--report", help="also write the HTML report page")) -> None:
-    """Run the protocol of every case within a per-case budget; print the performance profiles and a
-    recommendation per case; write results/survey/<name>/ (table, reach = cost to reach each target,
-    profiles, recommendations)."""
+    """Run the protocol of every case within a budget; print profiles and recommendations.
+
+    Prints the performance profiles and a recommendation per case; writes
+    results/survey/<name>/ (table, reach = cost to reach each target, profiles,
+    recommendations)."""
     from daebench import api
 
     t0 = time.perf_counter()
@@ -245,8 +247,10 @@ def report(name: str = typer.Argument(..., help="a survey name (results/survey/<
            compact: bool = typer.Option(False, "--compact",
                                         help="a small page: no per-case work–precision figures, the profile "
                                              "figure scaled down, tables without digests and messages")) -> None:
-    """Write one self-contained HTML page of a survey: recommendations, sortable tables, figures,
-    the reference's trusted span where known, provenance."""
+    """Write one self-contained HTML page of a survey.
+
+    Recommendations, sortable tables, figures, the reference's trusted span where known,
+    provenance."""
     from daebench import api
 
     with refusals():
@@ -259,8 +263,10 @@ def effects(case: str = typer.Argument(..., help="scene name or path to a .toml 
             opt: list[str] = typer.Option([], "--opt", help="integrator setting name=value"),
             set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
             out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/effects)")) -> None:
-    """Run the case with each switchable effect (effects.* = true) turned off in turn: the change of
-    every observable (max |Δ| against the all-on run) and of the cost (wall time, steps)."""
+    """Run a case with each switchable effect turned off in turn and report what changes.
+
+    Each effect that is on (effects.* = true) is switched off once: the change of every
+    observable (max |Δ| against the all-on run) and of the cost (wall time, steps)."""
     from daebench import api
 
     sc = load_scene_or_exit(case, set_)
@@ -295,9 +301,11 @@ def stability(case: str = typer.Argument(..., help="scene name or path to a .tom
               mark_h: float = typer.Option(0.0, "--mark-h", help="draw this step as a line, s (0: none)"),
               out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/stability)"),
               name: Optional[str] = typer.Option(None, "--name", help="file stem (default <case>-stability)")) -> None:
-    """Largest stable fixed step per integrator setting and N, measured by bisection on
-    whole runs (completed, energy balance within the divergence threshold), beside the
-    linear prediction (start frequencies × the method's computed stability interval)."""
+    """Measure the largest stable fixed step per integrator setting and N beside its prediction.
+
+    Bisection on whole runs (completed, energy balance within the divergence threshold),
+    beside the linear prediction (start frequencies × the method's computed stability
+    interval)."""
     from daebench import api
 
     with refusals():

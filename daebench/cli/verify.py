@@ -21,8 +21,10 @@ def verify(integrator: str = typer.Argument(..., help="integrator name (see `dae
            only: Optional[str] = typer.Option(None, "--only",
                                               help="comma-separated properties: order, drift, energy, contract, contact"),
            as_json: bool = typer.Option(False, "--json", help="print one JSON record (stdout holds nothing else)")) -> None:
-    """Measure what an integrator declares (order, constraint index, energy, the step contract, contact
-    handling) on cases with exact solutions; one PASS/FAIL/N/A line per property. Exit 1 if one fails."""
+    """Measure what an integrator declares on cases with exact solutions; PASS/FAIL per property.
+
+    Order, constraint index, energy, the step contract and contact handling, one
+    PASS/FAIL/N/A line per property. Exit 1 if one fails."""
     from daebench import api
 
     try:

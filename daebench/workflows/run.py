@@ -70,7 +70,7 @@ class RunOutput:
     counters = property(lambda self: self.record.counters, doc="steps, rejected, residual/Jacobian evaluations, "
                                                                   "LU factorizations, Newton iterations")
     energy_residual = property(lambda self: self.record.energy_residual,
-                               doc="max |E − E0 − W_nc + D_impacts| over the run [J]")
+                               doc="max ``|E − E0 − W_nc + D_impacts|`` over the run [J]")
     constraint_max = property(lambda self: self.record.constraint_max)
     history_path = property(lambda self: self.record.history)
 
