@@ -165,8 +165,27 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
 
 
 def _compare_table(res: Any, sc: Any) -> None:
+    """The runs as one table, then the recommendation as a small one."""
+    for line in textout.kv_lines([("compare", res.heading(sc.name))]):
+        out(line)
     cols, rows = res.table_rows()
-    for line in textout.table_lines(cols, rows, title=res.heading(sc.name)):
+    for line in textout.rich_lines(cols, rows):
+        out(line)
+    if any("*" in str(r[-2]) for r in rows):
+        for line in textout.kv_lines([("order", "observed order of the first measure against the next coarser "
+                                       "run; * outside the asymptotic regime (errors not falling, or far from "
+                                       "the declared order)")]):
+            out(line)
+    cols, rows = res.recommendation_rows()
+    if not rows:
+        out("recommendation: none (no run was scored on the protocol's measures)")
+        return
+    out("")
+    for line in textout.kv_lines([("recommendation", "cost = CPU time to reach the target; a setting qualifies "
+                                   "when it and its finer runs reach it, none failed, and the observed order is "
+                                   "positive")]):
+        out(line)
+    for line in textout.rich_lines(cols, rows, prose={"target": 14, "pick": 14, "runner-up": 12, "why": 28}):
         out(line)
 
 

@@ -236,6 +236,47 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
     return fig, (save(fig, stem, prov) if stem is not None else [])
 
 
+def small_multiples(cases: Mapping[str, tuple[pd.DataFrame, str]], x: str = "cpu_s", group: str = "label",
+                    stem: str | Path | None = None, prov: dict[str, Any] | None = None,
+                    title: str = "work–precision per case", ncol: int = 4) -> tuple[Any, list[Path]]:
+    """One small log–log work–precision panel per case ({case: (its runs, the error column
+    to plot)}), one colour per setting across all panels and one legend: the survey's
+    cases side by side."""
+    if not cases:
+        raise ParamError("no case to plot")
+    names = list(dict.fromkeys(str(k) for df, _ in cases.values() if group in df for k in df[group]))
+    color = {k: f"C{i % 10}" for i, k in enumerate(names)}
+    style = {k: ("-", "--", ":", "-.")[(i // 10) % 4] for i, k in enumerate(names)}
+    ncol = min(ncol, len(cases))
+    nrow = -(-len(cases) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.3 * ncol, 2.7 * nrow + 0.9), squeeze=False)
+    handles: dict[str, Any] = {}
+    for ax, (case, (df, y)) in zip(axes.flat, cases.items()):
+        xs = pd.to_numeric(df[x], errors="coerce").to_numpy(float) if x in df else np.full(len(df), np.nan)
+        ys = pd.to_numeric(df[y], errors="coerce").to_numpy(float) if y in df else np.full(len(df), np.nan)
+        keys = df[group].astype(str).to_numpy()
+        for k in dict.fromkeys(keys):
+            sel = (keys == k) & np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
+            if sel.any():
+                o = np.argsort(xs[sel])
+                (ln,) = ax.loglog(xs[sel][o], ys[sel][o], "o", ls=style[k], ms=3, lw=1.1, color=color[k])
+                handles.setdefault(k, ln)
+        ax.set_title(case, fontsize=9)
+        ax.set_xlabel(f"{LABELS.get(x, x)}, log", fontsize=7)
+        ax.set_ylabel(label_of(y, model_of(df)).replace(" over the reference's trusted span", ", trusted span")
+                      + ", log", fontsize=7, wrap=True)
+        ax.tick_params(labelsize=6)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in list(axes.flat)[len(cases):]:
+        ax.axis("off")
+    labels = [k for k in names if k in handles]
+    fig.legend([handles[k] for k in labels], labels, loc="lower center", ncol=min(6, max(1, len(labels))),
+               fontsize=7, title="integrator (settings)", title_fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0.04 + 0.035 * -(-len(labels) // 6), 1, 0.97))
+    return fig, (save(fig, stem, prov) if stem is not None else [])
+
+
 def history(hists: Mapping[str, pd.DataFrame], stem: str | Path | None = None,
             prov: dict[str, Any] | None = None, title: str = "") -> tuple[Any, list[Path]]:
     """The headline observable(t) (the first a model declares to be scored around impacts),

@@ -35,6 +35,7 @@ import pandas as pd  # noqa: E402
 
 from daebench.core.params import ParamError  # noqa: E402
 from daebench.harness.running import provenance  # noqa: E402
+from daebench.harness.scoring import glossary  # noqa: E402
 
 #: the τ of the profile table: cheapest, within 4×, at all
 TABLE_TAUS = (1.0, 4.0, math.inf)
@@ -152,7 +153,7 @@ def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: di
         ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_ylim(-0.02, 1.02)
-        ax.set_title(f"{m} ≤ {t:g}  ({len(r)} cases)", fontsize=9)
+        ax.set_title(f"{glossary.display(m)} ≤ {t:g}  ({len(r)} cases)", fontsize=9, wrap=True)
         ax.set_xlabel(f"τ: {cost_label} within τ × the best setting's on the case")
         ax.set_ylabel("ρ(τ): fraction of cases")
         ax.grid(True, which="both", alpha=0.3)
@@ -172,3 +173,28 @@ def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: di
     fig.savefig(files[1])
     plt.close(fig)
     return files
+
+
+def conclusions(prof: pd.DataFrame) -> list[str]:
+    """The library-wide answer of a profile table (:func:`profile_table`), one sentence per
+    accuracy band (measure and target): the setting cheapest on most cases, the one that
+    qualifies on most, and the cases no setting qualifies on."""
+    out = []
+    for (m, t), g in prof.groupby(["measure", "target"], sort=False):
+        n = int(g["cases"].iloc[0])
+        head = f"{glossary.display(m)} ≤ {float(t):g} ({n} case{'s' if n != 1 else ''})"
+        g1 = g.sort_values(["rho_1", "rho_4", "setting"], ascending=[False, False, True], kind="stable")
+        best = g1.iloc[0]
+        if not float(best["rho_inf"]) > 0:
+            out.append(f"{head}: no setting qualifies on any case.")
+            continue
+        gi = g.sort_values(["rho_inf", "rho_1", "setting"], ascending=[False, False, True], kind="stable").iloc[0]
+        s = (f"{head}: {best['setting']} is the cheapest on {round(best['rho_1'] * n)} and within 4× on "
+             f"{round(best['rho_4'] * n)}")
+        if gi["setting"] != best["setting"]:
+            s += f"; {gi['setting']} qualifies on the most cases ({round(gi['rho_inf'] * n)})"
+        else:
+            s += f", and qualifies on {round(best['rho_inf'] * n)}"
+        un = int(g["unsolved"].iloc[0]) if "unsolved" in g else 0
+        out.append(s + (f"; on {un} no setting qualifies." if un else "."))
+    return out

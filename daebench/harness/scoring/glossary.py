@@ -232,7 +232,7 @@ def markdown() -> str:
         lines.append(_row(f"`{col}`", m.name, m.definition))
     lines += ["", "## Observables the models declare", "", _row("model", "score name `<obs>`", "label", "unit"),
               _row("---", "---", "---", "---")]
-    from daebench.models import MODELS, PROVIDERS   # daebench's own models (a plugin's are its own to document)
+    from daebench.models import MODELS, PROVIDERS  # lazy: the model registry, only for the page (daebench's own models)
     for model in (m for m in MODELS if PROVIDERS.get(m) == "daebench"):
         try:
             d = pipeline.declared(model)
