@@ -68,7 +68,7 @@ def test_figure_written(tmp_path):
     assert [f.suffix for f in files] == [".png", ".svg"] and all(f.stat().st_size > 1000 for f in files)
     svg = files[1].read_text()
     from daebench.harness.scoring import glossary
-    assert "fraction of cases" in svg and glossary.display("err_x_max") in svg   # axis label and panel title
+    assert "fraction of cases" in svg and glossary.target_text("err_x_max", 1e-3) in svg   # axis label, panel title
 
 
 def test_refusals():

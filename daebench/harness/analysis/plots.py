@@ -247,8 +247,9 @@ def small_multiples(cases: Mapping[str, tuple[pd.DataFrame, str]], x: str = "cpu
         ax.set_xlabel(f"{LABELS.get(x, x)}, log", fontsize=7)
         ax.set_ylabel(label_of(y, model_of(df)).replace(" over the trusted span", ", trusted span")
                       + ", log", fontsize=7, wrap=True)
-        ax.tick_params(labelsize=6)
+        ax.tick_params(labelsize=6, which="both")
         ax.grid(True, which="both", alpha=0.3)
+        tidy_log_ticks(ax)
     for ax in list(axes.flat)[len(cases):]:
         ax.axis("off")
     labels = [k for k in names if k in handles]

@@ -126,9 +126,10 @@ def curve(ratios: pd.DataFrame, setting: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: dict[str, Any] | None = None,
-           setting: str = "label", cost_label: str = "wall time") -> list[Path]:
+           setting: str = "label", cost_label: str | None = None) -> list[Path]:
     """One panel per (measure, target): ρ_s(τ) as a step plot on a log τ axis, one line per
     setting; written as ``<path>.png`` and ``.svg``. Returns the files."""
+    cost_label = cost_label or glossary.describe(cost).words
     keys = list(reach.groupby(["measure", "target"], sort=False).groups)
     if not keys:
         raise ParamError("the reach table is empty: nothing to profile")
@@ -153,7 +154,7 @@ def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: di
         ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_ylim(-0.02, 1.02)
-        ax.set_title(f"{glossary.display(m)} ≤ {t:g}  ({len(r)} cases)", fontsize=9, wrap=True)
+        ax.set_title(f"{glossary.target_text(m, float(t))}  ({len(r)} cases)", fontsize=9, wrap=True)
         ax.set_xlabel(f"τ: {cost_label} within τ × the best setting's on the case")
         ax.set_ylabel("ρ(τ): fraction of cases")
         ax.grid(True, which="both", alpha=0.3)
@@ -182,7 +183,7 @@ def conclusions(prof: pd.DataFrame) -> list[str]:
     out = []
     for (m, t), g in prof.groupby(["measure", "target"], sort=False):
         n = int(g["cases"].iloc[0])
-        head = f"{glossary.display(m)} ≤ {float(t):g} ({n} case{'s' if n != 1 else ''})"
+        head = f"{glossary.target_text(m, float(t))} ({n} case{'s' if n != 1 else ''})"
         g1 = g.sort_values(["rho_1", "rho_4", "setting"], ascending=[False, False, True], kind="stable")
         best = g1.iloc[0]
         if not float(best["rho_inf"]) > 0:

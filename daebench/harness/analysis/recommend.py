@@ -108,7 +108,7 @@ def _cost(v: float) -> str:
 
 def sentence(r: Mapping[str, Any], model: str | None = None) -> str:
     """One target of one case, in words (display names, never column names)."""
-    head = f"To reach {glossary.display(r['measure'], model)} ≤ {r['target']:g}"
+    head = f"To reach {glossary.target_text(r['measure'], r['target'], model)}"
     if not r["pick"]:
         return f"{head}: no setting qualifies yet — {r['missing']}."
     tie = " (a tie)" if r["tie"] else ""

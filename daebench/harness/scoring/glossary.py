@@ -202,6 +202,12 @@ def display(column: str, model: str | None = None) -> str:
     return describe(column, model).name
 
 
+def target_text(column: str, target: float, model: str | None = None) -> str:
+    """A target in words: "θ max error over the trusted span ≤ 0.1 deg"."""
+    m = describe(column, model)
+    return f"{m.words} ≤ {target:g}" + (f" {m.unit}" if m.unit else "")
+
+
 # ---- the glossary page ----------------------------------------------------------------------------
 def _row(*cells: str) -> str:
     return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
