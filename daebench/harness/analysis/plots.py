@@ -253,10 +253,12 @@ def small_multiples(cases: Mapping[str, tuple[pd.DataFrame, str]], x: str = "cpu
     for ax in list(axes.flat)[len(cases):]:
         ax.axis("off")
     labels = [k for k in names if k in handles]
+    rows = -(-len(labels) // 6)
     fig.legend([handles[k] for k in labels], labels, loc="lower center", ncol=min(6, max(1, len(labels))),
-               fontsize=7, title="integrator (settings)", title_fontsize=7)
+               fontsize=7, title="integrator (settings)", title_fontsize=7,
+               bbox_to_anchor=(0.5, 0.35 / fig.get_figheight()))    # above the provenance footer
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.04 + 0.035 * -(-len(labels) // 6), 1, 0.97))
+    fig.tight_layout(rect=(0, (0.75 + 0.16 * rows) / fig.get_figheight(), 1, 0.97))
     return fig, (save(fig, stem, prov) if stem is not None else [])
 
 

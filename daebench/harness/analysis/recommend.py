@@ -41,7 +41,7 @@ def _reasons(v: Mapping[str, Any], model: str | None) -> list[str]:
     elif v["reach_kind"] == "bound":
         out.append(f"its coarsest run ({v['at']}) and every finer one reach it: the cost is an upper bound")
     else:
-        out.append(f"{v['at']} and every finer run reach it")
+        out.append(f"the run at {v['at']} and every finer run reach it")
     p, dec = v["order"], v["declared"]
     order = f"observed order {p:.2g} over {int(v['evidence'])} runs" + (f" (declared {dec:g})"
                                                                          if math.isfinite(dec) else "")
