@@ -100,3 +100,14 @@ def test_observed_order_per_run_and_the_asymptotic_flag():
     np.testing.assert_allclose(o["order"].iloc[1:3], [2.0, 2.0], rtol=1e-12)
     assert o["order"].iloc[3] == 0.0 and o["regime"].iloc[3] == "errors not falling"
     assert list(o["regime"].iloc[:3]) == ["", "", ""]
+
+
+def test_what_is_missing_groups_the_settings_that_need_the_same():
+    items = ["run finer steps of a (one run reaching it shows no order)",
+             "run finer steps of b (one run reaching it shows no order)",
+             "run finer steps of c (its finest, h=2.5e-05, reaches 1.22)",
+             "run finer steps of d (its finest, h=2.5e-05, reaches 1.21)",
+             "e at its finest h=0.001 diverged"]
+    assert recommend.missing_text(items) == (
+        "run finer steps of a, b (one run reaching it shows no order); run finer steps of c, d (their finest, "
+        "h=2.5e-05, reach 1.22, 1.21); e at its finest h=0.001 diverged")

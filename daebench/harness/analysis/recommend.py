@@ -16,6 +16,7 @@ words (:mod:`daebench.harness.scoring.glossary`).
 from __future__ import annotations
 
 import math
+import re
 from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
@@ -99,7 +100,19 @@ def missing_text(items: Sequence[str]) -> str:
         else:
             rest.append(it)
     out = [f"{head} of {', '.join(names)} ({why}" for (head, why), names in groups.items()]
-    return "; ".join(out + rest)
+    finest: dict[tuple[str, str], list[tuple[str, str]]] = {}   # 'run finer steps of X (its finest, h=…, reaches e)'
+    other = []
+    for it in rest:
+        m = re.fullmatch(r"(run finer \w+) of (.+) \(its finest, (\S+), reaches (\S+)\)", it)
+        if m:
+            finest.setdefault((m.group(1), m.group(3)), []).append((m.group(2), m.group(4)))
+        else:
+            other.append(it)
+    for (head, at), pairs in finest.items():
+        names, errs = ", ".join(n for n, _ in pairs), ", ".join(e for _, e in pairs)
+        out.append(f"{head} of {names} (their finest, {at}, reach {errs})" if len(pairs) > 1
+                   else f"{head} of {names} (its finest, {at}, reaches {errs})")
+    return "; ".join(out + other)
 
 
 def _cost(v: float) -> str:
