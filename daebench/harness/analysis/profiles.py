@@ -197,5 +197,5 @@ def conclusions(prof: pd.DataFrame) -> list[str]:
         else:
             s += f", and qualifies on {round(best['rho_inf'] * n)}"
         un = int(g["unsolved"].iloc[0]) if "unsolved" in g else 0
-        out.append(s + (f"; on {un} no setting qualifies." if un else "."))
+        out.append(s + (f"; no setting qualifies on {un}." if un else "."))
     return out

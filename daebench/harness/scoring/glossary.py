@@ -159,14 +159,20 @@ _ORDINAL = {1: "first", 2: "second", 3: "third"}
 def declared_observable(score_name: str, model: str | None = None) -> Observable | Position | None:
     """The declaration whose error columns are ``err_<score_name>_*``: model ``model``'s,
     else the one every registered model that declares it agrees on (label and unit; when
-    they differ in label but agree on the unit: the name and that unit); None otherwise."""
+    they differ in label but agree on the unit: the name and that unit; when they agree on
+    the label's symbol but not the unit: the symbol, "in each case's unit"); None otherwise."""
     if model is not None:
         return pipeline.declared(model).by_score_name(score_name)
     found = {d for d in pipeline.every_declared() if d.score_name == score_name}
     if len({(d.label, d.unit) for d in found}) == 1:
         return found.pop()
     units = {d.unit for d in found}
-    return Observable(score_name, units.pop()) if len(units) == 1 else None
+    if len(units) == 1:
+        return Observable(score_name, units.pop())
+    symbols = {(d.label or d.score_name).split()[0] for d in found}
+    if len(symbols) == 1:   # one symbol ('θ', 'θ crank'), units that differ by model: no unit to print
+        return Observable(score_name, "each case's unit", label=symbols.pop())
+    return None
 
 
 def describe(column: str, model: str | None = None) -> Measure:
@@ -205,7 +211,8 @@ def display(column: str, model: str | None = None) -> str:
 def target_text(column: str, target: float, model: str | None = None) -> str:
     """A target in words: "θ max error over the trusted span ≤ 0.1 deg"."""
     m = describe(column, model)
-    return f"{m.words} ≤ {target:g}" + (f" {m.unit}" if m.unit else "")
+    unit = f" ({m.unit})" if " " in m.unit else f" {m.unit}" if m.unit else ""
+    return f"{m.words} ≤ {target:g}{unit}"
 
 
 # ---- the glossary page ----------------------------------------------------------------------------
