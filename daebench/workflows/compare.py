@@ -431,12 +431,13 @@ def table_rows(df: pd.DataFrame, measures: Sequence[str], model: str | None = No
     rows = []
     for _, r in df.iterrows():
         ext = r["integrator"] == external.EXTERNAL
-        who = f"{r['label']} [ext]" if ext else str(r["integrator"])
+        who = f"{r['label']} [external]" if ext else str(r["integrator"])
         order = r.get("order", math.nan)
         o = f"{order:.2g}" + ("*" if r.get("regime") else "") if isinstance(order, float) and math.isfinite(order) \
             else "-"
         imp = f"{_int(r.get('impacts_matched'))}/{_int(r.get('impacts_spurious'))}"
-        rows.append([who, "file" if ext else _setting(r) or "defaults", r["status"], _int(r.get("steps")),
+        rows.append([who, f"{_int(r.get('steps'))} steps" if ext else _setting(r) or "defaults", r["status"],
+                     _int(r.get("steps")),
                      r.get("cpu_s"), *[r.get(m) for m in ms], o, imp])
     return cols, rows
 
