@@ -185,3 +185,32 @@ def test_history_legend_names_integrator_and_settings(tmp_path):
     r = runner.invoke(app, ["plot", "history", str(path), "--out", str(tmp_path / "fig")])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "fig.png").exists() and (tmp_path / "fig.svg").exists()
+
+
+def test_compare_piped_prints_one_table_row_per_run_and_the_recommendation_table(tmp_path):
+    """`daebench compare … | cat` with COLUMNS=80: one line per run holding its integrator,
+    settings, status and CPU time whole (plain text: no escape codes), then the
+    recommendation as a table; compare.json holds the recommendation records."""
+    out = tmp_path / "cmp"
+    r = _cli("compare", "pendulum", "--set", "t_end=0.2", "-j", "1", "--out", str(out),
+             "--reference", "none")
+    assert r.returncode in (0, 1), r.stderr
+    assert "\x1b[" not in r.stdout
+    import pandas as pd
+
+    from daebench.cli.textout import _short_exp, fmt
+
+    df = pd.read_csv(out / "table.csv")
+    lines = r.stdout.splitlines()
+    for _, row in df.iterrows():
+        setting = f"h={row['h']:g}" if pd.notna(row.get("h")) else (f"tol={row['tol']:g}" if pd.notna(row.get("tol"))
+                                                                     else "defaults")
+        mine = [ln for ln in lines if ln.split()[:3] == [row["integrator"], _short_exp(setting), row["status"]]]
+        assert len(mine) == 1, (row["integrator"], setting, r.stdout)
+        assert re.search(rf"(^|\s){re.escape(_short_exp(fmt(float(row['cpu_s']))))}(\s|$)", mine[0]), mine[0]
+    head = next(i for i, ln in enumerate(lines) if ln.split()[:2] == ["target", "pick"])
+    assert "CPU s" in lines[head] and "runner-up" in lines[head] and "why" in lines[head]
+    side = json.loads((out / "compare.json").read_text())
+    assert side["recommendations"], side
+    for rec in side["recommendations"]:
+        assert {"target", "pick", "cost_cpu_s", "runner_up", "ratio", "reasons"} <= set(rec)

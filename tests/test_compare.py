@@ -9,6 +9,8 @@ repository.
 
 from __future__ import annotations
 
+import json
+
 from pathlib import Path
 
 import numpy as np
@@ -51,8 +53,15 @@ def test_compare_scores_every_row_and_writes_table_and_figure(tmp_path, monkeypa
         assert r["err_theta_max"] == pytest.approx(run.error["err_theta_max"], rel=1e-12)
         assert r["err_pos_max"] == pytest.approx(run.error["err_pos_max"], rel=1e-12)
     assert (tmp_path / "cmp" / "table.csv").exists() and (tmp_path / "cmp" / "wp-pendulum.png").exists()
-    cols, rows = C.table_rows(df, res.headline)
-    assert len(rows) == 2 and cols[0] == "run" and cols[4] == "θ trusted[°]"
+    cols, rows = res.table_rows()
+    assert len(rows) == 2 and cols[:5] == ["integrator", "settings", "status", "steps", "CPU\n[s]"]
+    assert cols[5] == "θ max\nwhole run\n[deg]" and rows[1][1] == "h=0.005" and rows[1][4] == df["cpu_s"].iloc[1]
+    # the observed order of the second run: log(e1/e2)/log(2), against the first
+    e = df["err_theta_max"].to_numpy()
+    assert df["order"].iloc[1] == pytest.approx(np.log(e[0] / e[1]) / np.log(2.0), rel=1e-12)
+    side = json.loads((tmp_path / "cmp" / "compare.json").read_text())
+    for r in side["recommendations"]:
+        assert {"target", "pick", "cost_cpu_s", "runner_up", "ratio", "reasons"} <= set(r)
     assert res.heading("pendulum") == "pendulum: 2 runs (runs given to compare) — hht: h = 0.01, 0.005 s with alpha = 0"
 
 

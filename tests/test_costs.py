@@ -107,27 +107,32 @@ def test_targets_parsing_and_decades():
 
 
 def test_recommendation_names_cheapest_runner_up_and_failures():
-    """Two power laws on one case: 'fast' reaches τ at K_f/h*, 'slow' at twice the cost
-    (K_s = 2 K_f); 'broken' diverges at every step. Known answers: best 'fast', runner-up
-    'slow', ratio 2, and 'broken' listed with its reason."""
+    """Two power laws on one case: 'fast' reaches τ at K_f/h*, 'slow' at twice the CPU
+    time (K_s = 2 K_f); 'broken' diverges at every step. Known answers: best 'fast' with its
+    cost interpolated between h = 1e-2 and 5e-3, observed order 2, runner-up 'slow', ratio
+    2, and 'broken' said to have diverged (where), never with its exception's text."""
     from daebench.harness.analysis import recommend
 
     rows = []
     for h in (1e-2, 5e-3, 2.5e-3):
         for lab, k, st in (("fast", K, "completed"), ("slow", 2 * K, "completed"), ("broken", K, "diverged")):
-            rows.append(dict(case="c", label=lab, integrator=lab, h=h, status=st, wall_s=k / h, steps=1 / h,
-                             err_x_max=C * h ** P if st == "completed" else np.nan,
+            rows.append(dict(case="c", label=lab, integrator=lab, h=h, status=st, cpu_s=k / h, cpu_spread=0.05,
+                             steps=1 / h, err_x_max=C * h ** P if st == "completed" else np.nan,
                              message="" if st == "completed" else "step size underflow at t = 0.2"))
     df = pd.DataFrame(rows)
     tau = 5e-5
-    reach, text = recommend.for_table(df, ["err_x_max"], {"err_x_max": [tau]})
-    rec = recommend.recommendations(reach).iloc[0]
-    h_star = (tau / C) ** 0.5
-    assert rec.best == "fast" and rec.best_cost == pytest.approx(K / h_star, rel=1e-12)
-    assert rec.runner_up == "slow" and rec.ratio == pytest.approx(2.0, rel=1e-12)
+    verdicts, recs, text = recommend.for_table(df, ["err_x_max"], {"err_x_max": [tau]})
+    rec = recs["c"][0]
+    h_star = (tau / C) ** 0.5                       # 4.08e-3: between the runs at 5e-3 and 2.5e-3
+    assert rec["pick"] == "fast (between h=0.005 and h=0.0025)"
+    assert rec["cost_cpu_s"] == pytest.approx(K / h_star, rel=1e-12)
+    assert rec["runner_up"].startswith("slow") and rec["ratio"] == pytest.approx(2.0, rel=1e-12)
+    assert not rec["tie"]
+    fast = verdicts[verdicts["label"] == "fast"].iloc[0]
+    assert fast["order"] == pytest.approx(P, rel=1e-9) and fast["regime"] == ""
     para = text["c"]
-    assert "take fast (2.45 s, 245 steps)" in para and "runner-up slow at 4.9 s, 2× the cost" in para
-    assert "broken — diverged at h=0.01: step size underflow" in para
+    assert "take fast (between h=0.005 and h=0.0025): 2.45 s CPU; runner-up slow" in para
+    assert "broken (diverged at h=0.01)" in para and "underflow" not in para
     # default targets: decades inside the pooled errors' quartiles
     assert recommend.default_targets(df, ["err_x_max"]) == {"err_x_max": [1e-4]}
 

@@ -109,3 +109,30 @@ def test_a_python_models_exception_ends_the_run_with_its_message(monkeypatch, ca
     _, sundae = run_scene(scene, "ida", {"backend": "sksundae"}, write=False)
     assert native.status == "completed" and native.counters == sundae.counters
     np.testing.assert_array_equal(native.history.to_numpy(), sundae.history.to_numpy())
+
+
+def test_a_python_models_exception_inside_idas_callback_is_the_sweep_rows_error(monkeypatch):
+    """The same planted exception through a sweep row (what compare and the survey store):
+    the row is 'failed' with the model's own message — not an 'error' row carrying a
+    'SystemError: <weakref …> returned a result with an exception set' or any other
+    exception of the bridge — and its errors are NaN."""
+    from daebench.harness.sweeps.options import Timing
+    from daebench.harness.sweeps.plan import plan_sweep
+    from daebench.harness.sweeps.row import execute
+    from daebench.models.chain import Chain
+
+    real = Chain.applied_force
+
+    def planted(self, t, q, v):
+        if t > 0.005:
+            raise ValueError("planted: the chain's force is undefined beyond 5 ms")
+        return real(self, t, q, v)
+
+    monkeypatch.setattr(Chain, "applied_force", planted)
+    scene = api.load_scene("chain-impact", ["t_end=0.01"])
+    (spec,) = plan_sweep(scene, ["ida"], tols=[1e-6])
+    row = execute(spec, scene, "none", Timing(repeats=1, warmup=False))
+    assert row["status"] == "failed", row["message"]
+    assert "planted: the chain's force is undefined beyond 5 ms" in row["message"]
+    assert "SystemError" not in row["message"] and "weakref" not in row["message"]
+    assert 0.004 < row["t_final"] <= 0.005 + 1e-9

@@ -53,16 +53,17 @@ def test_score_across_cases_known_answers():
     so ρ_a(1) = 1, ρ_b(1) = 0, ρ_b(2) = 1 and the recommendation names 'a' with ratio 2."""
     results = []
     for case in ("c1", "c2"):
-        rows = [dict(run=i, case=case, label=lab, integrator=lab, h=h, status="completed", wall_s=k / h,
-                     steps=1 / h, err_y_max=3.0 * h * h)
+        rows = [dict(run=i, case=case, label=lab, integrator=lab, h=h, status="completed", cpu_s=k / h,
+                     cpu_spread=0.01, steps=1 / h, err_y_max=3.0 * h * h)
                 for i, (lab, k, h) in enumerate((lab, k, h) for lab, k in (("a", 1e-3), ("b", 2e-3))
                                                 for h in (1e-2, 5e-3, 2.5e-3))]
         results.append(S.CaseResult(case, pd.DataFrame(rows), {}, ["err_y_max"], 1.0, 1, 1))
     res = S.score(results, {"err_y_max": [1e-4]})
-    assert len(res.reach) == 4 and res.reach.reached.all()
+    assert len(res.reach) == 4 and res.reach.qualified.all()
     prof = res.profile.set_index("setting")
     assert prof.loc["a", "rho_1"] == 1.0 and prof.loc["b", "rho_1"] == 0.0 and prof.loc["b", "rho_4"] == 1.0
-    assert "take a (" in res.paragraphs["c1"] and "2× the cost" in res.paragraphs["c1"]
+    assert "take a (between h=0.01 and h=0.005)" in res.paragraphs["c1"] and "2× the cost" in res.paragraphs["c1"]
+    assert res.records["c1"][0]["ratio"] == pytest.approx(2.0, rel=1e-12)
 
 
 @pytest.mark.slow

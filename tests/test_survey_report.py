@@ -25,10 +25,11 @@ def test_compact_page_keeps_the_verdict_and_sheds_the_bytes(tmp_path):
     for p in res.paragraphs.values():                        # the recommendation, word for word
         assert report.html.escape(p) in small
     figs, big = _figures(small), _figures(full)
-    assert len(big) == 1 + len(res.cases) and len(figs) == 1  # profile + one work–precision per case → profile only
-    src = Image.open(tmp_path / "profile-wall.png")
+    # profile + small multiples + one work–precision per case → profile and small multiples only
+    assert len(big) == 2 + len(res.cases) and len(figs) == 2
+    src = Image.open(tmp_path / "profile-cpu.png")
     w = min(src.width, report.COMPACT_WIDTH)
     assert figs[0].size == (w, round(src.height * w / src.width)) and figs[0].mode == "P"
-    assert ">message</th>" in full and ">message</th>" not in small     # no messages (nor digests)
+    assert 'title="missing"' in full and 'title="missing"' not in small   # fewer columns
     assert small.count("<tr>") == full.count("<tr>")         # every row of every table is still there
     assert len(small) < len(full) / 2

@@ -29,7 +29,8 @@ from daebench.api.figures import plot_convergence, plot_histories, plot_work_pre
 from daebench.api.runs import reference, run
 from daebench.api.studies import (CapturePage, StudyTable, averaged_gap_chain, averaged_gap_pendulum, capture_page,
                                   capture_rates, compile_report, hht_beam_impact, interactive_mode, numbers, perf)
-from daebench.api.sweeps import bench, compare, effects, error_columns, parse_targets, report, stability, survey
+from daebench.api.sweeps import (bench, compare, describe_measure, effects, error_columns, parse_targets, report,
+                                 stability, survey)
 from daebench.api.verify import Check, VerifyResult, verify
 from daebench.core.params import Param, ParamError, parse_pairs
 from daebench.harness.files import OutputWriteError
@@ -52,6 +53,7 @@ __all__ = [
     "score", "ScoreResult", "Source", "export_case", "ExportResult",
     # many runs
     "bench", "compare", "survey", "report", "effects", "stability", "error_columns", "parse_targets",
+    "describe_measure",
     "Plan", "SweepOptions", "Timing", "Execution", "Storage", "SurveyOptions", "Bisection", "HARNESS_FAILURES",
     # conformance
     "verify", "VerifyResult", "Check",

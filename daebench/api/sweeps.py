@@ -12,7 +12,7 @@ import pandas as pd
 from daebench.api.catalogue import SceneLike, load_scene
 from daebench.harness.analysis import costs
 from daebench.harness.files import OutputWriteError
-from daebench.harness.scoring import pipeline
+from daebench.harness.scoring import glossary, pipeline
 from daebench.harness.sweeps import sweep
 from daebench.harness.sweeps.options import Execution, Plan, SweepOptions, from_keywords
 from daebench.workflows import compare as _compare
@@ -147,3 +147,9 @@ def error_columns(scene: SceneLike) -> list[str]:
 def parse_targets(spec: Iterable[str]) -> dict[str, list[float]] | None:
     """``["MEASURE=v1,v2", …]`` (the survey's --target) as {measure: targets}; None when empty."""
     return costs.parse_targets(spec) or None
+
+
+def describe_measure(column: str, model: str | None = None) -> glossary.Measure:
+    """What a scored column means, for people: display name with unit, a short header and
+    a one-line definition (:func:`daebench.harness.scoring.glossary.describe`)."""
+    return glossary.describe(column, model)

@@ -165,8 +165,27 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
 
 
 def _compare_table(res: Any, sc: Any) -> None:
+    """The runs as one table, then the recommendation as a small one."""
+    for line in textout.kv_lines([("compare", res.heading(sc.name))]):
+        out(line)
     cols, rows = res.table_rows()
-    for line in textout.table_lines(cols, rows, title=res.heading(sc.name)):
+    for line in textout.rich_lines(cols, rows):
+        out(line)
+    if any("*" in str(r[-2]) for r in rows):
+        for line in textout.kv_lines([("order", "observed order of the first measure against the next coarser "
+                                       "run; * outside the asymptotic regime (errors not falling, or far from "
+                                       "the declared order)")]):
+            out(line)
+    cols, rows = res.recommendation_rows()
+    if not rows:
+        out("recommendation: none (no run was scored on the protocol's measures)")
+        return
+    out("")
+    for line in textout.kv_lines([("recommendation", "cost = CPU time to reach the target; a setting qualifies "
+                                   "when it and its finer runs reach it, none failed, and the observed order is "
+                                   "positive")]):
+        out(line)
+    for line in textout.rich_lines(cols, rows, prose={"target": 14, "pick": 14, "runner-up": 12, "why": 28}):
         out(line)
 
 
@@ -176,9 +195,15 @@ def _print_survey(res: Any) -> None:
         out(f"{r.case}: {len(r.table)} runs ({', '.join(f'{v} {k}' for k, v in st.items())}), "
             f"{r.rounds_run}/{r.rounds} rounds, {r.wall_s:.1f} s" + (f"; {r.note}" if r.note else ""))
     if len(res.profile):
-        cols = ["measure", "target", "setting", "cases", "rho_1", "rho_4", "rho_inf"]
-        print_table(cols, [[x[c] for c in cols] for _, x in res.profile.iterrows()],
-                    "performance profiles (wall time): ρ(1) cheapest, ρ(4) within 4×, ρ(∞) reached")
+        from daebench import api  # lazy: the API loads the harness; only when a survey is printed
+
+        cols = ["measure", "target", "setting", "cases", "ρ(1)", "ρ(4)", "ρ(∞)"]
+        rows = [[api.describe_measure(x["measure"]).name, x["target"], x["setting"], x["cases"], x["rho_1"],
+                 x["rho_4"], x["rho_inf"]] for _, x in res.profile.iterrows()]
+        out("performance profiles (CPU time at which a setting qualifies): ρ(1) the cheapest, ρ(4) within 4×, "
+            "ρ(∞) qualifies at all")
+        for line in textout.rich_lines(cols, rows, prose={"measure": 24}):
+            out(line)
     out("")
     for p in res.paragraphs.values():
         out(p)

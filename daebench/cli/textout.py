@@ -7,12 +7,18 @@ The width is the terminal's, or ``COLUMNS``, or 80 when output goes to a pipe.
 
 from __future__ import annotations
 
+import io
 import math
 import os
+import re
 import shutil
 import sys
 import textwrap
 from typing import Any, Sequence
+
+from rich import box
+from rich.console import Console
+from rich.table import Table
 
 GAP = "  "
 MIN_LAST = 24   # a prose last column narrower than this: record layout instead
@@ -90,3 +96,44 @@ def kv_lines(pairs: Sequence[tuple[str, str]], max_width: int | None = None) -> 
             out += textwrap.wrap(str(v), w, initial_indent="    ", subsequent_indent="    ",
                                  break_long_words=False, break_on_hyphens=False)
     return out
+
+
+def rich_lines(columns: Sequence[str], rows: Sequence[Sequence[Any]], prose: dict[str, int] | None = None,
+               max_width: int | None = None) -> list[str]:
+    """A table drawn by rich as plain text (the same on a terminal and in a pipe): one
+    line per row, a header of several lines where a column's name has ``\\n``. Cells never
+    wrap except in the ``prose`` columns ({column: its narrowest width}), which wrap
+    between words; every other column is as wide as its widest cell, so a number is never
+    split or cut, and a row that does not fit the width (:func:`width`) runs on rather
+    than breaking."""
+    prose = dict(prose or {})
+    cells = [[_short_exp(fmt(v)) for v in r] for r in rows]
+    t = Table(box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False, padding=0, expand=bool(prose))
+    fixed = 0
+    last = list(prose)[-1] if prose else None
+    for i, c in enumerate(columns):
+        numeric = any(isinstance(r[i], (int, float)) and not isinstance(r[i], bool) for r in rows)
+        if c == last:      # the last prose column takes what the line has left
+            t.add_column(c, justify="left", min_width=prose[c], ratio=1, overflow="fold")
+            fixed += prose[c]
+        elif c in prose:
+            t.add_column(c, justify="left", width=prose[c], overflow="fold")
+            fixed += prose[c]
+        else:
+            w = max([len(x) for x in c.split("\n")] + [len(r[i]) for r in cells])
+            t.add_column(c, justify="right" if numeric else "left", no_wrap=True, min_width=w, overflow="ignore")
+            fixed += w
+    for r in cells:
+        t.add_row(*r)
+    need = fixed + len(columns) - 1        # one space between columns
+    natural = Console(width=10_000, file=io.StringIO(), color_system=None).measure(t).maximum
+    w = max(max_width or width(), need) if prose else max(need, natural)
+    buf = io.StringIO()
+    Console(file=buf, width=w, color_system=None, highlight=False, emoji=False, markup=False,
+            soft_wrap=False).print(t)
+    return [ln.rstrip() for ln in buf.getvalue().splitlines()]
+
+
+def _short_exp(text: str) -> str:
+    """'1.1e-05' → '1.1e-5' (a narrower cell, the same number)."""
+    return re.sub(r"e([+-])0(\d)", r"e\1\2", text)

@@ -47,13 +47,13 @@ import pandas as pd
 
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene
-from daebench.harness.analysis import plots
+from daebench.harness.analysis import evidence, plots, recommend
 from daebench.harness.files import ensure_writable_dir, jsonable, results_dir, write_error
 from daebench.harness.references import fingerprints
 from daebench.harness.references.reference import ReferenceMissing, load_reference
 from daebench.harness.running import checks, provenance, timing
 from daebench.harness.running.progress import run_progress_factory
-from daebench.harness.scoring import pipeline
+from daebench.harness.scoring import glossary, pipeline
 from daebench.harness.sweeps import digest, sweep
 from daebench.harness.sweeps.options import Execution, SweepOptions
 from daebench.harness.sweeps.sweep import HARNESS_FAILURES
@@ -155,6 +155,9 @@ class CompareResult:
     folder: Path | None = None
     changed: list[str] = field(default_factory=list)
     page: Path | None = None          # the HTML page, when one was written
+    recommendations: list[dict[str, Any]] = field(default_factory=list)   # one record per target
+    paragraphs: dict[str, str] = field(default_factory=dict)              # the same in words, per case
+    model: str | None = None                                              # the case's model (labels, units)
 
     @property
     def external(self) -> pd.DataFrame:
@@ -173,7 +176,11 @@ class CompareResult:
 
     def table_rows(self) -> tuple[list[str], list[list[Any]]]:
         """The printed table (:func:`table_rows`)."""
-        return table_rows(self.table, self.headline)
+        return table_rows(self.table, self.protocol.measures, self.model)
+
+    def recommendation_rows(self) -> tuple[list[str], list[list[Any]]]:
+        """The recommendation as a small table (:func:`daebench.harness.analysis.recommend.table_rows`)."""
+        return recommend.table_rows(self.recommendations, self.model)
 
     def heading(self, case: str) -> str:
         """What was run, in words (:func:`heading`)."""
@@ -277,14 +284,39 @@ def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str 
     if others:
         rows = [external.external_row(scene, e, tr, len(df) + k) for k, (e, tr) in enumerate(zip(others, truths))]
         df = pd.concat([df, pd.DataFrame(rows)], ignore_index=True)
+    df = with_orders(df, measures_present(df, proto.measures))
+    recs, paras = recommendation(df, proto, scene.model)
+    done = CompareResult(df, refused, [], proto, ref, head, folder, changed, recommendations=recs, paragraphs=paras,
+                         model=scene.model)
     try:
-        files = write(df, scene, proto, folder, refused, ref)
+        done.files = write(df, scene, proto, folder, refused, ref, recs)
     except OSError as exc:  # a full disk after the work: the table still reaches the caller
         err = write_error(exc, "the comparison to", folder, "every run finished: the table is printed, "
                           "not saved (run again to save it)")
-        err.result = CompareResult(df, refused, [], proto, ref, head, folder, changed)
+        err.result = done
         raise err from None
-    return CompareResult(df, refused, files, proto, ref, head, folder, changed)
+    return done
+
+
+def with_orders(df: pd.DataFrame, measures: Sequence[str]) -> pd.DataFrame:
+    """``df`` with the observed order of each run on the first of ``measures`` and why a
+    run is outside the asymptotic regime (:func:`daebench.harness.analysis.evidence.observed_orders`;
+    columns ``order`` and ``regime``)."""
+    if not measures or not len(df):
+        return df
+    o = evidence.observed_orders(df, measures[0])
+    return df.assign(order=o["order"], regime=o["regime"])
+
+
+def recommendation(df: pd.DataFrame, proto: Protocol, model: str | None) -> tuple[list[dict[str, Any]], dict[str, str]]:
+    """The recommendation records over the protocol's measures (default targets) and the
+    paragraph, from daebench's own runs (never an external row)."""
+    own = df[~external.is_external(df)]
+    ms = measures_present(own, proto.measures)
+    if not ms or not len(own):
+        return [], {}
+    _, recs, paras = recommend.for_table(own, ms, model_of=lambda case: model)
+    return [r for rs in recs.values() for r in rs], paras
 
 
 def default_folder(scene: Scene) -> Path:
@@ -308,9 +340,10 @@ def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
 
 
 def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused: Mapping[str, str],
-          ref: Any) -> list[Path]:
-    """table.csv/.parquet, the work-precision figure (one panel per measure) and a JSON
-    sidecar (protocol, not-applicable integrators, reference, provenance)."""
+          ref: Any, recs: Sequence[Mapping[str, Any]] = ()) -> list[Path]:
+    """table.csv/.parquet, the work-precision figure (one panel per measure, against CPU
+    time) and a JSON sidecar (protocol, the recommendation records, not-applicable
+    integrators, reference, provenance)."""
     folder.mkdir(parents=True, exist_ok=True)
     prov = provenance.collect([scene])
     files = [folder / "table.csv", folder / "table.parquet"]
@@ -320,12 +353,14 @@ def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused
     if ms:
         title = f"{scene.name}: work–precision ({len(df)} runs, reference {ref.describe()})" if ref is not None \
             else f"{scene.name}: work–precision"
-        files += plots.work_precision(marked(df), "wall_s", ms, "label", folder / f"wp-{scene.name}", prov,
+        files += plots.work_precision(marked(df), evidence.COST, ms, "label", folder / f"wp-{scene.name}", prov,
                                       title=title)[1]
     side = folder / "compare.json"
     ext = df[external.is_external(df)]
     provenance.write_sidecar(side, prov, scene=scene.name, scene_hash=scene.hash, why=proto.why,
                              measures=list(proto.measures), not_applicable=dict(refused),
+                             recommendations=jsonable([{k: r[k] for k in (*recommend.RECORD, "missing")} for r in recs]),
+                             order_measure=ms[0] if ms else None,
                              external=jsonable([{"label": r["label"], "settings": r["settings"], "cost_s": r["wall_s"],
                                                  "steps": r["steps"]} for _, r in ext.iterrows()]),
                              reference=None if ref is None else str(ref.path),
@@ -379,25 +414,42 @@ def heading(res: CompareResult, case: str) -> str:
     return f"{case}: {len(df)} runs ({'; '.join(sources)}) — " + "; ".join(parts)
 
 
-def table_rows(df: pd.DataFrame, head: Any) -> tuple[list[str], list[list[Any]]]:
-    """The printed table: one row per run — run, verdict, minimum wall time of its timed
-    repeats, steps, the error measures of the headline observable ``head`` (over the
-    reference's trusted span [0, trust_t], before the first impact), the first impact
-    time's error, impacts of the run / of the reference, max energy-balance residual.
-    The whole-run errors stay in the written table (``err_<obs>_max``)."""
-    sym = {"deg": "°"}.get(head.unit, head.unit)  # the table's compact unit
-    what, unit, obs = head.label or head.score_name, f"[{sym}]" if sym else "", head.score_name
-    cols = ["run", "status", "wall[s]", "steps", f"{what} trusted{unit}", f"{what} pre{unit}", "t1 err[s]", "impacts",
-            "E res[J]"]
+def table_rows(df: pd.DataFrame, measures: Sequence[str], model: str | None = None
+               ) -> tuple[list[str], list[list[Any]]]:
+    """The printed table: one row per run — integrator, settings (step or tolerance),
+    status, steps, CPU time (minimum of the timed repeats), the protocol's ``measures``
+    (headers in words and units, :mod:`daebench.harness.scoring.glossary`), the observed
+    order on the first measure (``*``: outside the asymptotic regime) and the impacts
+    matched / spurious against the truth. Every other column stays in the written table."""
+    ms = [m for m in measures if m in df.columns]
+    heads = []
+    for m in ms:
+        d = glossary.describe(m, model)
+        words = two_lines(d.short)
+        heads.append(f"{words}\n[{d.unit}]" if d.unit else words)
+    cols = ["integrator", "settings", "status", "steps", "CPU\n[s]", *heads, "order", "impacts\nok/spur"]
     rows = []
     for _, r in df.iterrows():
-        imp = f"{_int(r.get('impacts'))}/{_int(r.get('impacts_ref'))}"
-        what = f"{r['label']} [external] {_int(r.get('steps'))} steps" if r["integrator"] == external.EXTERNAL \
-            else f"{r['integrator']} {_setting(r)}".strip()
-        rows.append([what, r["status"], r.get("wall_s"), _int(r.get("steps")),
-                     r.get(f"err_{obs}_max_trusted"), r.get(f"err_pre_{obs}_max"), r.get("err_impact1_t"), imp,
-                     r.get("energy_resid_max")])
+        ext = r["integrator"] == external.EXTERNAL
+        who = f"{r['label']} [external]" if ext else str(r["integrator"])
+        order = r.get("order", math.nan)
+        o = f"{order:.2g}" + ("*" if r.get("regime") else "") if isinstance(order, float) and math.isfinite(order) \
+            else "-"
+        imp = f"{_int(r.get('impacts_matched'))}/{_int(r.get('impacts_spurious'))}"
+        rows.append([who, f"{_int(r.get('steps'))} steps" if ext else _setting(r) or "defaults", r["status"],
+                     _int(r.get("steps")),
+                     r.get("cpu_s"), *[r.get(m) for m in ms], o, imp])
     return cols, rows
+
+
+def two_lines(words: str) -> str:
+    """``words`` broken at the space nearest their middle ('θ max\\ntrusted'): a narrow
+    column header."""
+    spaces = [i for i, ch in enumerate(words) if ch == " "]
+    if not spaces:
+        return words
+    i = min(spaces, key=lambda k: abs(k - len(words) / 2))
+    return words[:i] + "\n" + words[i + 1:]
 
 
 def _int(x: Any) -> Any:

@@ -119,7 +119,7 @@ def external_row(scene: Scene, ext: external.ExternalData, tr: pipeline.Truth, i
         "settings": json.dumps(jsonable(ext.provenance()), sort_keys=True, default=str), "overrides": "{}",
         "scene_set": json.dumps(scene.changes(), sort_keys=True, default=str), "scene_hash": scene.hash,
         "status": "completed", "message": "; ".join(ext.notes), "wall_s": ext.cost_s, "cpu_s": math.nan,
-        "repeats": 0, "t_final": t_final}
+        "cpu_spread": math.nan, "repeats": 0, "t_final": t_final}
     row.update(dict.fromkeys(Counters().as_dict(), math.nan))
     row["steps"] = ext.steps
     row.update(metrics.stability_verdict("completed", "", t_final, scene.t_end))

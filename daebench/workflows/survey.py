@@ -47,8 +47,8 @@ import pandas as pd
 
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene, scene_names
-from daebench.harness.analysis import costs, profiles, recommend
-from daebench.harness.files import atomic_write, results_dir
+from daebench.harness.analysis import costs, evidence, profiles, recommend
+from daebench.harness.files import atomic_write, jsonable, results_dir
 from daebench.harness.references import fingerprints
 from daebench.harness.references.reference import load_reference
 from daebench.harness.running import checks, provenance
@@ -144,6 +144,7 @@ class SurveyResult:
     wall_s: float
     files: list[Path] = field(default_factory=list)
     workers_started: int | None = None   # worker processes started over the survey (None: on Dask)
+    records: dict[str, list[dict[str, Any]]] = field(default_factory=dict)   # the recommendations per case
 
     @property
     def failures(self) -> pd.DataFrame:
@@ -396,22 +397,36 @@ def run_survey(opts: SurveyOptions) -> SurveyResult:
 
 def score(results: Sequence[CaseResult], targets: Mapping[str, Sequence[float]] | None = None,
           most: int = 3) -> SurveyResult:
-    """The survey's tables from its cases: all rows, the reach table over the measures of
-    each case (targets: given, else :func:`daebench.harness.analysis.costs.decade_targets` of the
-    errors pooled over the cases), the profile table and the paragraphs."""
+    """The survey's tables from its cases: all rows, the verdict table over the measures of
+    each case (:func:`daebench.harness.analysis.evidence.verdict_table`: the CPU time at which
+    each setting qualifies for each target; targets given, else
+    :func:`daebench.harness.analysis.costs.decade_targets` of the errors pooled over the
+    cases), the profile table (CPU time) and the recommendation per case."""
     frames = [r.table for r in results if len(r.table)]
     table = pd.concat(frames, ignore_index=True, sort=False) if frames else pd.DataFrame()
     measures = list(dict.fromkeys(m for r in results for m in r.measures))
     tg = {m: list(v) for m, v in targets.items()} if targets else recommend.default_targets(table, measures, most)
-    reach_parts = []
+    parts = []
     for r in results:
         mine = {m: v for m, v in tg.items() if m in r.measures}
         if mine and len(r.table):
-            reach_parts.append(costs.reach_table(r.table, mine))
-    reach = pd.concat(reach_parts, ignore_index=True) if reach_parts else pd.DataFrame()
-    prof = profiles.profile_table(reach) if len(reach) else pd.DataFrame()
-    paras = recommend.paragraphs(reach) if len(reach) else {}
-    return SurveyResult("", Path("."), table, reach, prof, paras, list(results), 0.0)
+            parts.append(evidence.verdict_table(r.table, mine))
+    reach = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+    prof = profiles.profile_table(reach, cost=evidence.COST) if len(reach) else pd.DataFrame()
+    records, paras = recommend.by_case(reach, table, model_of)
+    return SurveyResult("", Path("."), table, reach, prof, paras, list(results), 0.0, records=records)
+
+
+def model_of(case: str) -> str | None:
+    """The model of a case of the library (None for a name that is not one)."""
+    try:
+        return case_scene(case).model
+    except ParamError:
+        return None
+
+
+#: the profile figure's file stem in a survey's folder
+PROFILE_FIGURE = "profile-cpu"
 
 
 def write(res: SurveyResult, opts: SurveyOptions | None = None) -> list[Path]:
@@ -428,11 +443,12 @@ def write(res: SurveyResult, opts: SurveyOptions | None = None) -> list[Path]:
     if len(res.table):
         atomic_write(f / "table.parquet", lambda p: res.table.to_parquet(p, index=False), "the survey's table")
     prov = provenance.collect(scene_hashes(res.table))
-    if len(res.reach) and res.reach["reached"].any():
-        files += profiles.figure(res.reach, f / "profile-wall", prov=prov)
+    if len(res.reach) and res.reach["qualified"].any():
+        files += profiles.figure(res.reach, f / PROFILE_FIGURE, cost=evidence.COST, prov=prov, cost_label="CPU time")
     md = [f"# Survey {res.name}", ""] + [p + "\n" for p in res.paragraphs.values()]
     (f / "recommendations.md").write_text("\n".join(md) + provenance.markdown_footer(prov))
-    files.append(f / "recommendations.md")
+    (f / "recommendations.json").write_text(json.dumps(jsonable(res.records), indent=1))
+    files += [f / "recommendations.md", f / "recommendations.json"]
     side = {"name": res.name, "wall_s": res.wall_s, "workers_started": res.workers_started,
             "options": {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(opts).items()
                         if k != "scheduler"} if opts else {},

@@ -21,7 +21,7 @@ from daebench.core.observables import Observable  # noqa: E402
 from daebench.core.params import ParamError  # noqa: E402
 from daebench.harness.files import DamagedFile, parse_json  # noqa: E402
 from daebench.harness.running import provenance  # noqa: E402
-from daebench.harness.scoring import pipeline  # noqa: E402
+from daebench.harness.scoring import glossary, pipeline  # noqa: E402
 from daebench.models.scenes import load_scene  # noqa: E402
 
 #: units of the constraint residual columns (the driver writes them while a contact is
@@ -32,17 +32,6 @@ LABELS = {"wall_s": "wall time [s]", "cpu_s": "CPU time [s]", "steps": "steps",
           "residual_evals": "residual evaluations", "lu_factorizations": "LU factorizations",
           "newton_iterations": "Newton iterations",
           "energy_residual": "energy residual [J]", "E": "total energy [J]"}
-
-
-#: where an error column measures (err_<where><observable>_<norm>)
-_ERR_WHERE = (("winm_", " per matched window"), ("win_", " per re-synchronised window"),
-              ("pre_", " before the 1st impact"), ("", ""))
-_OTHER = {"err_impact1_t": "error of the 1st impact time [s]", "err_impact2_t": "error of the 2nd impact time [s]",
-          "err_impact_t_max": "max error of matched impact times [s]",
-          "err_impact1_loss": "error of the energy lost at the 1st impact [J]",
-          "impact_loss_dev_max": "max |energy lost − exact impact map| per impact [J]",
-          "impact_loss_dev_rel": "max |energy lost − exact impact map| / loss",
-          "energy_resid_max": "max |energy-balance residual| [J]", "energy_resid_rel": "max energy residual / energy scale"}
 
 
 def _declared(key: str, name: str, model: str | None = None) -> Any:
@@ -77,22 +66,15 @@ def model_of(df: pd.DataFrame) -> str | None:
 
 
 def label_of(col: str, model: str | None = None) -> str:
-    """Axis label for a column name (err_<obs>_max → 'max error of <label> [<unit>]', with
-    the label and unit the model declares; without ``model``, those all models agree on)."""
+    """Axis label for a column name: its display name with unit from the glossary
+    (:mod:`daebench.harness.scoring.glossary`: 'θ max error over the trusted span [deg]',
+    with the label and unit the model declares; without ``model``, those all models agree
+    on); an observable's own column by its declaration."""
     if col in LABELS:
         return LABELS[col]
-    if col in _OTHER:
-        return _OTHER[col]
-    m = re.fullmatch(r"err_(.+)_(final|max|l2)(_trusted)?", col)
-    if m:
-        what = m.group(1)
-        for prefix, where in _ERR_WHERE:
-            d = _declared("score_name", what[len(prefix):], model) if what.startswith(prefix) else None
-            if d is not None:
-                what = f"{d.label or d.score_name}{where}" + (f" [{d.unit}]" if d.unit else "")
-                break
-        span = " over the reference's trusted span" if m.group(3) else ""
-        return f"{ {'final': 'final', 'max': 'max', 'l2': 'L2'}[m.group(2)]} error of {what}{span}"
+    m = glossary.describe(col, model)
+    if m.words != col:
+        return m.name
     d = _declared("name", col, model)
     return d.text if d is not None else col
 
@@ -233,6 +215,50 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
     else:
         fig.suptitle(title or "work–precision")
     fig.tight_layout(rect=(0, 0.03, 1, 1))
+    return fig, (save(fig, stem, prov) if stem is not None else [])
+
+
+def small_multiples(cases: Mapping[str, tuple[pd.DataFrame, str]], x: str = "cpu_s", group: str = "label",
+                    stem: str | Path | None = None, prov: dict[str, Any] | None = None,
+                    title: str = "work–precision per case", ncol: int = 4) -> tuple[Any, list[Path]]:
+    """One small log–log work–precision panel per case ({case: (its runs, the error column
+    to plot)}), one colour per setting across all panels and one legend: the survey's
+    cases side by side."""
+    if not cases:
+        raise ParamError("no case to plot")
+    names = list(dict.fromkeys(str(k) for df, _ in cases.values() if group in df for k in df[group]))
+    color = {k: f"C{i % 10}" for i, k in enumerate(names)}
+    style = {k: ("-", "--", ":", "-.")[(i // 10) % 4] for i, k in enumerate(names)}
+    ncol = min(ncol, len(cases))
+    nrow = -(-len(cases) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.3 * ncol, 2.7 * nrow + 0.9), squeeze=False)
+    handles: dict[str, Any] = {}
+    for ax, (case, (df, y)) in zip(axes.flat, cases.items()):
+        xs = pd.to_numeric(df[x], errors="coerce").to_numpy(float) if x in df else np.full(len(df), np.nan)
+        ys = pd.to_numeric(df[y], errors="coerce").to_numpy(float) if y in df else np.full(len(df), np.nan)
+        keys = df[group].astype(str).to_numpy()
+        for k in dict.fromkeys(keys):
+            sel = (keys == k) & np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
+            if sel.any():
+                o = np.argsort(xs[sel])
+                (ln,) = ax.loglog(xs[sel][o], ys[sel][o], "o", ls=style[k], ms=3, lw=1.1, color=color[k])
+                handles.setdefault(k, ln)
+        ax.set_title(case, fontsize=9)
+        ax.set_xlabel(f"{LABELS.get(x, x)}, log", fontsize=7)
+        ax.set_ylabel(label_of(y, model_of(df)).replace(" over the trusted span", ", trusted span")
+                      + ", log", fontsize=7, wrap=True)
+        ax.tick_params(labelsize=6, which="both")
+        ax.grid(True, which="both", alpha=0.3)
+        tidy_log_ticks(ax)
+    for ax in list(axes.flat)[len(cases):]:
+        ax.axis("off")
+    labels = [k for k in names if k in handles]
+    rows = -(-len(labels) // 6)
+    fig.legend([handles[k] for k in labels], labels, loc="lower center", ncol=min(6, max(1, len(labels))),
+               fontsize=7, title="integrator (settings)", title_fontsize=7,
+               bbox_to_anchor=(0.5, 0.35 / fig.get_figheight()))    # above the provenance footer
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, (0.75 + 0.16 * rows) / fig.get_figheight(), 1, 0.97))
     return fig, (save(fig, stem, prov) if stem is not None else [])
 
 

@@ -35,6 +35,7 @@ import pandas as pd  # noqa: E402
 
 from daebench.core.params import ParamError  # noqa: E402
 from daebench.harness.running import provenance  # noqa: E402
+from daebench.harness.scoring import glossary  # noqa: E402
 
 #: the τ of the profile table: cheapest, within 4×, at all
 TABLE_TAUS = (1.0, 4.0, math.inf)
@@ -125,9 +126,10 @@ def curve(ratios: pd.DataFrame, setting: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: dict[str, Any] | None = None,
-           setting: str = "label", cost_label: str = "wall time") -> list[Path]:
+           setting: str = "label", cost_label: str | None = None) -> list[Path]:
     """One panel per (measure, target): ρ_s(τ) as a step plot on a log τ axis, one line per
     setting; written as ``<path>.png`` and ``.svg``. Returns the files."""
+    cost_label = cost_label or glossary.describe(cost).words
     keys = list(reach.groupby(["measure", "target"], sort=False).groups)
     if not keys:
         raise ParamError("the reach table is empty: nothing to profile")
@@ -152,7 +154,7 @@ def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: di
         ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_ylim(-0.02, 1.02)
-        ax.set_title(f"{m} ≤ {t:g}  ({len(r)} cases)", fontsize=9)
+        ax.set_title(f"{glossary.target_text(m, float(t))}  ({len(r)} cases)", fontsize=9, wrap=True)
         ax.set_xlabel(f"τ: {cost_label} within τ × the best setting's on the case")
         ax.set_ylabel("ρ(τ): fraction of cases")
         ax.grid(True, which="both", alpha=0.3)
@@ -172,3 +174,28 @@ def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: di
     fig.savefig(files[1])
     plt.close(fig)
     return files
+
+
+def conclusions(prof: pd.DataFrame) -> list[str]:
+    """The library-wide answer of a profile table (:func:`profile_table`), one sentence per
+    accuracy band (measure and target): the setting cheapest on most cases, the one that
+    qualifies on most, and the cases no setting qualifies on."""
+    out = []
+    for (m, t), g in prof.groupby(["measure", "target"], sort=False):
+        n = int(g["cases"].iloc[0])
+        head = f"{glossary.target_text(m, float(t))} ({n} case{'s' if n != 1 else ''})"
+        g1 = g.sort_values(["rho_1", "rho_4", "setting"], ascending=[False, False, True], kind="stable")
+        best = g1.iloc[0]
+        if not float(best["rho_inf"]) > 0:
+            out.append(f"{head}: no setting qualifies on any case.")
+            continue
+        gi = g.sort_values(["rho_inf", "rho_1", "setting"], ascending=[False, False, True], kind="stable").iloc[0]
+        s = (f"{head}: {best['setting']} is the cheapest on {round(best['rho_1'] * n)} and within 4× on "
+             f"{round(best['rho_4'] * n)}")
+        if gi["setting"] != best["setting"]:
+            s += f"; {gi['setting']} qualifies on the most cases ({round(gi['rho_inf'] * n)})"
+        else:
+            s += f", and qualifies on {round(best['rho_inf'] * n)}"
+        un = int(g["unsolved"].iloc[0]) if "unsolved" in g else 0
+        out.append(s + (f"; no setting qualifies on {un}." if un else "."))
+    return out

@@ -1,131 +1,165 @@
-"""A recommendation a user can act on: per case and target, the cheapest setting that
-reaches the target error, its cost, the runner-up and the ratio between them, and the
-settings that failed or diverged with their reason — one short paragraph per case.
+"""A recommendation that survives a second look: per case and target error, the cheapest
+setting whose evidence holds, its cost, the runner-up, the ratio between them and why.
 
-Everything is read from a reach table (:func:`daebench.harness.analysis.costs.reach_table`): the
-cost of a setting at a target is the rule stated there (log–log interpolation between
-its runs, never extrapolated; an upper bound when its cheapest run already reaches it).
-"Cheapest" is by wall time (the minimum of the timed repeats of each run); the steps at
-the same target are given beside it.
+Everything is read from a verdict table (:func:`daebench.harness.analysis.evidence.verdict_table`):
+a setting is a candidate for a target only where it *qualifies* — its run and every finer
+run of the same method reach the target (or the cost is interpolated between two runs
+that bracket it), none of those finer runs failed, and the observed order over them is
+positive. Candidates are ranked by CPU time (the minimum of each run's timed repeats,
+interpolated like the error); two whose costs differ by less than the spread of their
+repeats are a **tie**, and said to be one. A setting that did not complete at coarser
+steps is recommended with its stability limit. When no setting qualifies, the
+recommendation says what is missing ("run finer steps of hht"). Measures are named in
+words (:mod:`daebench.harness.scoring.glossary`).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+import re
+from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 
-from daebench.harness.analysis import costs
+from daebench.harness.analysis import costs, evidence
+from daebench.harness.scoring import glossary
+
+#: the fields of one recommendation record (compare.json, the survey's recommendations.json)
+RECORD = ("case", "measure", "target", "pick", "cost_cpu_s", "steps", "runner_up", "runner_cost_cpu_s", "ratio",
+          "tie", "reasons")
 
 
-def recommendations(reach: pd.DataFrame, cost: str = "wall_s", setting: str = "label") -> pd.DataFrame:
-    """One row per (case, measure, target): ``best`` and ``runner_up`` settings with their
-    costs (``best_cost``, ``best_steps``, ``best_kind``, ``runner_cost``), ``ratio`` =
-    runner_cost / best_cost, and ``not_reached``: the settings with scored runs that do
-    not reach the target, with their smallest error ('name (best e)', '; '-joined)."""
-    col = f"reach_{cost}"
-    rows = []
-    for (case, m, t), g in reach.groupby(["case", "measure", "target"], sort=False):
-        ok = g[g[col].notna()].sort_values([col, setting], kind="stable")
-        miss = g[g[col].isna() & (g["reach_kind"] == "not reached")]
-        row: dict[str, Any] = {"case": case, "measure": m, "target": float(t), "best": "", "best_cost": math.nan,
-                               "best_steps": math.nan, "best_kind": "", "runner_up": "", "runner_cost": math.nan,
-                               "ratio": math.nan,
-                               "not_reached": "; ".join(f"{r[setting]} (best {r['best_err']:.3g})"
-                                                        for _, r in miss.iterrows())}
-        if len(ok):
-            b = ok.iloc[0]
-            row.update(best=b[setting], best_cost=float(b[col]), best_kind=b["reach_kind"],
-                       best_steps=float(b["reach_steps"]) if "reach_steps" in b else math.nan)
+def _unit(measure: str, model: str | None) -> str:
+    u = glossary.describe(measure, model).unit
+    return f" {u}" if u else ""
+
+
+def _reasons(v: Mapping[str, Any], model: str | None) -> list[str]:
+    """Why a qualified setting is trusted at its cost, in words."""
+    out = []
+    if v["reach_kind"] == "interpolated":
+        out.append(f"cost interpolated {v['at']}; every finer run reaches it")
+    elif v["reach_kind"] == "bound":
+        out.append(f"its coarsest run ({v['at']}) and every finer one reach it: the cost is an upper bound")
+    else:
+        out.append(f"the run at {v['at']} and every finer run reach it")
+    p, dec = v["order"], v["declared"]
+    order = f"observed order {p:.2g} over {int(v['evidence'])} runs" + (f" (declared {dec:g})"
+                                                                         if math.isfinite(dec) else "")
+    out.append(order + (f"; outside the asymptotic regime: {v['regime']}" if v["regime"] else ""))
+    if v["limit"]:
+        out.append(f"stability limit: {v['limit']}")
+    return out
+
+
+def recommend_case(verdicts: pd.DataFrame, model: str | None = None) -> list[dict[str, Any]]:
+    """One record per (measure, target) of one case's verdict table (:data:`RECORD` plus
+    ``missing``: what would make a recommendation when none qualifies)."""
+    recs = []
+    for (m, t), g in verdicts.groupby(["measure", "target"], sort=False):
+        ok = g[g["qualified"].astype(bool)].sort_values(["reach_cpu_s", "label"], kind="stable")
+        rec: dict[str, Any] = {"case": str(g["case"].iloc[0]) if "case" in g else "", "measure": m,
+                               "target": float(t), "pick": "", "cost_cpu_s": math.nan, "steps": math.nan,
+                               "runner_up": "", "runner_cost_cpu_s": math.nan, "ratio": math.nan, "tie": False,
+                               "reasons": [], "missing": ""}
+        if not len(ok):
+            rec["missing"] = missing_text([str(x) for x in g["missing"] if str(x)])
+            recs.append(rec)
+            continue
+        b = ok.iloc[0]
+        rec.update(pick=f"{b['label']} ({b['at']})", cost_cpu_s=float(b["reach_cpu_s"]),
+                   steps=float(b["reach_steps"]), reasons=_reasons(b, model))
         if len(ok) > 1:
             r = ok.iloc[1]
-            row.update(runner_up=r[setting], runner_cost=float(r[col]), ratio=float(r[col]) / row["best_cost"])
-        rows.append(row)
-    return pd.DataFrame(rows)
-
-
-def failures(reach: pd.DataFrame, setting: str = "label") -> dict[str, list[tuple[str, str]]]:
-    """Per case: (setting, the first run that did not complete with its reason), for the
-    settings with such a run."""
-    out: dict[str, list[tuple[str, str]]] = {}
-    seen = reach.drop_duplicates(["case", setting])
-    for _, r in seen.iterrows():
-        f = r.get("failure", "")
-        if isinstance(f, str) and f:
-            out.setdefault(str(r["case"]), []).append((str(r[setting]), f))
-    return out
-
-
-def _cost(v: float, kind: str, unit: str = "s") -> str:
-    return ("≤ " if kind == "bound" else "") + f"{v:.3g} {unit}"
-
-
-def _steps(v: float) -> str:
-    return f", {v:,.0f} steps" if isinstance(v, float) and math.isfinite(v) else ""
-
-
-def sentence(r: Mapping[str, Any]) -> str:
-    """One target of one case, in words."""
-    head = f"To reach {r['measure']} ≤ {r['target']:g}"
-    if not r["best"]:
-        tail = f" not one setting suffices" + (f" (closest: {r['not_reached']})" if r["not_reached"] else "") + "."
-        return head + ":" + tail
-    s = f"{head}, take {r['best']} ({_cost(r['best_cost'], r['best_kind'])}{_steps(r['best_steps'])}"
-    s += "; its cheapest run already reaches it)" if r["best_kind"] == "bound" else ")"
-    if r["runner_up"]:
-        s += f"; runner-up {r['runner_up']} at {r['runner_cost']:.3g} s, {r['ratio']:.2g}× the cost"
-    else:
-        s += "; no other setting reaches it"
-    return s + "."
-
-
-_SAME = ("measure", "best", "best_cost", "best_kind", "runner_up", "runner_cost")
-
-
-def _merged(recs: pd.DataFrame) -> list[dict[str, Any]]:
-    """Consecutive targets of one measure with the same answer (same settings and costs:
-    typically bounds) as one record whose ``target`` lists them."""
-    out: list[dict[str, Any]] = []
-    for _, r in recs.iterrows():
-        r = dict(r)
-        if out and all(_eq(out[-1][k], r[k]) for k in _SAME):
-            out[-1]["targets"].append(r["target"])
+            ratio = float(r["reach_cpu_s"]) / rec["cost_cpu_s"]
+            spread = max(float(b["spread"]), float(r["spread"]))
+            tie = math.isfinite(spread) and ratio - 1.0 <= spread
+            rec.update(runner_up=f"{r['label']} ({r['at']})", runner_cost_cpu_s=float(r["reach_cpu_s"]), ratio=ratio,
+                       tie=bool(tie))
+            if tie:
+                rec["reasons"].append(f"a tie with {r['label']}: the costs differ by {100 * (ratio - 1):.0f} %, "
+                                      f"within the repeats' CPU-time spread ({100 * spread:.0f} %)")
         else:
-            r["targets"] = [r["target"]]
-            out.append(r)
+            rec["reasons"].append("no other setting qualifies")
+        recs.append(rec)
+    return recs
+
+
+def missing_text(items: Sequence[str]) -> str:
+    """What would make a recommendation, the settings that need the same thing in one
+    clause ('run finer steps of a, b (one run reaching it shows no order)')."""
+    if not items:
+        return "no setting was scored on this measure"
+    groups: dict[tuple[str, str], list[str]] = {}
+    rest = []
+    for it in items:
+        head, sep, tail = it.partition(" of ")
+        name, _, why = tail.partition(" (")
+        if it.startswith("run finer") and sep and why.endswith("shows no order)"):
+            groups.setdefault((head, why), []).append(name)
+        else:
+            rest.append(it)
+    out = [f"{head} of {', '.join(names)} ({why}" for (head, why), names in groups.items()]
+    finest: dict[tuple[str, str], list[tuple[str, str]]] = {}   # 'run finer steps of X (its finest, h=…, reaches e)'
+    other = []
+    for it in rest:
+        m = re.fullmatch(r"(run finer \w+) of (.+) \(its finest, (\S+), reaches (\S+)\)", it)
+        if m:
+            finest.setdefault((m.group(1), m.group(3)), []).append((m.group(2), m.group(4)))
+        else:
+            other.append(it)
+    for (head, at), pairs in finest.items():
+        names, errs = ", ".join(n for n, _ in pairs), ", ".join(e for _, e in pairs)
+        out.append(f"{head} of {names} (their finest, {at}, reach {errs})" if len(pairs) > 1
+                   else f"{head} of {names} (its finest, {at}, reaches {errs})")
+    return "; ".join(out + other)
+
+
+def _cost(v: float) -> str:
+    return f"{v:.3g} s CPU" if math.isfinite(v) else "-"
+
+
+def sentence(r: Mapping[str, Any], model: str | None = None) -> str:
+    """One target of one case, in words (display names, never column names)."""
+    head = f"To reach {glossary.target_text(r['measure'], r['target'], model)}"
+    if not r["pick"]:
+        return f"{head}: no setting qualifies yet — {r['missing']}."
+    tie = " (a tie)" if r["tie"] else ""
+    s = f"{head}, take {r['pick']}{tie}: {_cost(r['cost_cpu_s'])}"
+    if r["runner_up"]:
+        s += f"; runner-up {r['runner_up']}, {r['ratio']:.2g}× the cost"
+    why = "; ".join(r["reasons"])
+    return f"{s}. {why[:1].upper()}{why[1:]}." if why else s + "."
+
+
+def failures(table: pd.DataFrame, setting: str = "label") -> list[tuple[str, str]]:
+    """(setting, its first run that did not complete, with the status and where) for one
+    case's runs; a run skipped for the budget is said as such. Never an exception's text:
+    that stays in the table's message column."""
+    out = []
+    if "status" not in table:
+        return out
+    for name, g in table.groupby(setting, sort=False):
+        bad = g[g["status"].astype(str) != "completed"]
+        if len(bad):
+            real = bad[~bad["status"].astype(str).str.startswith("skipped")]
+            r = (real if len(real) else bad).iloc[0]
+            out.append((str(name), f"{r['status']} at {evidence.setting_text(r)}"))
     return out
 
 
-def _eq(a: Any, b: Any) -> bool:
-    return (isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)) or a == b
-
-
-def paragraph(case: str, recs: pd.DataFrame, fails: Sequence[tuple[str, str]] = ()) -> str:
-    """The recommendation for one case: a sentence per target (targets with the same
-    answer in one), then the settings that failed or diverged (the first such run and its
-    reason), then how many were not run within the budget."""
-    parts = [f"{case}:"]
-    for r in _merged(recs):
-        s = sentence(r)
-        if len(r["targets"]) > 1:
-            s = s.replace(f"≤ {r['target']:g}", "≤ " + " / ".join(f"{t:g}" for t in r["targets"]), 1)
-        parts.append(s)
+def paragraph(case: str, recs: Sequence[Mapping[str, Any]], fails: Sequence[tuple[str, str]] = (),
+              model: str | None = None) -> str:
+    """The recommendation for one case in words: a sentence per target, then the settings
+    that did not complete (where), then those whose finer steps were not run."""
+    parts = [f"{case}:"] + [sentence(r, model) for r in recs]
     real = [(s, why) for s, why in fails if not why.startswith("skipped")]
     skipped = [s for s, why in fails if why.startswith("skipped")]
     if real:
-        parts.append("Failed or diverged: " + "; ".join(f"{s} — {why}" for s, why in real) + ".")
+        parts.append("Did not complete: " + "; ".join(f"{s} ({why})" for s, why in real) + ".")
     if skipped:
-        parts.append(f"Not run within the budget: the finer steps of {', '.join(skipped)} "
-                     f"(--budget, or --resume with a larger one).")
+        parts.append(f"Not run within the budget: the finer steps of {', '.join(skipped)}.")
     return " ".join(parts)
-
-
-def paragraphs(reach: pd.DataFrame, cost: str = "wall_s", setting: str = "label") -> dict[str, str]:
-    """{case: its paragraph} for every case of a reach table."""
-    recs = recommendations(reach, cost, setting)
-    fails = failures(reach, setting)
-    return {str(c): paragraph(str(c), g, fails.get(str(c), ())) for c, g in recs.groupby("case", sort=False)}
 
 
 def default_targets(df: pd.DataFrame, measures: Sequence[str], most: int = 2) -> dict[str, list[float]]:
@@ -142,21 +176,46 @@ def default_targets(df: pd.DataFrame, measures: Sequence[str], most: int = 2) ->
 
 
 def for_table(df: pd.DataFrame, measures: Sequence[str], targets: Mapping[str, Sequence[float]] | None = None,
-              most: int = 2) -> tuple[pd.DataFrame, dict[str, str]]:
-    """A scored table (one case or several) → its reach table and the paragraph per case:
-    what `daebench compare` and `daebench survey` end with. ``targets`` default to
-    :func:`default_targets` of ``measures``."""
+              most: int = 2, model_of: Callable[[str], str | None] = lambda case: None
+              ) -> tuple[pd.DataFrame, dict[str, list[dict[str, Any]]], dict[str, str]]:
+    """A scored table (one case or several) → its verdict table, the recommendation
+    records per case and the paragraph per case: what `daebench compare` and `daebench
+    survey` end with. ``targets`` default to :func:`default_targets` of ``measures``;
+    ``model_of`` names a case's model (the labels and units of its observables)."""
     tg = dict(targets) if targets else default_targets(df, measures, most)
     if not tg or not len(df):
-        return pd.DataFrame(), {}
-    reach = costs.reach_table(df, tg)
-    return reach, paragraphs(reach)
+        return pd.DataFrame(), {}, {}
+    verdicts = evidence.verdict_table(df, tg)
+    return (verdicts, *by_case(verdicts, df, model_of))
 
 
-def compare_lines(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
-    """What `daebench compare` ends with: the recommendation paragraph of the case over
-    the protocol's measures (default targets), or why there is none."""
-    if not len(df) or not measures:
-        return ["recommendation: none (no run was scored on the protocol's measures)"]
-    _, paras = for_table(df, measures)
-    return [f"recommendation — {p}" for p in paras.values()] or ["recommendation: none (no completed run)"]
+def by_case(verdicts: pd.DataFrame, table: pd.DataFrame,
+            model_of: Callable[[str], str | None] = lambda case: None
+            ) -> tuple[dict[str, list[dict[str, Any]]], dict[str, str]]:
+    """The records and the paragraph of every case of a verdict table (``table``: the runs,
+    for the settings that did not complete)."""
+    recs: dict[str, list[dict[str, Any]]] = {}
+    paras: dict[str, str] = {}
+    if not len(verdicts):
+        return recs, paras
+    for case, g in verdicts.groupby("case", sort=False):
+        model = model_of(str(case))
+        recs[str(case)] = recommend_case(g, model)
+        runs = table[table["case"] == case] if "case" in table else table
+        paras[str(case)] = paragraph(str(case), recs[str(case)], failures(runs), model)
+    return recs, paras
+
+
+def table_rows(recs: Sequence[Mapping[str, Any]], model: str | None = None) -> tuple[list[str], list[list[Any]]]:
+    """The recommendation as a small table: target → pick, cost, runner-up, ratio, why."""
+    cols = ["target", "pick", "CPU s", "runner-up", "ratio", "why"]
+    rows = []
+    for r in recs:
+        m = glossary.describe(r["measure"], model)
+        target = f"{m.short} ≤ {r['target']:g}{_unit(r['measure'], model)}"
+        if not r["pick"]:
+            rows.append([target, "none qualifies", math.nan, "", math.nan, r["missing"]])
+            continue
+        rows.append([target, r["pick"] + (" (tie)" if r["tie"] else ""), r["cost_cpu_s"], r["runner_up"] or "-",
+                     r["ratio"], "; ".join(r["reasons"])])
+    return cols, rows

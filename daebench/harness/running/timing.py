@@ -24,12 +24,15 @@ TIME_CAP_S = 60.0
 
 @dataclass
 class Timing:
-    """Minimum wall and CPU time of the timed repeats, and how many were made."""
+    """Minimum wall and CPU time of the timed repeats, how many were made, and the CPU
+    times' spread ((largest − smallest) / smallest; NaN for one repeat): the resolution
+    below which two runs' costs are a tie."""
 
     wall_s: float
     cpu_s: float
     repeats: int
     result: Any = None
+    cpu_spread: float = float("nan")
 
 
 def time_call(fn: Callable[[], Any], repeats: int = REPEATS, warmup: bool = True,
@@ -66,7 +69,8 @@ def time_call(fn: Callable[[], Any], repeats: int = REPEATS, warmup: bool = True
         spent += w
         if spent > time_cap or w >= short_s:
             break
-    return Timing(min(walls), min(cpus), len(walls), result)
+    spread = (max(cpus) - min(cpus)) / min(cpus) if len(cpus) > 1 and min(cpus) > 0 else float("nan")
+    return Timing(min(walls), min(cpus), len(walls), result, spread)
 
 
 #: timed calls in which numba compiled are run again, at most this many times (compilation

@@ -104,7 +104,8 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
             _WARMED.add(path)
         rec, res = tm.result
         row.update(status=res.status, message=res.message, wall_s=tm.wall_s, cpu_s=tm.cpu_s,
-                   repeats=tm.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
+                   cpu_spread=tm.cpu_spread, repeats=tm.repeats, t_final=res.t_final,
+                   settings=json.dumps(rec.settings, default=str))
         row.update(res.counters)
         row.update(metrics.stability_verdict(res.status, res.message, res.t_final, sc.t_end))
         hist = res.history

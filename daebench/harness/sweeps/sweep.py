@@ -38,7 +38,7 @@ from daebench.harness.sweeps.row import execute, outcome_row
 from daebench.harness.sweeps.store import SweepStore, assemble, interrupted_rows, unique_name, write_table
 
 HARNESS_FAILURES = ("error", "timeout", "crashed")
-TIMING_COLUMNS = ("wall_s", "cpu_s", "repeats")   # the only columns that differ between identical runs
+TIMING_COLUMNS = ("wall_s", "cpu_s", "cpu_spread", "repeats")   # the only columns that differ between identical runs
 MAX_JOBS = 512
 
 
