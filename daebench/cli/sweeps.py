@@ -122,9 +122,11 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
             include: list[str] = typer.Option([], "--include",
                                               help="another code's trajectory (CSV/Parquet, as for `daebench score`), "
                                                    "scored beside the runs and marked external; repeatable")) -> None:
-    """Run every applicable integrator at the case's protocol (the runs each integrator declares for the
-    case, else one at its defaults), score each run against the reference, print one table and write the
-    work-precision figure."""
+    """Run every applicable integrator at the case's protocol and score each run against the reference.
+
+    The protocol is the runs each integrator declares for the case, else one at its defaults. Prints one
+    table of the runs and the recommendation per target, and writes the table and the work-precision
+    figure."""
     from daebench import api
 
     sc = load_scene_or_exit(case, set_)
