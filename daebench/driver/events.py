@@ -55,7 +55,8 @@ from daebench.core.linalg import solve_structured
 from daebench.core.problem import Problem
 from daebench.core.resting_contacts import failure_message as resting_failure, resting_lcp
 from daebench.core.system import MechanicalSystem, State
-from daebench.driver.stickslip import (CONE_TOL, PAINLEVE_SLIP, SLIP_MIN, FrictionPhase, stick_groups,
+from daebench.core.coulomb import cone_margin
+from daebench.driver.stickslip import (PAINLEVE_SLIP, SLIP_MIN, phase_friction, slip_velocity, stick_groups,
                                        tangent_row)
 from daebench.integrators.base import StepFailure
 from daebench.stepping.watch import GAP_BAND, GAP_ROUNDOFF, gap_event, near
@@ -145,7 +146,7 @@ class ContactState:
             self.stick.pop(c, None)
             self.slip.pop(c, None)
             if c in self.active and self.mu[c] > 0.0:
-                ut = float(tangent_row(md, c, q) @ v)
+                ut = slip_velocity(md, c, q, v)
                 if abs(ut) < SLIP_MIN:
                     self.stick[c] = q.copy()
                 else:
@@ -171,7 +172,7 @@ class ContactState:
             lam_t = float(lam[nb0 + r])
             lam_n = sum(float(lam[k + self.active.index(m)]) for m in members)
             mu = min(float(self.mu[m]) for m in members)
-            out[c] = (mu * lam_n * (1.0 + CONE_TOL) + 1e-12 * abs(lam_t) - abs(lam_t), lam_t)
+            out[c] = (float(cone_margin(mu, lam_n, lam_t)), lam_t)
         return out
 
     @property
@@ -222,10 +223,8 @@ class ContactState:
         if self.continuous:
             engaged[list(self.penetrating)] = 1.0
             chi = system.contact_law.chi(self.approach_speed)
-        if self.groups or self.slip:
-            system = FrictionPhase(system, tuple(self.active), {c: self.stick[c] for c in self.groups},
-                                   self.slip, self.mu)
-        return Problem(system, tuple(self.active), engaged, chi)
+        return Problem(system, tuple(self.active), engaged, chi,
+                       phase_friction(self.active, self.stick, self.groups, self.slip, self.mu))
 
 
 def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
@@ -335,8 +334,8 @@ def _friction_events(cs: ContactState, prev: State, new: State, problem: Problem
     for c, s in cs.slip.items():
         def ut(t: float, c: int = c, s: float = s) -> float:
             st = dense(t)
-            return s * float(tangent_row(md, c, st.q) @ st.v)
-        u0, u1 = s * float(tangent_row(md, c, prev.q) @ prev.v), s * float(tangent_row(md, c, new.q) @ new.v)
+            return s * slip_velocity(md, c, st.q, st.v)
+        u0, u1 = s * slip_velocity(md, c, prev.q, prev.v), s * slip_velocity(md, c, new.q, new.v)
         if u1 < 0.0:
             out.append(Event(_root(ut, prev, new) if u0 > 0.0 else prev.t, "stop", c))
     if cs.groups:
@@ -400,7 +399,7 @@ def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, 
     elif kind == "stop":
         # the contact and every other slipping one at rest with it stick here
         md = cs.base.kernel.model
-        stopped = {c: s for c, s in cs.slip.items() if c == i or abs(float(tangent_row(md, c, q) @ v)) < SLIP_MIN}
+        stopped = {c: s for c, s in cs.slip.items() if c == i or abs(slip_velocity(md, c, q, v)) < SLIP_MIN}
         for c in stopped:
             del cs.slip[c]
             cs.stick[c] = q.copy()
