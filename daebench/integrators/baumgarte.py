@@ -7,6 +7,7 @@ from typing import ClassVar
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.stepping import abm as _abm
+from daebench.stepping.stability import AbmPece
 
 
 class BaumgarteABM4(CompiledIntegrator):
@@ -83,3 +84,6 @@ class BaumgarteABM4(CompiledIntegrator):
 
     def workspace(self, n: int, m: int) -> _abm.AbmWork:
         return _abm.workspace(n, m)
+
+    def stability_model(self) -> AbmPece:
+        return AbmPece()

@@ -106,6 +106,8 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
         row.update(status=res.status, message=res.message, wall_s=tm.wall_s, cpu_s=tm.cpu_s,
                    repeats=tm.repeats, t_final=res.t_final, settings=json.dumps(rec.settings, default=str))
         row.update(res.counters)
+        if rec.warnings:   # e.g. a step beyond the method's stability limit (harness.running.checks.check_step)
+            row["warning"] = "; ".join(rec.warnings)
         row.update(metrics.stability_verdict(res.status, res.message, res.t_final, sc.t_end))
         hist = res.history
         row["digest"] = history_digest(hist)   # bitwise: equal for a repeat, under -j N and on Dask
