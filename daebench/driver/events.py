@@ -191,8 +191,9 @@ class ContactState:
         (:func:`daebench.stepping.watch.near`)."""
         if self.near_h <= 0.0 or not self.watched:
             return
+        rows = problem.gap_rows(q, v)
         self.near = {i for i in range(problem.n_contacts) if i not in self.active and i not in self.penetrating
-                     and is_near(problem, q, v, a, i, self.near_h)}
+                     and is_near(problem, q, v, a, i, self.near_h, rows)}
 
     def close(self, contacts: list[int], t: float) -> None:
         """Close open contacts at t (they join the phase's constraints)."""
@@ -268,9 +269,10 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
                 cs.armed[i] = True
         if cs.near_h > 0.0 and not cands:
             # proximity changes, at the step's end (only where no event came first)
+            rows = problem.gap_rows(new.q, new.v)
             for i in range(problem.n_contacts):
                 if i not in cs.active and i not in cs.penetrating and \
-                        is_near(problem, new.q, new.v, new.a, i, cs.near_h) != (i in cs.near):
+                        is_near(problem, new.q, new.v, new.a, i, cs.near_h, rows) != (i in cs.near):
                     cands.append(Event(new.t, "far" if i in cs.near else "near", i))
     if cs.constraint and cs.active:
         fc = cs.force_cache
@@ -292,10 +294,12 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
     return min(cands, key=lambda c: c.t) if cands else None
 
 
-def is_near(problem: Problem, q: np.ndarray, v: np.ndarray, a: np.ndarray, i: int, near_h: float) -> bool:
+def is_near(problem: Problem, q: np.ndarray, v: np.ndarray, a: np.ndarray, i: int, near_h: float,
+            rows: tuple | None = None) -> bool:
     """:func:`daebench.stepping.watch.near` for contact i at (q, v, a) (a state without an
-    acceleration: its gap moving at constant ġ)."""
-    g, G, gam = problem.gap_rows(q, v)
+    acceleration: its gap moving at constant ġ); ``rows``: the gap rows at (q, v), when the
+    caller asks about several contacts (each evaluation computes every contact's row)."""
+    g, G, gam = problem.gap_rows(q, v) if rows is None else rows
     gdd = float(G[i] @ a - gam[i]) if np.size(a) == q.shape[0] else 0.0
     return bool(near(float(g[i]), float(G[i] @ v), gdd, near_h))
 
