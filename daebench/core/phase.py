@@ -63,6 +63,7 @@ class PhaseData(NamedTuple):
     gq: np.ndarray          # float64[n] scratch: one gap-Jacobian row
     work: np.ndarray        # float64[5n] scratch: contact-force differences, tangent rows
     friction: tuple         # coulomb.FrictionData: stick rows and slipping contacts (coulomb.NONE: none)
+    lumped: np.ndarray      # float64[n]: a lumped model's constant diagonal mass (its kernel's M may have no rows); [0]: none
 
 
 # -- contact laws ------------------------------------------------------------------------
@@ -481,9 +482,12 @@ def augmented_work(n, m):
 def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
     """q̈ and λ from [[M, C_qᵀ], [C_q, 0]] [q̈; λ] = [Q; γ − 2δ(C_q v + C_t) − ε²C];
     δ = ε = 0 gives the consistent acceleration of the phase. Returns the LU info
-    (0 = solved)."""
+    (0 = solved). A lumped model's (diagonal M) goes through the Schur complement
+    (:func:`_solve_lumped`): O(n·m + m³) instead of the dense O((n + m)³)."""
     n = q.shape[0]
     m = lam.shape[0]
+    if ph.lumped.shape[0] == n:
+        return _solve_lumped(ph, t, q, v, delta, eps, w, acc, lam)
     mass_force(ph, t, q, v, w.M, w.Q)
     A, b = w.A, w.b
     for i in range(n):
@@ -493,18 +497,8 @@ def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
     if m:
         C, Cq, Ct, gam = w.C, w.Cq, w.Ct, w.gam
         constraints(ph, t, q, v, C, Cq, Ct, gam)
-        d2 = 2.0 * delta
-        e2 = eps ** 2
         for k in range(m):
-            rc = gam[k]
-            if delta:
-                cv = 0.0
-                for j in range(n):
-                    cv += Cq[k, j] * v[j]
-                rc = rc - d2 * (cv + Ct[k])
-            if eps:
-                rc = rc - e2 * C[k]
-            b[n + k] = rc
+            b[n + k] = _rhs_row(delta, eps, k, n, v, C, Cq, Ct, gam)
             for j in range(n):
                 A[j, n + k] = Cq[k, j]
                 A[n + k, j] = Cq[k, j]
@@ -518,6 +512,64 @@ def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
         acc[i] = b[i]
     for k in range(m):
         lam[k] = b[n + k]
+    return 0
+
+
+@uncounted
+def _rhs_row(delta, eps, k, n, v, C, Cq, Ct, gam):
+    """Row k of the constraint right-hand side γ − 2δ(C_q v + C_t) − ε²C."""
+    rc = gam[k]
+    if delta:
+        cv = 0.0
+        for j in range(n):
+            cv += Cq[k, j] * v[j]
+        rc = rc - 2.0 * delta * (cv + Ct[k])
+    if eps:
+        rc = rc - eps ** 2 * C[k]
+    return rc
+
+
+@uncounted
+def _solve_lumped(ph, t, q, v, delta, eps, w, acc, lam):
+    """:func:`solve_augmented` for a diagonal M = diag(d) (``ph.lumped``): the Schur complement
+    (C_q D⁻¹ C_qᵀ) λ = C_q D⁻¹ Q − r, q̈ = D⁻¹ (Q − C_qᵀ λ), over the nonzeros of each
+    constraint row (a contact row touches a few nodes). Neither M nor the n × n parts of the
+    workspace are touched (the kernel's force alone: a lumped model's M may have no rows)."""
+    n = q.shape[0]
+    m = lam.shape[0]
+    d = ph.lumped
+    mass_force(ph, t, q, v, w.M[:0], w.Q)
+    Q = w.Q
+    if m:
+        C, Cq, Ct, gam = w.C, w.Cq, w.Ct, w.gam
+        constraints(ph, t, q, v, C, Cq, Ct, gam)
+        S, b, idx = w.A[:m, :m], w.b, w.piv[m:]
+        for k in range(m):
+            nz = 0
+            s = 0.0
+            for j in range(n):
+                if Cq[k, j] != 0.0:
+                    idx[nz] = j
+                    nz += 1
+                    s += Cq[k, j] * (Q[j] / d[j])
+            b[k] = s - _rhs_row(delta, eps, k, n, v, C, Cq, Ct, gam)
+            for l in range(m):
+                s = 0.0
+                for a in range(nz):
+                    j = idx[a]
+                    s += Cq[k, j] * Cq[l, j] / d[j]
+                S[k, l] = s
+        info = lu_factor(S, w.piv[:m])
+        if info != 0:
+            return info
+        lu_solve(S, w.piv[:m], b[:m])
+        for k in range(m):
+            lam[k] = b[k]
+    for j in range(n):
+        f = Q[j]
+        for k in range(m):
+            f -= w.Cq[k, j] * lam[k]
+        acc[j] = f / d[j]
     return 0
 
 

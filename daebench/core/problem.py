@@ -75,7 +75,8 @@ class Problem:
             n, self.m, self.active, friction["groups"], friction["anchors"], friction["slip"], friction["mu"])
         self.kernel = phase.PhaseData(system.kernel_handle(), int(self.n_bilateral),
                                       np.array(self.active, dtype=np.int64), law_parameters(system),
-                                      self.engaged, self.chi, np.zeros(n), np.zeros(5 * n), fr)
+                                      self.engaged, self.chi, np.zeros(n), np.zeros(5 * n), fr,
+                                      _lumped(system))
         self._zeros = np.zeros(n)
 
     @property
@@ -222,6 +223,13 @@ class Problem:
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> float:
         return self.system.total_energy(q, v)
+
+
+def _lumped(system: MechanicalSystem) -> np.ndarray:
+    """The constant diagonal mass a lumped model declares (``lumped_mass``; its mass kernel
+    accepts an M without rows), else an empty array: the phase solves through it."""
+    d = getattr(system, "lumped_mass", None)
+    return np.zeros(0) if d is None else np.ascontiguousarray(d, dtype=np.float64)
 
 
 def _f(x: np.ndarray) -> np.ndarray:
