@@ -34,7 +34,8 @@ from daebench.core import numba_cache as _nc  # noqa: E402
 _nc.install()
 
 _API = ("run", "bench", "reference", "compare", "survey", "effects", "report", "stability", "load_scene", "cases",
-        "integrator_info", "integrator_infos", "RunOutput", "IntegratorInfo", "ParamError", "score", "export_case")
+        "integrator_info", "integrator_infos", "RunOutput", "IntegratorInfo", "ParamError", "score", "export_case",
+        "register", "verify")
 __all__ = list(_API)
 
 

@@ -267,7 +267,7 @@ def test_an_oversized_scene_file_is_refused_without_reading_it(tmp_path):
     p = tmp_path / "big.toml"
     with open(p, "wb") as fh:
         fh.truncate(50 << 20)            # sparse: 50 MB of zeros
-    refused(["run", str(p)], "larger than a scene file can be")
+    refused(["run", str(p)], "more than such a file can plausibly be")
 
 
 API_BAD = [

@@ -135,3 +135,45 @@ def test_slider_crank_clearance_has_no_pulling_impact(integrator):
     r = daebench.run("slider-crank-clearance", integrator=integrator, h=1e-5)
     assert r.status == "completed", r.message
     assert len(r.impacts) >= 1 and all(_d(i)["impulse"] > 0.0 and _d(i)["vn_minus"] < 0.0 for i in r.impacts)
+
+
+# -- the invariants over the case library ---------------------------------------------------------
+#: (case, t_end covering its first impacts) for the suite; the slow sweep runs every case whole
+SHORT_CASES = [("ball", 1.0), ("spring-wall", 0.7), ("beam-impact", 0.4), ("falling-rod", None),
+               ("newton-cradle", None), ("rocking-block", 0.5), ("slider-crank-clearance", 0.005),
+               ("chain-impact", None)]
+FAST_INTEGRATORS = ["hht", "genalpha", "ida", "moreau", "nsgenalpha"]
+
+
+def _runs_of(case: str, integrators, t_end: float | None):
+    """Every applicable integrator at its default step (or tolerance) and at half of it (a
+    tenth): the run's status (a record that breaks the law makes it 'failed' with that
+    message), skipping the integrators the case refuses before the first step."""
+    from daebench.integrators.base import IntegratorError
+
+    over = {} if t_end is None else {"t_end": t_end}
+    for name in integrators:
+        info = daebench.integrator_info(name)
+        defaults = {s.name: s.default for s in info.settings}
+        for k in (0, 1):
+            opts = {"rtol": 1e-4 * 0.1 ** k} if name == "ida" else {"h": defaults.get("h", 1e-3) * 0.5 ** k}
+            try:
+                r = daebench.run(case, integrator=name, overrides=over, run_cap=120, **opts)
+            except (daebench.ParamError, IntegratorError):
+                break  # not applicable to this case
+            yield name, opts, r
+
+
+@pytest.mark.parametrize("case, t_end", SHORT_CASES)
+def test_no_run_record_breaks_the_unilateral_law(case, t_end):
+    broken = [(n, o, r.message) for n, o, r in _runs_of(case, FAST_INTEGRATORS, t_end)
+              if "unilateral contact law" in r.message]
+    assert broken == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", sorted(daebench.cases()["case"]))
+def test_no_run_record_breaks_the_unilateral_law_whole_library(case):
+    names = sorted(daebench.integrator_infos())
+    broken = [(n, o, r.message) for n, o, r in _runs_of(case, names, None) if "unilateral contact law" in r.message]
+    assert broken == []

@@ -12,6 +12,7 @@ import pytest
 
 
 PLUGIN = Path(__file__).parent / "plugin_pkg"
+ROOT = str(Path(__file__).resolve().parents[1])   # this tree's daebench, whatever is installed
 
 
 @pytest.fixture(scope="module")
@@ -29,11 +30,21 @@ def daebench(site, *args):
     return subprocess.run([sys.executable, "-m", "daebench.cli.app", *args], capture_output=True, text=True, env=env)
 
 
-def test_plugin_listed_with_its_distribution(plugin_site):
+def test_plugin_listed_with_its_distribution_and_a_shadowing_one_refused(plugin_site, tmp_path):
+    """Listed with its distribution; the example package registers 'hht' too: `list` says it
+    is refused, naming both distributions, and `run -i hht` runs daebench's."""
     out = daebench(plugin_site, "list")
     assert out.returncode == 0, out.stderr
     line = next(ln for ln in out.stdout.splitlines() if "verlet" in ln)
     assert "daebench-verlet" in line or "daebench_verlet" in line
+    text = " ".join(out.stdout.split())
+    assert ("refused: integrator 'hht' of the installed distribution daebench-verlet (daebench_verlet:ShadowHHT) "
+            "is refused: daebench's built-in (daebench.integrators.hht:HHT) provides that name") in text
+    line = next(ln for ln in out.stdout.splitlines() if ln.split()[:1] == ["hht"])
+    assert "daebench" in line and "daebench-verlet" not in line
+    run = daebench(plugin_site, "run", "pendulum", "-i", "hht", "--opt", "h=1e-3", "--set", "t_end=0.01",
+                   "--out", str(tmp_path), "--json")
+    assert run.returncode == 0 and json.loads(run.stdout)["counters"]["newton_iterations"] > 0   # the built-in
 
 
 def test_plugin_runs_and_is_second_order(plugin_site, tmp_path):
@@ -108,8 +119,7 @@ def test_daebench_still_runs_where_the_plugin_is_not_installed(plugin_site, tmp_
     out = daebench(plugin_site, "run", "pendulum", "--integrator", "verlet-compiled", "--opt", "h=1e-3",
                    "--out", str(tmp_path), "--json")
     assert out.returncode == 0, out.stderr
-    env = dict(os.environ, COLUMNS="250")
-    env.pop("PYTHONPATH", None)
+    env = dict(os.environ, COLUMNS="250", PYTHONPATH=ROOT)
     p = subprocess.run([sys.executable, "-m", "daebench.cli.app", "run", "pendulum", "--integrator", "hht",
                         "--opt", "h=1e-3", "--out", str(tmp_path), "--json"], capture_output=True, text=True, env=env)
     assert p.returncode == 0, p.stderr[-2000:]
@@ -138,7 +148,7 @@ def test_a_plugin_leaves_the_builtins_kernel_cache_alone(plugin_site, tmp_path):
 
     def probe(with_plugin: bool) -> tuple[str, int]:
         env = dict(os.environ, NUMBA_CACHE_DIR=str(cache),
-                   PYTHONPATH=str(plugin_site) if with_plugin else "")
+                   PYTHONPATH=os.pathsep.join([str(plugin_site), ROOT] if with_plugin else [ROOT]))
         out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True, env=env, timeout=300)
         assert out.returncode == 0, out.stderr
         stamp, compiles = out.stdout.split("STAMP")[1].split("COMPILES")
@@ -149,3 +159,48 @@ def test_a_plugin_leaves_the_builtins_kernel_cache_alone(plugin_site, tmp_path):
     stamp1, n = probe(True)
     assert stamp1 == stamp0 and n == 0
     assert probe(False) == (stamp0, 0)
+
+
+EDIT_PROBE = """
+import daebench
+from numba.core import event
+
+with event.install_recorder("numba:compile") as rec:
+    r = daebench.run("pendulum", "verlet-compiled", h=1e-3, overrides={"t_end": 0.2})
+mods = {getattr(getattr(ev.data["dispatcher"], "py_func", None), "__module__", "?") for _, ev in rec.buffer}
+print("THETA", repr(float(r.observables["theta_deg"].iloc[-1])), "MODULES", ",".join(sorted(mods)))
+"""
+
+
+def test_an_edit_of_a_compiled_plugin_is_never_served_stale_and_recompiles_its_code_only(plugin_site, tmp_path):
+    """A compiled plugin's code keys what is compiled of it, not its version: an edit of its
+    step (version unchanged) changes the answer at once, and what is compiled again is the
+    step's entry alone — no daebench function (the loop reaches the plugin's stepper as
+    compiled values, daebench.stepping.method_handles)."""
+    import shutil
+    import time
+
+    site = tmp_path / "site"
+    shutil.copytree(plugin_site, site)
+
+    def probe() -> tuple[float, set[str]]:
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), ROOT]))
+        out = subprocess.run([sys.executable, "-c", EDIT_PROBE], capture_output=True, text=True, env=env,
+                             timeout=600)
+        assert out.returncode == 0, out.stderr[-3000:]
+        theta, mods = out.stdout.split("THETA")[1].split("MODULES")
+        return float(theta), {m for m in mods.strip().split(",") if m}
+
+    theta0, _ = probe()
+    assert probe() == (theta0, set())                       # cached: nothing compiled
+    src = site / "daebench_verlet" / "compiled.py"
+    text = src.read_text()
+    old = "new.v[i] = cur.v[i] + 0.5 * h * (cur.a[i] + new.a[i])"
+    assert old in text
+    factor = 1.001 + (time.time_ns() % 10**6) * 1e-12    # a wrong method on purpose, same version; an
+    src.write_text(text.replace(old, f"{old} * {factor!r}"))  # edit never made before (code keys the cache)
+    theta1, compiled = probe()
+    assert abs(theta1 - theta0) > 1e-6                      # the edit runs
+    assert compiled and not [m for m in compiled if m.startswith("daebench.")], compiled
+    entries = [m for m in compiled if m.startswith("_daebench_method_")]
+    assert entries and all("_step_" in m for m in entries), entries   # the step's entry alone

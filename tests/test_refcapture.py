@@ -85,14 +85,14 @@ def test_capturing_reference_is_validated_and_refused_as_the_wrong_kind(incline_
     side = ref.path.with_suffix(".json")
     meta = json.loads(side.read_text())
     meta["kind"] = "ida"
-    side.write_text(json.dumps(meta))
+    references.write_sidecar(side, meta)  # sealed again: the kind check itself is tested
     try:
         with pytest.raises(references.ReferenceDamaged,
                            match="'ida' reference, this scene needs a 'capturing' one \\(Coulomb friction"):
             references.validate(sc, ref.path)
     finally:
         meta["kind"] = "capturing"
-        side.write_text(json.dumps(meta))
+        references.write_sidecar(side, meta)
     assert references.validate(sc, ref.path).kind == "capturing"
 
 

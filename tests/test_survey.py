@@ -23,8 +23,9 @@ def test_halvings_and_protocols():
     assert e.tols == (1e-8, 1e-9) and not e.steps                     # adaptive only: decades of its rtol
     sc = S.case_scene("beam-impact")
     p = S.survey_protocol(sc)
-    declared = compare.PROTOCOLS["beam-impact"]
-    assert p.entries[: len(declared.entries)] == declared.entries    # the case's own protocol, as compare has it
+    declared = list(compare.declared_entries(sc).values())
+    assert p.entries[: len(declared)] == tuple(declared)             # what each integrator declares, as compare has it
+    assert declared[0].integrator == "ida" and declared[0].tols == (1e-4,)
     assert {x.integrator for x in p.entries} >= {"lcp", "imm", "central"}
     q = S.case_scene("ball", quick=True)
     assert q.t_end == S.QUICK_T_END and S.survey_protocol(q, quick=True).entries[0].steps == (1e-4, 5e-5)

@@ -14,26 +14,28 @@ Every function validates its arguments as the command line does and raises
 functions live by concept: :mod:`.catalogue` (scenes and integrators), :mod:`.runs` (one
 run, one reference), :mod:`.sweeps` (bench, compare, survey, report, effects, stability),
 :mod:`.studies` (the reproduced papers, event capturing, speed), :mod:`.external` (other
-codes' trajectories scored, a case exported for another code) and :mod:`.figures` (plots);
-the values they take (:class:`Plan`, :class:`SweepOptions`, …) are built once and passed on
-unchanged.
+codes' trajectories scored, a case exported for another code), :mod:`.figures` (plots) and
+:mod:`.verify` (an integrator's conformance run); the values they take (:class:`Plan`,
+:class:`SweepOptions`, …) are built once and passed on unchanged.
 
 May import: every layer below it (workflows, studies, harness and the rest); nothing
 below imports it, and :mod:`daebench.cli` imports nothing else.
 """
 
-from daebench.api.catalogue import (IntegratorInfo, SceneInfo, cases, integrator_info, integrator_infos, load_scene,
-                                    show)
+from daebench.api.catalogue import (IntegratorInfo, SceneInfo, cases, integrator_info, integrator_infos,
+                                    integrator_refusals, load_scene, register, show)
 from daebench.api.external import ExportResult, ScoreResult, Source, export_case, score
 from daebench.api.figures import plot_convergence, plot_histories, plot_work_precision
 from daebench.api.runs import reference, run
 from daebench.api.studies import (CapturePage, StudyTable, averaged_gap_chain, averaged_gap_pendulum, capture_page,
                                   capture_rates, compile_report, hht_beam_impact, interactive_mode, numbers, perf)
 from daebench.api.sweeps import bench, compare, effects, error_columns, parse_targets, report, stability, survey
+from daebench.api.verify import Check, VerifyResult, verify
 from daebench.core.params import Param, ParamError, parse_pairs
 from daebench.harness.files import OutputWriteError
-from daebench.harness.running.deadline import RunTimeout
+from daebench.core.interrupt import RunTimeout
 from daebench.harness.running.progress import RunProgress
+from daebench.harness.sweeps.executors import sigterm_as_interrupt
 from daebench.harness.sweeps.options import Execution, Plan, Storage, SweepOptions, Timing
 from daebench.harness.sweeps.sweep import HARNESS_FAILURES, SweepInterrupted
 from daebench.studies.perf.settings import PerfSettings
@@ -44,17 +46,21 @@ from daebench.workflows.survey import SurveyOptions
 __all__ = [
     # catalogue, one run, references
     "load_scene", "cases", "integrator_infos", "integrator_info", "IntegratorInfo", "SceneInfo", "show",
+    "register", "integrator_refusals",
     "run", "RunOutput", "Writing", "reference",
     # other codes
     "score", "ScoreResult", "Source", "export_case", "ExportResult",
     # many runs
     "bench", "compare", "survey", "report", "effects", "stability", "error_columns", "parse_targets",
     "Plan", "SweepOptions", "Timing", "Execution", "Storage", "SurveyOptions", "Bisection", "HARNESS_FAILURES",
+    # conformance
+    "verify", "VerifyResult", "Check",
     # studies and figures
     "hht_beam_impact", "averaged_gap_chain", "averaged_gap_pendulum", "interactive_mode", "StudyTable",
     "capture_page", "CapturePage", "capture_rates", "perf", "PerfSettings", "compile_report",
     "plot_work_precision", "plot_convergence", "plot_histories",
     # arguments and errors
     "Param", "parse_pairs", "numbers", "ParamError", "OutputWriteError", "RunTimeout", "SweepInterrupted",
+    "sigterm_as_interrupt",
     "RunProgress",
 ]

@@ -1,5 +1,6 @@
 """What there is: the named scenes, the registered integrators, and one of either
-described (`daebench list`, `daebench show`)."""
+described (`daebench list`, `daebench show`); a class or model of this process registered
+(:func:`register`)."""
 
 from __future__ import annotations
 
@@ -10,12 +11,12 @@ from typing import Any, Iterable
 import pandas as pd
 
 from daebench.core.params import Param, ParamError, did_you_mean
-from daebench.core.scene import Scene, SceneError, UnknownScene, list_scenes
+from daebench.core.scene import Scene, SceneError, UnknownScene, list_scenes, scene_names
 from daebench.harness.running import checks
 from daebench.harness.scoring import pipeline
 from daebench.integrators import base
 from daebench.integrators.base import Capabilities, IntegratorError
-from daebench.models import build_system
+from daebench.models import build_system, register_model
 from daebench.models.scenes import load_scene as _load_scene
 
 SceneLike = str | Path | Scene
@@ -57,6 +58,38 @@ def integrator_infos() -> dict[str, IntegratorInfo]:
     return out
 
 
+def register(obj: Any, name: str | None = None) -> Any:
+    """Register an integrator class (a subclass of
+    :class:`daebench.integrators.base.Integrator`, under its ``name``) or a model (a module
+    or namespace with ``DESCRIPTION``, ``SCHEMA`` and ``build``, under ``name``) defined in
+    this process — a notebook's, a script's — so that it runs like an installed plugin:
+    ``daebench.run(scene, "myint")``, ``bench``, ``compare``, ``survey``, ``verify``. One call;
+    usable as a class decorator (``@daebench.register``). Registering the same class again (a
+    notebook cell run again) replaces it.
+
+    Raises
+    ------
+    ParamError
+        The class breaks the contract's declarations (the message lists what), or the name
+        is taken by a built-in, an installed plugin or another registered class (both
+        providers named).
+    """
+    if isinstance(obj, type) and issubclass(obj, base.Integrator):
+        if name is not None and name != obj.name:
+            raise IntegratorError(f"an integrator registers under its class attribute name ('{obj.name}'), not "
+                                  f"'{name}'; set name = '{name}' in the class")
+        return base.register(obj)
+    if hasattr(obj, "build") and hasattr(obj, "SCHEMA"):
+        return register_model(name if name is not None else getattr(obj, "NAME", None), obj)
+    raise ParamError(f"register() takes an Integrator subclass or a model (a module with DESCRIPTION, SCHEMA and "
+                     f"build); got {obj!r}")
+
+
+def integrator_refusals() -> list[str]:
+    """Installed plugins refused because a built-in or another plugin provides their name."""
+    return base.refusals()
+
+
 def integrator_info(name: str) -> IntegratorInfo:
     """One integrator's declaration; ``name`` is case-insensitive (did-you-mean on a typo)."""
     return integrator_infos()[checks.resolve_integrator(name)]
@@ -66,7 +99,11 @@ def cases() -> pd.DataFrame:
     """The named scenes (``cases/``): name, model and description."""
     rows = []
     for name, desc in list_scenes():
-        rows.append({"case": name, "model": _load_scene(name).model, "description": desc})
+        try:
+            model = _load_scene(name).model
+        except ParamError as exc:  # one broken scene file is listed as such; the others are unaffected
+            model, desc = "?", desc if desc.startswith("cannot be read") else f"cannot be loaded: {exc}"
+        rows.append({"case": name, "model": model, "description": desc})
     return pd.DataFrame(rows)
 
 
@@ -98,7 +135,7 @@ def show(name: str, overrides: Iterable[str] | dict[str, Any] | None = None,
     """
     try:
         checks.resolve_integrator(name)
-        is_integrator = not overrides and not keys and name.lower() not in {n.lower() for n, _ in list_scenes()}
+        is_integrator = not overrides and not keys and name.lower() not in {n.lower() for n in scene_names()}
     except IntegratorError:
         is_integrator = False
     if is_integrator:
@@ -106,7 +143,7 @@ def show(name: str, overrides: Iterable[str] | dict[str, Any] | None = None,
     try:
         sc = load_scene(name, overrides)
     except UnknownScene:  # not 'unknown scene key' of an override
-        known = list(integrator_infos()) + [n for n, _ in list_scenes()]
+        known = list(integrator_infos()) + scene_names()
         raise SceneError(f"'{name}' is neither an integrator nor a scene{did_you_mean(name.lower(), known)} "
                          f"Integrators and cases: `daebench list`.") from None
     try:

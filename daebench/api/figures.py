@@ -8,9 +8,22 @@ from typing import Sequence
 
 from daebench.core.params import ParamError
 from daebench.harness.analysis import plots
+from daebench.harness.files import DamagedFile, OutputError, ensure_writable_dir, read_json, results_dir
 from daebench.harness.running import provenance
 from daebench.harness.running.history_io import history_label, read_history
 from daebench.harness.sweeps.store import read_table
+
+
+def _writable_stem(stem: Path) -> None:
+    """Refuse, before any figure is drawn, a stem whose folder cannot be written or whose
+    files would be folders or other non-files."""
+    if not stem.name or stem.name in (".", ".."):
+        raise OutputError(f"--out {stem} names no file; give a stem such as results/figures/my-figure")
+    ensure_writable_dir(stem.parent, "the figure's folder (--out)", longest_name=f"{stem.name}.png")
+    for ext in ("png", "svg"):
+        f = stem.with_suffix(f".{ext}")
+        if f.exists() and not f.is_file():
+            raise OutputError(f"{f} exists and is not a regular file; give another --out")
 
 
 def _ys(y: str | Sequence[str]) -> list[str]:
@@ -34,11 +47,14 @@ def plot_work_precision(table: str | Path, x: str = "wall_s", y: str | Sequence[
         raise ParamError(f"'{p}' is not a sweep table (no 'label'/'status' columns); `daebench plot history` plots "
                          f"run histories")
     try:
-        prov = json.loads(p.with_suffix(".json").read_text())["provenance"]
-    except (OSError, ValueError, KeyError, TypeError):
+        prov = read_json(p.with_suffix(".json"), "the table's sidecar")["provenance"]
+    except (DamagedFile, KeyError, TypeError, IndexError):
+        prov = provenance.collect()
+    if not isinstance(prov, dict):
         prov = provenance.collect()
     ys = _ys(y)
     stem = Path(out) if out else p.with_name(f"{p.stem}-wp-{'+'.join(ys)}-vs-{x}")
+    _writable_stem(stem)
     try:
         return plots.work_precision(df, x, ys, group, stem, prov, title=plots.sweep_title(df))[1]
     except KeyError as exc:
@@ -55,6 +71,7 @@ def plot_convergence(table: str | Path, x: str = "h", y: str | Sequence[str] = "
     df = read_table(p)
     ys = _ys(y)
     stem = Path(out) if out else p.with_name(f"{p.stem}-order-{'+'.join(ys)}")
+    _writable_stem(stem)
     try:
         return plots.convergence(df, x, ys, group, stem, provenance.collect(),
                                  title=plots.sweep_title(df, "convergence"))[1]
@@ -62,10 +79,13 @@ def plot_convergence(table: str | Path, x: str = "h", y: str | Sequence[str] = "
         raise ParamError(str(exc.args[0])) from None
 
 
-def plot_histories(files: Sequence[str | Path], out: str | Path = "results/figures/history",
+def plot_histories(files: Sequence[str | Path], out: str | Path | None = None,
                    modal: bool = True) -> list[Path]:
     """θ, energy residual and constraint residuals against t from history files written by
-    `daebench run`, one line per run (and the modal participation W_i(t) when present)."""
+    `daebench run`, one line per run (and the modal participation W_i(t) when present);
+    written to the stem ``out`` (default results/figures/history)."""
+    out = Path(out) if out else results_dir() / "figures" / "history"
+    _writable_stem(out)
     hists = {}
     for f in files:
         h = read_history(f)

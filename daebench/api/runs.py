@@ -29,7 +29,7 @@ def run(scene: SceneLike, integrator: str = "ida", *, overrides: Iterable[str] |
     writing : whether and where the history is written, the run's wall-time cap and
         ``force`` (:class:`daebench.workflows.run.Writing`); or, as keywords, ``write``,
         ``out_dir`` (default results/runs), ``run_cap`` [s]
-        (:class:`daebench.harness.running.deadline.RunTimeout` beyond it), ``force`` (run
+        (:class:`daebench.core.interrupt.RunTimeout` beyond it), ``force`` (run
         beyond the step-count and history-size limits)
     progress : True for a progress bar on stderr, or a callable ``progress(t)``
     keywords : those of ``writing``, and integrator settings (``h=1e-3, alpha=-0.1``)

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -13,7 +14,7 @@ import pandas as pd
 
 from daebench.core.params import Param, ParamError
 from daebench.harness.files import (OutputWriteError, atomic_write, describe_os_error, ensure_writable_dir,
-                                    results_dir)
+                                    results_dir, under_root, write_error)
 from daebench.studies import averaged_gap_lcp, event_capturing
 from daebench.studies.hht_beam_impact import study as beam_study
 from daebench.studies.interactive_mode_contact import runs as interactive_runs
@@ -65,39 +66,55 @@ class StudyTable:
     files: list[Path] = field(default_factory=list)
 
 
+def _out(out: str | Path | None, sub: str) -> Path:
+    """The study's output folder (``out``, default ``<results>/<sub>``), proved writable
+    before any run."""
+    return ensure_writable_dir(Path(out) if out is not None else results_dir() / sub, "output folder (--out)")
+
+
 def averaged_gap_chain(windows: Sequence[float], restitutions: Sequence[float],
-                       out: str | Path = "results/averaged-gap") -> StudyTable:
+                       out: str | Path | None = None) -> StudyTable:
     """The chain example: lcp-avg at several windows beside Hertz–Flores/LN under IDA
-    (:func:`daebench.studies.averaged_gap_lcp.chain_table`); chain.csv in ``out``."""
+    (:func:`daebench.studies.averaged_gap_lcp.chain_table`); chain.csv in ``out`` (default
+    results/averaged-gap)."""
+    folder = _out(out, "averaged-gap")
     df, _ = averaged_gap_lcp.chain_table(tuple(windows), tuple(restitutions), progress=True)
-    return StudyTable(df, [_csv(df, Path(out) / "chain.csv")])
+    return StudyTable(df, [_csv(df, folder / "chain.csv")])
 
 
 def averaged_gap_pendulum(windows: Sequence[float], hertz: bool = True,
-                          out: str | Path = "results/averaged-gap") -> StudyTable:
+                          out: str | Path | None = None) -> StudyTable:
     """The flexible double pendulum: event-driven IDA, lcp-avg and Hertz; the outcome table
-    and the tip gap/force figure (pendulum.csv, double-pendulum.png in ``out``)."""
+    and the tip gap/force figure (pendulum.csv, double-pendulum.png in ``out``, default
+    results/averaged-gap)."""
+    folder = _out(out, "averaged-gap")
     df, runs = averaged_gap_lcp.pendulum_table(tuple(windows), hertz=hertz, progress=True)
-    folder = Path(out)
     files = [_csv(df, folder / "pendulum.csv")]
-    averaged_gap_lcp.pendulum_figure(runs, str(folder / "double-pendulum.png"))
-    return StudyTable(df, files + [folder / "double-pendulum.png"])
+    fig = folder / "double-pendulum.png"
+    atomic_write(fig, lambda p: averaged_gap_lcp.pendulum_figure(runs, str(p), fmt="png"), "the figure",
+                 "the table is printed below")
+    return StudyTable(df, files + [fig])
 
 
 def _csv(df: pd.DataFrame, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    df.to_csv(path, index=False)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise write_error(exc, "the study's folder", path.parent, "the table is printed below") from None
+    atomic_write(path, lambda p: df.to_csv(p, index=False), "the study's table", "the table is printed below")
     return path
 
 
 # ---- the interactive-mode paper -------------------------------------------------------------------------
-def interactive_mode(part: str, out: str | Path = "results/flexcontact") -> Path:
+def interactive_mode(part: str, out: str | Path | None = None) -> Path:
     """One part of the interactive-mode reproduction's runs (rodwall, slider, rodplate, cost,
-    figure: :data:`daebench.studies.interactive_mode_contact.runs.PARTS`); its folder."""
+    figure: :data:`daebench.studies.interactive_mode_contact.runs.PARTS`) in ``out`` (default
+    results/flexcontact); its folder."""
     if part not in interactive_runs.PARTS:
         raise ParamError(f"unknown part '{part}'; choose one of {', '.join(interactive_runs.PARTS)}")
-    interactive_runs.run_part(part, Path(out))
-    return Path(out)
+    folder = _out(out, "flexcontact")
+    interactive_runs.run_part(part, folder)
+    return folder
 
 
 # ---- event capturing against event-driven contact ----------------------------------------------------
@@ -120,10 +137,11 @@ class CapturePage:
     overwrite: bool = False
 
 
-def capture_page(page: CapturePage, out: str | Path = "results/capture") -> tuple[pd.DataFrame, list[Path]]:
+def capture_page(page: CapturePage, out: str | Path | None = None) -> tuple[pd.DataFrame, list[Path]]:
     """The comparison page: the sweeps scored against the IDA reference, one work–precision
-    figure per error measure, and penetration and energy over time; (summary, files)."""
-    folder = Path(out)
+    figure per error measure, and penetration and energy over time, in ``out`` (default
+    results/capture); (summary, files)."""
+    folder = Path(out) if out is not None else results_dir() / "capture"
     ensure_writable_dir(folder, "--out folder")
     ov = {} if page.t_end is None else {"t_end": page.t_end}
     df = event_capturing.compare(page.scene, page.restitution, list(page.steps), list(page.tols), overrides=ov,
@@ -181,9 +199,9 @@ def compile_report(args: Sequence[str], opt: int | None = None, top: int = 20,
     text = compile_census.markdown(res, top=top)
     folder = Path(out) if out else results_dir() / "perf"
     stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
-    name = ("compile-" + "-".join(a.strip("-") for a in args if a.strip("-"))[:80]
-            + f"-opt{res.opt[0]}-{stamp}.md")
-    path = folder / name
+    words = "-".join(a.strip("-") for a in args if a.strip("-"))
+    name = ("compile-" + re.sub(r"[^A-Za-z0-9._-]+", "_", words)[:80] + f"-opt{res.opt[0]}-{stamp}.md")
+    path = under_root(folder, name, what="the compile report")  # the command's words never make a path
     folder.mkdir(parents=True, exist_ok=True)
     atomic_write(path, lambda p: Path(p).write_text(text), "the compile report", "printed above")
     return text, path

@@ -124,7 +124,7 @@ def effects(scene: SceneLike, integrator: str = "hht", settings: dict[str, Any] 
 
 def stability(scene: SceneLike, methods: Sequence[str] | None = None, n: str = "auto",
               search: _stability.Bisection | None = None, *, overrides: Overrides = None,
-              out: str | Path = "results/stability", name: str | None = None,
+              out: str | Path | None = None, name: str | None = None,
               progress: Callable[[str], None] | None = None) -> _stability.StabilityResult:
     """The largest stable fixed step per integrator setting and N, measured by bisection
     on whole runs beside the linear prediction
@@ -133,7 +133,7 @@ def stability(scene: SceneLike, methods: Sequence[str] | None = None, n: str = "
     as a line)."""
     sc = load_scene(scene, overrides)
     return _stability.run_stability(sc, methods or _stability.DEFAULT_METHODS, n, search or _stability.Bisection(),
-                                    Path(out), name, progress)
+                                    Path(out) if out is not None else None, name, progress)
 
 
 def error_columns(scene: SceneLike) -> list[str]:

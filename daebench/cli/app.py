@@ -14,12 +14,12 @@ import sys
 
 import typer
 
-from daebench.cli import catalogue, external, perf, plot, runs, studies, sweeps
+from daebench.cli import catalogue, external, perf, plot, runs, studies, sweeps, verify
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Benchmark time integrators for constrained mechanical systems with impact.")
 
-for group in (catalogue, runs, external, sweeps, studies, perf, plot):
+for group in (catalogue, runs, external, sweeps, studies, perf, plot, verify):
     group.register(app)
 
 

@@ -36,6 +36,8 @@ def list_cmd() -> None:
             cons += ", resolves contacts"
         rows.append([name, cap.order, steps, cons, info.distribution, info.description])
     print_table(["name", "order", "steps", "constraints", "from", "description"], rows, "integrators")
+    for why in api.integrator_refusals():
+        out(f"refused: {why}")
     out("settings of an integrator: daebench show NAME")
 
 

@@ -33,8 +33,8 @@ def refusals() -> Iterator[None]:
         yield
     except api.OutputWriteError as exc:
         fail(str(exc), 1)
-    except api.ParamError as exc:
-        fail(str(exc))
+    except api.ParamError as exc:  # refused input: 2; a failure of the work itself (a reference run): its code
+        fail(str(exc), getattr(exc, "exit_code", 2))
 
 
 def load_scene_or_exit(scene: str, sets: list[str]) -> Any:

@@ -53,6 +53,10 @@ def compile_report(ctx: typer.Context,
     from daebench import api
 
     args = list(ctx.args)
+    root = ctx.find_root()
+    if args and not args[0].startswith("-") and root.command.get_command(root, args[0]) is None:
+        fail(f"'{args[0]}' is not a daebench command; give one after `--`, e.g. "
+             f"`daebench compile-report -- run beam-impact --integrator hht` (`daebench --help` lists them)")
     if args and args[0] != "compile-report":
         out(f"running `daebench {' '.join(args)}` twice in a fresh process (empty kernel cache, then warm); "
             f"a cold run takes minutes")

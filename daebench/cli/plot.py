@@ -54,7 +54,7 @@ def plot_order(table: str = typer.Argument(..., help="a sweep table (.parquet or
 
 
 def plot_history(files: list[str] = typer.Argument(..., help="history files written by `daebench run`"),
-                 out: str = typer.Option("results/figures/history", "--out", help="output stem"),
+                 out: Optional[str] = typer.Option(None, "--out", help="output stem (default results/figures/history)"),
                  modal: bool = typer.Option(True, "--modal/--no-modal", help="also W_i(t) if present")) -> None:
     """θ, energy residual and constraint residuals |C|, |Ċ|, |C̈| against t, one panel each
     (and modal participation), one line per run labelled by integrator and settings."""

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import sys
+import traceback
 from typing import Any, Optional
 
 import typer
@@ -26,7 +27,10 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
         out_dir: Optional[str] = typer.Option(None, "--out", help="folder for the history file (default results/runs)"),
         as_json: bool = typer.Option(False, "--json", help="print one JSON record (stdout holds nothing else)"),
         run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of the run [s]"),
-        force: bool = typer.Option(False, "--force", help="run even beyond the step-count / history-size limits")) -> None:
+        force: bool = typer.Option(False, "--force", help="run even beyond the step-count / history-size limits"),
+        show_traceback: bool = typer.Option(False, "--traceback",
+                                            help="when an exception ends the run, print where it was raised "
+                                                 "(the integrator's frames included) on stderr")) -> None:
     """Run a scene with one integrator; write the time history; print a summary."""
     from daebench import api
 
@@ -43,8 +47,13 @@ def run(scene: str = typer.Argument(..., help="scene name or path to a .toml fil
         fail(f"{exc}; nothing was written (raise --run-cap, or use a larger step)", 1)
     except KeyboardInterrupt:
         fail("interrupted; nothing was written", 130)
-    except Exception as exc:  # a plugin's bug during the run: say so, no traceback
-        fail(f"the run raised {type(exc).__name__}: {exc} (a bug in integrator '{integrator}' or the model?)", 1)
+    except Exception as exc:  # a plugin's bug during the run: say so; the traceback on request
+        if show_traceback:
+            sys.stderr.write(traceback.format_exc())
+        fail(f"the run raised {type(exc).__name__}: {exc} (a bug in integrator '{integrator}' or the model?"
+             + ("" if show_traceback else " `--traceback` shows where") + ")", 1)
+    if show_traceback and r.traceback:
+        sys.stderr.write(r.traceback)
     if as_json:
         sys.stdout.write(r.record.to_json() + "\n")
     else:
@@ -67,11 +76,18 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
     declared = r.declared
     obs = r.record.observables
     finals = [("t", "s")] + [(o.name, o.unit) for o in declared.declared if o.summary]
+    stopped = r.status != "completed"
+    t_kept = obs.get("t")
     for k, unit in finals:
         if k in obs:
-            pairs.append((f"final {k}" + (f" [{unit}]" if unit else ""), f"{obs[k]:.10g}"))
+            pairs.append(((f"last kept {k}" if stopped else f"final {k}") + (f" [{unit}]" if unit else ""),
+                          f"{obs[k]:.10g}"))
+    t_final = getattr(r.record, "t_final", None)
+    if stopped and t_final is not None and t_kept is not None and t_final != t_kept:
+        pairs.append(("stopped at", f"t = {t_final:.10g} s (the history keeps the output rows before it)"))
     pairs.append(("energy balance", f"max |E − E0 − W_nc + D_impacts| = {r.energy_residual:.3e} J "
-                                    f"(bookkeeping error of the run; 0 is exact)"))
+                  + ("over the rows kept (the residual where the run stopped is in its status)" if stopped
+                     else "(bookkeeping error of the run; 0 is exact)")))
     if r.impacts:
         law = getattr(r.record, "impact_law", "")
         pairs.append(("impacts", f"{len(r.impacts)}; first at t = {r.impacts[0]['t']:.12g} s"
@@ -124,7 +140,11 @@ def reference(scene: str = typer.Argument(..., help="scene name or path to a .to
 
     sc = load_scene_or_exit(scene, set_)
     try:
-        ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True, ship=ship)
+        with api.sigterm_as_interrupt():  # SIGTERM ends it as Ctrl-C does: said, not silent
+            ref = api.reference(sc, rtol=rtol, atol=atol, force=force, progress=True, ship=ship)
+    except KeyboardInterrupt:
+        fail("interrupted (Ctrl-C or SIGTERM) before the reference was complete; nothing was cached (a reference "
+             "is written only whole): run the command again", 130)
     except api.OutputWriteError as exc:
         fail(str(exc), 1)
     except api.ParamError as exc:

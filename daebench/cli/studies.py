@@ -64,7 +64,9 @@ def paper(quick: bool = typer.Option(False, "--quick", help="reduced grid for CI
 
 
 def interactive_mode(part: str = typer.Argument("rodwall", help="rodwall | slider | rodplate | cost | figure"),
-                     out_dir: str = typer.Option("results/flexcontact", "--out", help="folder for the JSON rows")) -> None:
+                     out_dir: Optional[str] = typer.Option(None, "--out",
+                                                           help="folder for the JSON rows (default results/flexcontact)")
+                     ) -> None:
     """The interactive-mode paper (flexible bodies in contact, Acta Physica Sinica 2017): the runs
     behind one of its tables — ACM, PFM and IMM on rod-wall, slider-slot or rod-plate, their cost,
     or the slider figure."""
@@ -92,21 +94,26 @@ def _emit(res) -> None:
 
 def chain(windows: str = typer.Option("1e-4,5e-4,1e-3,2e-3", help="lcp-avg windows h_avg [s], comma-separated"),
           restitutions: str = typer.Option("0.1,0.2,0.3,0.5,0.8,1", help="Flores restitutions"),
-          out_dir: str = typer.Option("results/averaged-gap", "--out", help="folder for the CSV table")) -> None:
+          out_dir: Optional[str] = typer.Option(None, "--out",
+                                                help="folder for the CSV table (default results/averaged-gap)")) -> None:
     """chain-impact: lcp-avg at several h_avg beside Hertz–Flores/LN under IDA (unclipped Flores force)."""
     from daebench import api
 
-    _emit(api.averaged_gap_chain(_floats(windows), _floats(restitutions), out_dir))
+    with refusals():
+        res = api.averaged_gap_chain(_floats(windows), _floats(restitutions), out_dir)
+    _emit(res)
 
 
 def pendulum(windows: str = typer.Option("1e-3,1e-2", help="lcp-avg windows h_avg [s]"),
              hertz: bool = typer.Option(True, "--hertz/--no-hertz", help="also the Hertz law under IDA"),
-             out_dir: str = typer.Option("results/averaged-gap", "--out",
-                                         help="folder for the CSV table and the figure")) -> None:
+             out_dir: Optional[str] = typer.Option(None, "--out", help="folder for the CSV table and the figure "
+                                                                       "(default results/averaged-gap)")) -> None:
     """double-pendulum: event-driven IDA, lcp-avg and Hertz; outcome table and tip gap/force figure."""
     from daebench import api
 
-    _emit(api.averaged_gap_pendulum(_floats(windows), hertz=hertz, out=out_dir))
+    with refusals():
+        res = api.averaged_gap_pendulum(_floats(windows), hertz=hertz, out=out_dir)
+    _emit(res)
 
 
 def _numbers(text: str, what: str) -> list[float]:
@@ -135,7 +142,7 @@ def page(scene: str = typer.Argument("beam-impact", help="a case with contacts (
          t_end: Optional[float] = typer.Option(None, "--t-end", help="override the scene's end time [s]"),
          jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="worker processes"),
          repeats: int = typer.Option(3, "--repeats", min=1, help="timed runs per point (minimum kept)"),
-         out_dir: str = typer.Option("results/capture", "--out", help="folder for the figures"),
+         out_dir: Optional[str] = typer.Option(None, "--out", help="folder for the figures (default results/capture)"),
          resume: bool = typer.Option(False, "--resume", help="complete the interrupted sweeps of this page"),
          overwrite: bool = typer.Option(False, "--overwrite", help="replace the sweep tables of an earlier page")) -> None:
     """Sweep hht, moreau (projection off/on), nsgenalpha at --steps and ida at --tols against
@@ -150,7 +157,7 @@ def page(scene: str = typer.Argument("beam-impact", help="a case with contacts (
                        _finite(t_end, "--t-end", 1e-9, 1e5))
         spec = api.CapturePage(scene, e, tuple(_numbers(steps, "steps")), tuple(_numbers(tols, "tols")), h, t_end, jobs,
                                repeats, resume, overwrite)
-        summary, files = api.capture_page(spec, Path(out_dir))
+        summary, files = api.capture_page(spec, Path(out_dir) if out_dir is not None else None)
     typer.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     typer.echo("wrote " + ", ".join(map(str, files)))
 

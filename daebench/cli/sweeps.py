@@ -56,14 +56,17 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
               None, "--scheduler",
               help="run on Dask: a scheduler address (tcp://host:8786), or 'local' for a local cluster of --jobs workers"),
           ref_mode: str = typer.Option("require", "--reference",
-                                       help="require (error if missing) | compute | auto (score if cached) | none"),
+                                       help="require (error if missing) | compute | auto (score if cached) | none "
+                                            "(no reference: runs are scored only against a model's exact solution)"),
           repeats: int = typer.Option(3, "--repeats", help="timed runs after a warm-up, for runs under 1 s "
                                       "(min taken; 1: one cold run, no warm-up)"),
           name: Optional[str] = typer.Option(None, "--name", help="table name under results/bench/ (default: unique)"),
           resume: bool = typer.Option(False, "--resume", help="complete the interrupted sweep --name (same arguments)"),
           overwrite: bool = typer.Option(False, "--overwrite", help="replace the existing table --name"),
           run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
-          force: bool = typer.Option(False, "--force", help="allow runs beyond the step-count limit")) -> None:
+          force: bool = typer.Option(False, "--force", help="allow runs beyond the step-count limit"),
+          show_traceback: bool = typer.Option(False, "--traceback", help="print where each 'error' row's exception "
+                                              "was raised (the integrator's frames included) on stderr")) -> None:
     """Sweep integrators × grid × steps/tols on a scene; one scored row per run, stored as it finishes."""
     from daebench import api
 
@@ -85,8 +88,11 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
     _bench_report(df, sc, api.error_columns(sc))
     bad = df[df["status"].isin(api.HARNESS_FAILURES)]
     if len(bad):
+        if show_traceback and "traceback" in bad:
+            for _, r in bad[bad["traceback"].notna()].iterrows():
+                sys.stderr.write(f"run {r['run']} ({r['label']}):\n{r['traceback']}")
         sys.stderr.write(f"{len(bad)} run(s) gave no verdict ({', '.join(sorted(set(bad['status'])))}); "
-                         f"see the 'message' column\n")
+                         f"see the 'message' column" + ("" if show_traceback else " (and `--traceback`)") + "\n")
         raise typer.Exit(1)
 
 
@@ -105,7 +111,8 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
             set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
             jobs: int = typer.Option(2, "--jobs", "-j", help="worker processes"),
             reference: str = typer.Option("compute", "--reference",
-                                          help="compute (when missing, with a progress bar) | require | auto"),
+                                          help="compute (when missing, with a progress bar) | require | auto | none "
+                                               "(no reference: runs are scored only against a model's exact solution)"),
             run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
             out_dir: Optional[str] = typer.Option(None, "--out",
                                                   help="output folder (default results/compare/<case>-<hash>)"),
@@ -115,8 +122,9 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
             include: list[str] = typer.Option([], "--include",
                                               help="another code's trajectory (CSV/Parquet, as for `daebench score`), "
                                                    "scored beside the runs and marked external; repeatable")) -> None:
-    """Run every applicable integrator at the case's protocol (daebench/workflows/compare.py: PROTOCOLS),
-    score each run against the reference, print one table and write the work-precision figure."""
+    """Run every applicable integrator at the case's protocol (the runs each integrator declares for the
+    case, else one at its defaults), score each run against the reference, print one table and write the
+    work-precision figure."""
     from daebench import api
 
     sc = load_scene_or_exit(case, set_)
@@ -125,6 +133,12 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
         options = api.SweepOptions(reference=reference, timing=api.Timing(run_cap=run_cap),
                                    execution=api.Execution(jobs=jobs, progress=True))
         res = api.compare(sc, options, out=out_dir, report=report_page, include=include)
+    except KeyboardInterrupt as exc:  # during the runs, or after them (scoring, figures): said, never silent
+        done = getattr(exc, "table", None)
+        kept = (f"{int((done['status'] != 'interrupted').sum())} of {len(done)} runs had finished; "
+                if done is not None else "")
+        fail(f"interrupted (Ctrl-C or SIGTERM); {kept}the comparison's table and figures were not written: "
+             f"run the command again", 130)
     except api.OutputWriteError as exc:  # the work is done: show it, say what was not saved, exit 1
         if getattr(exc, "result", None) is not None:
             _compare_table(exc.result, sc)
@@ -152,7 +166,7 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
 
 def _compare_table(res: Any, sc: Any) -> None:
     cols, rows = res.table_rows()
-    for line in textout.table_lines(cols, rows, title=f"{sc.name}: {res.protocol.why}"):
+    for line in textout.table_lines(cols, rows, title=res.heading(sc.name)):
         out(line)
 
 
@@ -196,7 +210,9 @@ def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-sepa
            resume: bool = typer.Option(False, "--resume", help="complete the survey --name (same arguments)"),
            overwrite: bool = typer.Option(False, "--overwrite", help="replace the survey --name"),
            run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
-           reference: str = typer.Option("compute", "--reference", help="compute | require | auto | none"),
+           reference: str = typer.Option("compute", "--reference",
+                                         help="compute | require | auto | none (no reference: runs are scored only "
+                                              "against a model's exact solution)"),
            report_page: bool = typer.Option(False, "--report", help="also write the HTML report page")) -> None:
     """Run the protocol of every case within a per-case budget; print the performance profiles and a
     recommendation per case; write results/survey/<name>/ (table, reach = cost to reach each target,
@@ -277,21 +293,19 @@ def stability(case: str = typer.Argument(..., help="scene name or path to a .tom
               jobs: int = typer.Option(1, "--jobs", "-j", help="worker processes"),
               run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run, s"),
               mark_h: float = typer.Option(0.0, "--mark-h", help="draw this step as a line, s (0: none)"),
-              out_dir: str = typer.Option("results/stability", "--out", help="output folder"),
+              out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/stability)"),
               name: Optional[str] = typer.Option(None, "--name", help="file stem (default <case>-stability)")) -> None:
     """Largest stable fixed step per integrator setting and N, measured by bisection on
     whole runs (completed, energy balance within the divergence threshold), beside the
     linear prediction (start frequencies × the method's computed stability interval)."""
     from daebench import api
 
-    try:
+    with refusals():
         sc = api.load_scene(case, set_)
         search = api.Bisection(n_key, t_end if t_end != 0.0 else None, periods, h_min, h_max, tol, jobs, run_cap,
                                mark_h or None)
         res = api.stability(sc, method or None, n, search, out=out_dir, name=name,
                             progress=lambda line: sys.stderr.write(line + "\n"))
-    except api.ParamError as exc:
-        fail(str(exc))
     typer.echo(res.markdown)
     typer.echo(f"\n{res.summary}")
     typer.echo("wrote " + ", ".join(map(str, res.files)))

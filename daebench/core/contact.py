@@ -48,8 +48,9 @@ if TYPE_CHECKING:  # pragma: no cover
 
 DAMPING_LAWS = ("lankarani-nikravesh", "hunt-crossley", "flores", "none")
 #: the driver's laws for contacts that close at the same instant (scene key contact.impact_law;
-#: daebench.driver.events): Newton's law for all at once (one LCP) or one contact after another
-IMPACT_LAWS = ("simultaneous", "sequential")
+#: daebench.driver.events): Newton's law for all at once (one LCP), one contact after another, or
+#: the Liu–Zhao–Brogliato multiple-impact law (daebench.core.lzb: the model's contact stiffness)
+IMPACT_LAWS = ("simultaneous", "sequential", "lzb")
 #: default regularisation velocity v_ε of the compliant laws' Coulomb friction [m/s]: a held
 #: block creeps at v_ε artanh(|F|/(μ F_N)) — about 1 mm/s, small against the cases' speeds
 #: (m/s) — while the friction's time constant v_ε/(μ g) (≈ 3e-4 s at μ = 0.3) stays above
@@ -226,7 +227,8 @@ class ContactSchema:
         if self.impact_law:
             out.append(Param("contact.impact_law", str, d["impact_law"], "constraint law, contacts closing at the "
                              "same instant: simultaneous = Newton's law for all at once (one LCP); sequential = "
-                             "one contact after another", choices=IMPACT_LAWS))
+                             "one contact after another; lzb = Liu–Zhao–Brogliato multiple impacts (the "
+                             "contacts' stiffness ratios, energetic restitution)", choices=IMPACT_LAWS))
         if "hertz" in self.laws:
             rule = f" (0: {self.hertz_rule})" if self.hertz_rule else ""
             out.append(Param("contact.hertz_stiffness", float, d["hertz_stiffness"], "Hertz stiffness K" + rule,
@@ -318,6 +320,8 @@ class Impact:
                                       # step's of an episode (event-capturing; ``impulse`` is the episode's)
     restitution: float = math.nan  # the restitution Newton's law applied (driver: the scene's, or 0 where
                                    # the rebound was too slow or too short to resolve — Zeno's accumulation)
+    law: str = ""                  # the driver's impact law: "newton" or "lzb" ("": an episode an
+                                   # integrator resolved itself, or a continuous-law episode)
     q: np.ndarray | None = field(default=None, repr=False)        # configuration at the impact
     v_minus: np.ndarray | None = field(default=None, repr=False)  # velocities before / after
     v_plus: np.ndarray | None = field(default=None, repr=False)

@@ -24,6 +24,11 @@ class DispatchError(TypeError):
     """No implementation is registered for this data class."""
 
 
+#: data class → every implementation registered for it, by any generic (what the code
+#: digest of a plugin's data class covers: :func:`daebench.core.numba_cache.class_digest`)
+IMPLEMENTATIONS: dict[type, dict[str, Callable]] = {}
+
+
 def _data_class(tp: Any) -> type | None:
     if isinstance(tp, (types.NamedTuple, types.NamedUniTuple)):
         return tp.instance_class
@@ -75,6 +80,7 @@ def generic(template: Callable) -> Callable:
         if not hasattr(implementation, "py_func") and not numba.config.DISABLE_JIT:
             implementation = njit(cache=True)(implementation)
         impls[data_class] = implementation
+        IMPLEMENTATIONS.setdefault(data_class, {})[name] = implementation
         py = getattr(implementation, "py_func", implementation)
         same = list(inspect.signature(py).parameters) == list(sig.parameters)
         # numba compiles what the overload returns: the implementation's own Python

@@ -23,8 +23,8 @@ the kernel the model registered; model code does not change, and a plugin model 
 registers kernels only. The rebuilding code is generated once per data layout (field
 kinds, dtypes, array ranks — not sizes, so every mesh of a model shares it) into a small
 module under the numba cache directory (``NUMBA_CACHE_DIR``, else ``~/.cache/daebench``),
-named by daebench's source stamp, a plugin model's version and the code of the kernels the
-model registered, so it caches on disk like the rest (:func:`_generated_module`). A handle
+named by daebench's source stamp and the code of the kernels the model registered (and of what
+they reach: :func:`daebench.core.code_digest.functions_digest`), so it caches on disk like the rest (:func:`_generated_module`). A handle
 holds only numbers: passing it from Python costs what passing three arrays costs; it
 cannot be pickled (its addresses mean nothing in another process).
 
@@ -37,10 +37,9 @@ their data as it is: :func:`handle` returns it unchanged.
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
-import marshal
 import os
+import stat
 import sys
 import tempfile
 import weakref
@@ -54,7 +53,7 @@ from numba.core import cgutils
 from numba.core.extending import intrinsic
 from numba.np.arrayobj import get_cfarray_intrinsic
 
-from daebench.core import kernels
+from daebench.core import code_digest, kernels
 from daebench.core.borrow import uncounted
 from daebench.core.kernels import KernelError
 
@@ -112,23 +111,30 @@ _i64_at = _pointer_at(types.int64)
 _b1_at = _pointer_at(types.boolean)
 
 
+def function_value(fntype):
+    """The codegen of an intrinsic whose first argument is a compiled function's address: a
+    first-class function value of ``fntype``, called with numba's own calling convention
+    (its ``jit_addr``), so that its exception reaches the caller as from any compiled call."""
+
+    def codegen(context, builder, signature, args):
+        fn = cgutils.create_struct_proxy(fntype)(context, builder)
+        null = context.get_constant_null(types.voidptr)
+        fn.c_addr = null
+        fn.py_addr = null
+        fn.jit_addr = builder.inttoptr(args[0], context.get_value_type(types.voidptr))
+        return fn._getvalue()
+
+    return codegen
+
+
 def _function_at(sig):
-    """An intrinsic turning a compiled function's address into a first-class function value
-    of signature ``sig``, called with numba's own calling convention (its ``jit_addr``):
-    a kernel's exception reaches the caller as from any compiled call."""
+    """An intrinsic turning a kernel's address into a first-class function value of
+    signature ``sig`` (:func:`function_value`)."""
     fntype = types.FunctionType(sig)
 
     @intrinsic
     def at(typingctx, addr):
-        def codegen(context, builder, signature, args):
-            fn = cgutils.create_struct_proxy(fntype)(context, builder)
-            null = context.get_constant_null(types.voidptr)
-            fn.c_addr = null
-            fn.py_addr = null
-            fn.jit_addr = builder.inttoptr(args[0], context.get_value_type(types.voidptr))
-            return fn._getvalue()
-
-        return fntype(types.int64), codegen
+        return fntype(types.int64), function_value(fntype)
 
     return at
 
@@ -213,20 +219,30 @@ def _source(layout: _Layout, expr: str, names: tuple[str, ...]) -> str:
 
 
 def _directory() -> Path:
+    """A folder for the generated modules that only this user can write: owned by this user,
+    not writable by group or others (a shared temporary folder planted by someone else is
+    passed over), created 0700 when missing."""
     # outside the package: source scanners (layers test, packaging) must not see generated code
     roots = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []
     roots += [Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "daebench",
-              Path(tempfile.gettempdir()) / "daebench-numba"]
+              Path(tempfile.gettempdir()) / f"daebench-numba-{os.getuid()}"]
     for root in roots:
         d = root / "daebench-handles"
         try:
-            d.mkdir(parents=True, exist_ok=True)
-            if os.access(d, os.W_OK):
+            d.mkdir(mode=0o700, parents=True, exist_ok=True)
+            if _private(d):
                 return d
         except OSError:
             continue
-    raise OSError(f"no writable directory for daebench's generated kernel modules (tried {roots}); "
-                  "set NUMBA_CACHE_DIR to a writable directory")
+    raise OSError(f"no private writable directory for daebench's generated kernel modules (tried {roots}: each "
+                  f"must be owned by you and not writable by others); set NUMBA_CACHE_DIR to such a directory")
+
+
+def _private(d: Path) -> bool:
+    """``d`` is a real folder owned by this user, writable by it and by nobody else."""
+    st = os.lstat(d)
+    return (stat.S_ISDIR(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+            and os.access(d, os.W_OK))
 
 
 _MODULES: dict[tuple, Any] = {}
@@ -240,24 +256,28 @@ def _generated_module(layout: _Layout, expr: str) -> Any:
     made = (cls, impls, *layout.key)  # a kernel registered anew in this process makes a new module
     if made in _MODULES:
         return _MODULES[made]
-    # the registered kernels' own code is part of the name: a plugin (or a notebook's model)
-    # edited without a version bump must not load another kernel's cached machine code
-    digest = hashlib.sha256("|".join([_LAYOUT_VERSION, numba_cache.source_stamp(),
-                                      numba_cache._plugin_packages().get(cls.__module__.split(".")[0], ""),
-                                      *layout.key]).encode())
-    for f in impls:
-        digest.update(marshal.dumps(getattr(f, "py_func", f).__code__))
-    name = f"_daebench_handle_{cls.__name__.lower()}_{digest.hexdigest()[:16]}"
+    # the registered kernels' code, and what they reach, is part of the name: a plugin (or a
+    # notebook's model) edited without a version bump must not load another kernel's machine code
+    digest = code_digest.functions_digest(impls, [_LAYOUT_VERSION, numba_cache.source_stamp(), *layout.key])
+    name = f"_daebench_handle_{cls.__name__.lower()}_{digest[:16]}"
     path = _directory() / f"{name}.py"
     own = tuple(k for k, f in zip(kernels.KERNELS, impls) if _shared(k, f) is None)
-    if not path.exists():
+    text = _source(layout, expr, own)
+    # the file exists for numba's on-disk cache (it keys compiled code on the file); what runs is
+    # the text generated here, never what the file holds: a line planted in it does not run, and
+    # a file that differs (planted, truncated, older) is written anew before its code is cached
+    try:
+        same = path.read_bytes() == text.encode()
+    except OSError:
+        same = False
+    if not same:
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(_source(layout, expr, own))
+        tmp.write_text(text)
         os.replace(tmp, path)  # concurrent workers write the same text: either copy is right
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
-    spec.loader.exec_module(module)
+    exec(compile(text, str(path), "exec"), module.__dict__)
     module.__daebench_fns__ = np.array([_jit_address(getattr(module, k) if k in own else _shared(k, f), SIGNATURES[k])
                                         for k, f in zip(kernels.KERNELS, impls)], dtype=np.int64)
     module.__daebench_fns__.flags.writeable = False

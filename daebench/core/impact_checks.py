@@ -6,8 +6,10 @@ law when
 1. **no pull** — every impulse is ≥ 0: the driver's impacts, and every episode an
    event-capturing integrator resolved (the episode's impulse and its first step's);
 
-and, for the driver's impacts (whose record states the restitution e it applied: the
-scene's, or 0 where it closed a rebound too slow or too short to resolve), exactly:
+and, for the driver's Newton impacts (whose record states the restitution e it applied:
+the scene's, or 0 where it closed a rebound too slow or too short to resolve), exactly
+(under the Liu–Zhao–Brogliato multiple-impact law, whose outcome is not Newton's, rules 3
+and 4):
 
 2. **Newton's law** — ġ⁺ + e ġ⁻ = 0 for a contact with an impulse (the complementarity of
    P > 0), ≥ 0 for the others;
@@ -58,10 +60,16 @@ def record_violations(imp: Impact, energy_scale: float = 0.0) -> list[str]:
     for name, p in (("impulse", P), ("impact impulse", imp.impact_impulse)):
         if _finite(p) and p < -scale_p:
             out.append(f"{where}: {name} {p:.3e} N s < 0 (the contact pulls)")
+    vn_m, vn_p = imp.vn_minus, imp.vn_plus
+    if getattr(imp, "law", "") == "lzb":  # the multiple-impact law: no Newton equality; rules 3, 4
+        if vn_m > ABS_VN:
+            out.append(f"{where}: impact on a separating contact (ġ⁻ = {vn_m:+.3e} m/s)")
+        if _finite(imp.energy_loss) and imp.energy_loss < -REL_TOL * abs(P * vn_m) - ENERGY_ROUNDOFF * energy_scale:
+            out.append(f"{where}: the impact made {-imp.energy_loss:.3e} J of kinetic energy (LZB)")
+        return out
     e = imp.restitution
     if not _finite(e):
         return out  # an event-capturing episode: rule 1 only
-    vn_m, vn_p = imp.vn_minus, imp.vn_plus
     if vn_m > ABS_VN:
         out.append(f"{where}: impact on a separating contact (ġ⁻ = {vn_m:+.3e} m/s)")
     tol = REL_TOL * max(abs(vn_m), abs(vn_p)) + ABS_VN

@@ -1,16 +1,26 @@
-"""numba's on-disk cache, keyed on every compiled source of daebench at once.
+"""numba's on-disk cache: daebench's compiled functions keyed on daebench's compiled
+sources at once, a plugin's on its own code.
 
 numba stamps a cached function with its own file only. A compiled integrator loop here
 contains the model kernels and phase functions it calls, which live in other files, so
 after an edit of a kernel numba would keep loading the old loop. This locator gives
-every daebench function one stamp: a hash of all daebench modules that define numba functions,
-plus the versions of numba and of the plugin distributions registered under daebench's
-entry points. Any change to any of them recompiles; nothing else does.
+every daebench function one stamp: a hash of all daebench modules that define numba
+functions, plus numba's version. Any change to any of them recompiles; nothing else does.
 
-A plugin's version is not part of that stamp (installing or removing a plugin must not
-throw away the built-ins' cache): it goes into the index key of the entries whose
-signature names one of the plugin's types (a daebench loop compiled for a plugin's
-method or model embeds the plugin's kernels), see :func:`_keyed_index_key`.
+A plugin's code is never part of that stamp (installing, removing or editing a plugin must
+not throw away the built-ins' cache). It keys what is compiled of it
+(:mod:`daebench.core.code_digest`):
+
+* a plugin's own cached functions (outside daebench, building on it) are stamped with
+  numba's stamp of their file, daebench's stamp (daebench code is compiled into them) and
+  the digest of their package's source files (:class:`PluginInTreeLocator` and its kin):
+  an edit of any file of the package recompiles them;
+* a daebench function compiled for a plugin's types (a loop specialised on a plugin's
+  method or model data) has the digest of the code registered for those types — walked
+  through its globals as loaded — in its index key (:func:`_keyed_index_key`); compiled
+  plugin steppers normally reach daebench's loops as compiled values instead
+  (:mod:`daebench.stepping.method_handles`), so that an edit recompiles only the plugin's
+  entries.
 
 A damaged cache heals itself: every data file carries a SHA-256 of its payload
 (:func:`_checked_save_data`); a data file that fails the check or cannot be rebuilt, and an
@@ -37,6 +47,8 @@ from typing import Any
 
 from numba.core import caching, config
 
+from daebench.core import code_digest
+
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # the daebench package
 GROUPS = ("daebench.integrators", "daebench.models")
 _STAMP: str | None = None
@@ -46,7 +58,7 @@ _REPORTED: set[str] = set()
 _COMPILED = re.compile(rb"\bnjit\b")
 
 
-def _plugin_packages() -> dict[str, str]:
+def plugin_packages() -> dict[str, str]:
     """{top-level package of a plugin: "distribution==version"} (computed once per process)."""
     global _PLUGINS
     if _PLUGINS is None:
@@ -103,6 +115,43 @@ class InTreeLocator(_PackageStampMixin, caching.InTreeCacheLocator):
     """``__pycache__`` beside the source, with the package stamp."""
 
 
+class _PluginStampMixin:
+    """A plugin's cached function (:func:`daebench.core.code_digest.is_plugin_function`):
+    numba's stamp of its own file (or notebook cell), daebench's stamp (the daebench
+    functions it calls are compiled into it) and the digest of its package's source files
+    (the plugin's other files: helpers, constants)."""
+
+    _plugin_module = ""
+
+    def get_source_stamp(self):
+        return (super().get_source_stamp(), source_stamp(), code_digest.package_digest(self._plugin_module))
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if _ours(py_file) or not code_digest.is_plugin_function(py_func, plugin_packages()):
+            return None
+        self = super().from_function(py_func, py_file)
+        if self is not None:
+            self._plugin_module = py_func.__module__
+        return self
+
+
+class PluginUserDirLocator(_PluginStampMixin, caching.UserProvidedCacheLocator):
+    """A plugin's function, ``NUMBA_CACHE_DIR`` set."""
+
+
+class PluginInTreeLocator(_PluginStampMixin, caching.InTreeCacheLocator):
+    """A plugin's function, ``__pycache__`` beside its source."""
+
+
+class PluginUserWideLocator(_PluginStampMixin, caching.UserWideCacheLocator):
+    """A plugin's function whose source folder cannot be written (an installed package)."""
+
+
+class PluginNotebookLocator(_PluginStampMixin, caching.IPythonCacheLocator):
+    """A plugin's function defined in a notebook cell."""
+
+
 class Unavailable:
     """Stands in, in a loaded cache index, for a class this process cannot import (a
     plugin's model or method type): the entries that name it can never match a lookup
@@ -132,18 +181,46 @@ def report_damaged(path: str, why: str) -> None:
 _original_index_key = caching.Cache._index_key
 
 
+def _plugin_classes(ty: Any, out: dict[type, None]) -> None:
+    """The Python classes from outside daebench that numba type ``ty`` names (data
+    tuples of a plugin's method or model, at any depth)."""
+    from numba.core import types
+
+    cls = getattr(ty, "instance_class", None)
+    if isinstance(cls, type) and not code_digest.is_daebench(cls.__module__) and cls.__module__ != "builtins":
+        out[cls] = None
+    if isinstance(ty, types.BaseTuple):
+        for t in ty.types:
+            _plugin_classes(t, out)
+
+
+_CLASS_DIGESTS: dict[tuple, str] = {}
+
+
+def class_digest(cls: type) -> str:
+    """The digest of the code registered for data class ``cls`` (its stepper's or kernels'
+    implementations, :data:`daebench.core.dispatch.IMPLEMENTATIONS`) and of its fields."""
+    from daebench.core.dispatch import IMPLEMENTATIONS
+
+    impls = tuple(IMPLEMENTATIONS.get(cls, {}).values())
+    key = (cls, *map(id, impls))
+    if key not in _CLASS_DIGESTS:
+        _CLASS_DIGESTS[key] = code_digest.functions_digest(
+            impls, [f"{cls.__module__}.{cls.__qualname__}{getattr(cls, '_fields', '')}"])
+    return _CLASS_DIGESTS[key]
+
+
 def _keyed_index_key(self: Any, sig: Any, codegen: Any) -> tuple:
-    """numba's index key, plus the versions of the plugins whose types the signature names."""
+    """numba's index key, plus the code digests of the plugin classes the signature names."""
     key = _original_index_key(self, sig, codegen)
-    plugins = _plugin_packages()
-    if plugins and _ours(self._py_func.__code__.co_filename):
-        try:
-            blob = caching.dumps(sig)
-        except Exception:  # noqa: BLE001 - an unpicklable signature is not cached by numba either
-            return key
-        named = sorted(v for top, v in plugins.items() if top.encode() in blob)
-        if named:
-            key = key[:-1] + (tuple(key[-1]) + tuple(named),)
+    if not _ours(self._py_func.__code__.co_filename):
+        return key
+    named: dict[type, None] = {}
+    for ty in sig if isinstance(sig, tuple) else getattr(sig, "args", ()):
+        _plugin_classes(ty, named)
+    if named:
+        digests = tuple(sorted(f"{c.__module__}.{c.__qualname__}={class_digest(c)}" for c in named))
+        key = key[:-1] + (tuple(key[-1]) + digests,)
     return key
 
 
@@ -234,10 +311,12 @@ def _tolerant_load_index(self: Any) -> dict:
 
 
 def install() -> None:
-    """Put the package-stamped locators first, make index loading tolerant, data files
-    checksummed and plugin versions part of the keys that name plugin types (idempotent)."""
+    """Put the package-stamped and plugin-stamped locators first, make index loading
+    tolerant, data files checksummed and plugin code part of the keys that name plugin
+    types (idempotent)."""
     classes = caching.CacheImpl._locator_classes
-    for cls in (InTreeLocator, UserDirLocator):  # UserDirLocator ends up first
+    for cls in (PluginNotebookLocator, PluginUserWideLocator, PluginInTreeLocator, PluginUserDirLocator,
+                InTreeLocator, UserDirLocator):  # UserDirLocator ends up first, then daebench's, then plugins'
         if cls not in classes:
             classes.insert(0, cls)
     caching.IndexDataCacheFile._load_index = _tolerant_load_index

@@ -11,6 +11,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Iterable
 
+import numpy as np
+
 
 class ParamError(ValueError):
     """A bad value or an unknown key; the message names both and the fix."""
@@ -32,23 +34,30 @@ def coerce(value: Any, typ: type, what: str, strict: bool = False, finite: bool 
     """
     text = isinstance(value, str) and not strict
     if typ is bool:
-        if isinstance(value, bool):
-            return value
+        if isinstance(value, (bool, np.bool_)):  # numpy's booleans too (a mask's element, np.False_)
+            return bool(value)
         if text and value.lower() in ("true", "false", "1", "0", "yes", "no", "on", "off"):
             return value.lower() in ("true", "1", "yes", "on")
         raise ParamError(f"{what} must be true or false, got {value!r}")
     if typ in (float, int):
-        if isinstance(value, bool) or (isinstance(value, str) and not text):
+        if isinstance(value, (bool, np.bool_)) or (isinstance(value, str) and not text):
             raise ParamError(f"{what} must be a number, got {value!r}"
                              + (" (a quoted string: write the number without quotes)" if isinstance(value, str) else ""))
         if text and "_" in value:  # Python's float() reads "1_0e-3" as 0.01: a typo, not a number
             raise ParamError(f"{what} must be a number, got {value!r} (no '_' in numbers: write e.g. 1e-3)")
+        digits = str(value).strip().lstrip("+-") if isinstance(value, (int, str)) else ""
+        huge = digits.isdigit() and len(digits) > 30
+        shown = f"a {len(digits)}-digit number" if huge else repr(value)
         try:
             f = float(value)
         except (TypeError, ValueError, OverflowError):
+            if huge:
+                raise ParamError(f"{what} must be a finite number of ordinary size, got {shown} (beyond any "
+                                 f"range; write e.g. 1e6)") from None
             raise ParamError(f"{what} must be a number, got {value!r}") from None
         if finite and not math.isfinite(f):
-            raise ParamError(f"{what} must be a finite number, got {value!r}")
+            raise ParamError(f"{what} must be a finite number, got {shown}"
+                             + (" (beyond any range; write e.g. 1e6)" if huge else ""))
         if typ is int:
             if not math.isfinite(f) or f != int(f):
                 raise ParamError(f"{what} must be an integer, got {value!r}")

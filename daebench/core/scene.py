@@ -16,12 +16,12 @@ import hashlib
 import json
 import os
 import re
-import stat
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
+from daebench.core.bounded_file import UnreadableFile, read_bounded
 from daebench.core.params import Param, ParamError, did_you_mean, parse_pairs
 
 
@@ -43,6 +43,9 @@ COMMON_SCHEMA: dict[str, Param] = {
     )
 }
 
+
+#: keys that change what is written or scored, not what is computed (left out of :attr:`Scene.hash`)
+OUTPUT_ONLY = ("output.format", "output.observables")
 
 #: a scene name is a file-name stem (histories are <name>-<integrator>-<id>.csv): no path
 #: separator, no leading '.' or '-', at most NAME_MAX characters (the file system takes
@@ -89,22 +92,18 @@ def read_toml(path: Path) -> dict[str, Any]:
     SceneError
     """
     try:
-        st = os.stat(path)
-        if not stat.S_ISREG(st.st_mode):
-            raise SceneError(f"{path}: not a regular file (a device, pipe or socket); give a .toml scene file")
-        if st.st_size > MAX_SCENE_BYTES:
-            raise SceneError(f"{path}: {st.st_size} bytes, larger than a scene file can be "
-                             f"({MAX_SCENE_BYTES} bytes); give a .toml scene file")
-        with open(path, "rb") as fh:
-            data = fh.read(MAX_SCENE_BYTES + 1)
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot be read: {exc.strerror or exc}") from None
+        data = read_bounded(path, MAX_SCENE_BYTES)
+    except UnreadableFile as exc:
+        raise SceneError(f"{path}: {exc}; give a .toml scene file") from None
     try:
         return tomllib.loads(data.decode("utf-8").removeprefix("\ufeff"))
     except UnicodeDecodeError:
         raise SceneError(f"{path}: not a text file (a scene is a UTF-8 TOML file)") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"{path}: nested too deeply to be a scene (a scene's keys are a few levels deep, "
+                         f"e.g. [contact] restitution = 0.3)") from None
 
 
 def cases_dir() -> Path:
@@ -128,23 +127,47 @@ def cases_dir() -> Path:
     raise SceneError("cannot find the cases/ folder; set DAEBENCH_CASES to it")
 
 
+def scene_names() -> list[str]:
+    """The names of the scene files in :func:`cases_dir` (their stems; no file is read)."""
+    return [p.stem for p in sorted(cases_dir().glob("*.toml"))]
+
+
 def list_scenes() -> list[tuple[str, str]]:
-    """(name, description) of every scene file in :func:`cases_dir`."""
+    """(name, description) of every scene file in :func:`cases_dir`; a file that cannot be
+    read has 'cannot be read: …' as its description (it affects only what names it)."""
     out = []
     for p in sorted(cases_dir().glob("*.toml")):
-        raw = read_toml(p)
-        out.append((p.stem, str(raw.get("description", ""))))
+        try:
+            desc = str(read_toml(p).get("description", ""))
+        except SceneError as exc:
+            desc = f"cannot be read: {exc}"
+        out.append((p.stem, desc))
     return out
 
 
-def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+#: the deepest nesting of tables a scene file may have (its keys are two or three levels deep)
+MAX_DEPTH = 16
+
+
+def flatten(d: dict[str, Any], prefix: str = "", depth: int = 0) -> dict[str, Any]:
+    """Tables as dotted keys; a key given twice (``"contact.restitution" = 0.3`` and
+    ``[contact] restitution = 0.9``) or tables nested beyond MAX_DEPTH are refused.
+
+    Raises
+    ------
+    SceneError
+    """
+    if depth > MAX_DEPTH:
+        raise SceneError(f"tables nested more than {MAX_DEPTH} deep under '{prefix[:60]}…'; a scene's keys are a "
+                         f"few levels deep, e.g. [contact] restitution = 0.3")
     out: dict[str, Any] = {}
     for k, v in d.items():
         key = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.update(flatten(v, key + "."))
-        else:
-            out[key] = v
+        part = flatten(v, key + ".", depth + 1) if isinstance(v, dict) else {key: v}
+        twice = sorted(set(part) & set(out))
+        if twice:
+            raise SceneError(f"scene key '{twice[0]}' is given twice (as a dotted key and in a table); keep one")
+        out.update(part)
     return out
 
 
@@ -183,8 +206,10 @@ class Scene:
 
     @property
     def hash(self) -> str:
-        """Content hash of the resolved physics (name and description excluded)."""
-        body = {k: v for k, v in sorted(self.values.items()) if k not in ("name", "description")}
+        """Content hash of the resolved physics: name, description and the output-only keys
+        (:data:`OUTPUT_ONLY`) excluded, so a history format or a choice of scored observables
+        uses the same cached reference."""
+        body = {k: v for k, v in sorted(self.values.items()) if k not in ("name", "description", *OUTPUT_ONLY)}
         return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
     def with_overrides(self, overrides: Iterable[str] | dict[str, Any]) -> "Scene":
@@ -208,6 +233,27 @@ class Scene:
         if "name" in pairs:
             check_name(values["name"], "--set name")
         return Scene(values.get("name") or self.name, self.model, values, self.schema, self.source, self.check, self.base).checked()
+
+    def revalidated(self) -> "Scene":
+        """This scene after every value is checked again by its declared parameter, with the
+        name and the model's cross-key checks: a ``Scene`` whose ``values`` or ``name`` were
+        changed in place after loading (``scene.values["t_end"] = -1``) is refused here with
+        the :class:`SceneError` an override would get, not with an error deep in a run.
+
+        Raises
+        ------
+        SceneError
+        """
+        check_name(self.name)
+        unknown = [k for k in self.values if k not in self.schema]
+        if unknown:
+            raise SceneError(f"unknown scene key '{unknown[0]}' in scene '{self.name}'"
+                             f"{did_you_mean(unknown[0], self.schema)}")
+        for key, value in self.values.items():
+            if validate_key(key, value, self.schema, "scene value") != value:
+                raise SceneError(f"scene key '{key}' holds {value!r}, which is not a value of its type "
+                                 f"({self.schema[key].type.__name__})")
+        return self.checked()
 
     def checked(self) -> "Scene":
         """Run the model's cross-key checks (e.g. a contact law needs effects.contact)."""
@@ -275,7 +321,7 @@ def resolve_path(name_or_path: str | os.PathLike) -> Path:
         if not p.exists():
             raise SceneError(f"scene file '{p}' does not exist")
         return p
-    names = [n for n, _ in list_scenes()]
+    names = scene_names()
     match = [n for n in names if n.lower() == p.name.lower()]
     if match:
         return cases_dir() / f"{match[0]}.toml"

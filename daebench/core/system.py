@@ -164,6 +164,24 @@ class MechanicalSystem:
         """Contact points with no law for the driver: an integrator must resolve them."""
         return self.n_contacts > 0 and self.contact_law is None
 
+    #: the length scale when the start says nothing of one (every coordinate and gap zero); a model
+    #: with a smaller or larger geometry overrides :meth:`length_scale`
+    DEFAULT_LENGTH_SCALE = 1.0
+
+    def length_scale(self) -> float:
+        """The scene's length scale [m] (positive, finite): what a penetration of a rigid
+        obstacle is measured against (:func:`daebench.driver.history.penetration`: a
+        capturing run whose gap falls below −PENETRATION × this has diverged). Default: the
+        size of the start configuration — the largest of its gaps, of its coordinates and of
+        their spread (a mesh's extent; a rod 1 µm from a wall is still a metre long) —, or
+        :data:`DEFAULT_LENGTH_SCALE` when all are zero."""
+        q = np.asarray(self.initial_state()[0], float)
+        sizes = [np.abs(np.asarray(self.gap(q), float)) if self.n_contacts else np.zeros(0), np.abs(q),
+                 np.ptp(q, keepdims=True) if q.size else np.zeros(0)]
+        x = np.concatenate([a.ravel() for a in sizes])
+        x = x[np.isfinite(x)]
+        return float(x.max()) if x.size and x.max() > 0 else self.DEFAULT_LENGTH_SCALE
+
     def total_energy(self, q: np.ndarray, v: np.ndarray) -> float:
         return float(sum(self.energy(q, v).values()))
 

@@ -30,7 +30,9 @@ impacting one, the open contacts at g = 0 that do not separate, the closed ones 
 ``simultaneous`` law (the default) applies Newton's law to all of them at once, one LCP;
 the ``sequential`` law applies it to the impacting contact alone, the closed contacts
 held, and the next contact's impact follows as its own event. A Newton's cradle of three
-balls leaves at (−1/3, 2/3, 2/3) v under the first and at (0, 0, 1) v under the second.
+balls leaves at (−1/3, 2/3, 2/3) v under the first and at (0, 0, 1) v under the second. The
+``lzb`` law takes the contacts of the simultaneous one through the Liu–Zhao–Brogliato impact
+process (:mod:`daebench.core.lzb`, the model's ``contact_stiffness``).
 
 The driver's contact bookkeeping is one value, :class:`ContactState` (which contacts are
 closed, which penetrate, their episodes); the functions here take it and the phase's
@@ -52,6 +54,7 @@ from daebench.core.contact import Impact
 from daebench.core.frictional_impact import failure_message, frictional_impact, law_name
 from daebench.core.kernels import friction_coefficients
 from daebench.core.linalg import solve_structured
+from daebench.core.lzb import NAME as LZB_NAME, failure_message as lzb_failure, lzb_law
 from daebench.core.problem import Problem
 from daebench.core.resting_contacts import failure_message as resting_failure, resting_lcp
 from daebench.core.system import MechanicalSystem, State
@@ -469,7 +472,7 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
     zeno = t - cs.last_impact_t[i] < REIMPACT_MIN_DT
     md = base.kernel.model
     T = np.array([tangent_row(md, c, q) for c in range(len(g))]) if cs.mu.any() else np.zeros_like(Gq)
-    if cs.impact_law == "simultaneous":
+    if cs.impact_law != "sequential":  # simultaneous, lzb: every contact of the event at once
         part = sorted({i, *cs.active} | {c for c in range(len(g)) if g[c] <= GAP_BAND and Gq[c] @ v <= 0.0
                                           and not (cs.continuous and c in cs.penetrating)})
         held = B
@@ -478,14 +481,17 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
         held = np.vstack([B] + [Gq[[c]] for c in cs.active])
     mu = cs.mu[part] if cs.mu.size else np.zeros(len(part))
     e_c = np.full(len(part), 0.0 if zeno else e)
-    res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i)
-    if e_c.any():
+    lzb = lzb_law(base.system, part) if cs.impact_law == "lzb" else None
+    law = "lzb" if lzb is not None else "newton"
+    res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i, lzb)
+    if e_c.any() and lzb is None:
         # a rebound too slow, or whose Zeno accumulation of ever shorter bounces (2ġ⁺/((1 − e)|g̈|)
-        # long in all) ends within the step in force, is plastic: taken as instantaneous
+        # long in all) ends within the step in force, is plastic: taken as instantaneous (not under
+        # LZB, where a contact's e shapes the whole wave: its slow rebounds rest, below)
         short = _unresolvable_rebounds(base, t, q, part, res, e, cs.step)
         if short.any():
             e_c[short] = 0.0
-            res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i)
+            res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i, lzb)
     resting = [c for r, c in enumerate(part) if res.vn_plus[r] < REBOUND_MIN]
     cs.release([c for c in part if c in cs.active and c not in resting], t)
     cs.d_impacts += res.energy_loss
@@ -495,7 +501,8 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
         if res.impulse_n[r] > 0.0:
             cs.last_impact_t[c] = t
             cs.impacts.append(Impact(t, c, float(res.vn_minus[r]), float(res.vn_plus[r]), loss,
-                                     c in resting, float(res.impulse_n[r]), restitution=float(e_c[r]),
+                                     c in resting, float(res.impulse_n[r]),
+                                     restitution=float(e_c[r]) if lzb is None else math.nan, law=law,
                                      q=q.copy(), v_minus=v.copy(), v_plus=res.v_plus.copy()))
             loss = 0.0
     cs.close([c for c in resting if c not in cs.active], t)
@@ -523,13 +530,15 @@ def _unresolvable_rebounds(base: Problem, t: float, q: np.ndarray, part: list[in
 
 
 def _law(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.ndarray, e: float,
-         held: np.ndarray, t: float, i: int):
+         held: np.ndarray, t: float, i: int, lzb: Callable | None = None):
     """Newton's law (with Coulomb friction where μ > 0) for the contacts GN, as one LCP
-    (:func:`daebench.core.frictional_impact.frictional_impact`; impact of contact i at t).
+    (:func:`daebench.core.frictional_impact.frictional_impact`; impact of contact i at t), or
+    the LZB law ``lzb`` of these contacts (:func:`daebench.core.lzb.lzb_law`).
     Its failure ends the run, named."""
-    res = frictional_impact(M, GN, GT, mu, v, e, held)
+    res = frictional_impact(M, GN, GT, mu, v, e, held) if lzb is None else lzb(M, GN, v, e=e, B=held)
     if not res.ok:
-        raise StepFailure(f"{failure_message(res.status)} (impact of contact {i})", t)
+        fail = failure_message if lzb is None else lzb_failure
+        raise StepFailure(f"{fail(res.status)} (impact of contact {i})", t)
     return res
 
 
@@ -571,7 +580,9 @@ def lift(cs: ContactState, system: MechanicalSystem, t: float, q: np.ndarray, co
 
 def impact_law_name(cs: ContactState) -> str:
     """The impact law of the run record: e.g. ``newton-coulomb (Pfeiffer–Glocker LCP), simultaneous``."""
-    return f"{law_name(cs.mu)}, {cs.impact_law}" if cs.constraint else ""
+    if not cs.constraint:
+        return ""
+    return LZB_NAME if cs.impact_law == "lzb" else f"{law_name(cs.mu)}, {cs.impact_law}"
 
 
 def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -68,6 +68,31 @@ def divergence(E: float | np.ndarray, resid: float | np.ndarray, work: Mapping[s
     return bad, why
 
 
+#: a capturing step whose gap falls below −PENETRATION × the scene's length scale
+#: (:meth:`daebench.core.system.MechanicalSystem.length_scale`) has gone through a rigid obstacle
+PENETRATION = 0.5
+
+
+def penetration(gaps: np.ndarray, length_scale: float) -> tuple[np.ndarray, str]:
+    """The penetration rule of event-capturing runs, over output rows (``gaps``: rows ×
+    contacts, or one row's contacts): a row diverged where a rigid contact's gap is below
+    −PENETRATION × ``length_scale``. Returns the mask over rows and the reason of its
+    first row ("" where none diverged)."""
+    g = np.asarray(gaps, dtype=float)
+    g = g.reshape(1, -1) if g.ndim < 2 else g
+    if g.shape[1] == 0:
+        return np.zeros(g.shape[0], dtype=bool), ""
+    worst = np.nanmin(np.where(np.isnan(g), np.inf, g), axis=1)
+    limit = -PENETRATION * length_scale
+    bad = worst < limit
+    if not bad.any():
+        return bad, ""
+    i = int(np.argmax(bad))
+    c = int(np.argmin(g[i]))
+    return bad, (f"contact {c} is {-worst[i]:.3g} m inside its rigid obstacle, deeper than {PENETRATION:g} × the "
+                 f"scene's length scale {length_scale:.3g} m (the step went through it)")
+
+
 def columns(t, obs: Mapping, terms: Mapping, work: Mapping[str, float], E0: float, d_impacts: float,
             observables: Iterable[str] | None, n_active: int | None) -> dict:
     """The history's own columns at output time ``t``: the model's observables (those asked

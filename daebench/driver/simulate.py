@@ -39,11 +39,12 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from daebench.core import coulomb, impact_checks
+from daebench.core import coulomb, impact_checks, interrupt
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
 from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name, project, settle
-from daebench.driver.history import Block, block, columns, divergence, frame, state_row, states_arrays
+from daebench.driver.history import (Block, block, columns, divergence, frame, penetration, state_row,
+                                     states_arrays)
 from daebench.driver.stickslip import PAINLEVE_SLIP
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
@@ -149,6 +150,10 @@ class Driver:
         # energy scale of the run: the size of the initial energy terms (a system starting
         # at E0 = 0 with large opposite terms still has a scale)
         self.energy_scale = energy_scale(sys_, q, v)  # core.energyscale: the one rule (zero starts too)
+        # the penetration rule of capturing steps (driver.history.penetration): rigid contacts only
+        law = sys_.contact_law
+        self._length_scale = (sys_.length_scale() if self.integ.capabilities.contacts and sys_.n_contacts
+                              and (law is None or not law.continuous) else None)
         self.out_i = 0
         status, message = "completed", ""
         state = State(0.0, q, v)
@@ -232,6 +237,7 @@ class Driver:
             adv = self._advance(watch)
             if watch is not None and problem.slips:
                 powers0 = self._booked_friction(problem, adv, powers0)
+            interrupt.check()  # a safe point: a wall-time cap's request is honoured here
             prev, new = adv.prev, adv.new
             self._t_last = new.t
             self._last_state = new
@@ -410,6 +416,8 @@ class Driver:
         b = block(t, obs, terms, self.work, self.E0, cs.d_impacts, self.observables, self._n_active())
         bad, _ = divergence(b["E"], b["energy_residual"], self.work, self.E0, self.energy_scale, cs.d_impacts)
         bad = np.broadcast_to(bad, (len(outputs),))
+        if self._length_scale is not None:
+            bad = bad | penetration(np.array([sys_.gap(s.q) for _, s in outputs]), self._length_scale)[0]
         k = int(np.argmax(bad)) if bad.any() else len(outputs)
         if k:
             self.rows.append(b.head(k) if k < len(outputs) else b)
@@ -468,11 +476,14 @@ class Driver:
         return len(cs.active) + len(cs.penetrating) if cs.watched else None
 
     def _check_divergence(self, t: float, s: State, E: float, resid: float, work: dict) -> None:
-        """The one divergence rule (:func:`daebench.driver.history.divergence`), at each output
-        time (where the energy is computed anyway). Its scales are fixed by the start and the
+        """The one divergence rule (:func:`daebench.driver.history.divergence`), and for a
+        capturing step the penetration rule (:func:`daebench.driver.history.penetration`), at
+        each output time (where the energy is computed anyway). Its scales are fixed by the start and the
         booked work — never by the current energy, which grows with a blow-up. A diverged row
         ends the run there (also one of a batch of rows the integrator's loop wrote beyond it)."""
         bad, why = divergence(E, resid, work, self.E0, self.energy_scale, self.contacts.d_impacts)
+        if not bad.any() and self._length_scale is not None:
+            bad, why = penetration(self.system.gap(s.q), self._length_scale)
         if bad.any():
             self._t_last, self._last_state = max(self._t_last, t), s
             raise _Diverged(f"t = {t:.6g} s: {why}")

@@ -11,6 +11,7 @@ for values written as JSON.
 from __future__ import annotations
 
 import errno
+import json
 import math
 import os
 import tempfile
@@ -19,6 +20,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from daebench.core.bounded_file import UnreadableFile, read_bounded
 from daebench.core.params import ParamError
 
 
@@ -105,9 +107,12 @@ def write_error(exc: BaseException, what: str, path: Path | str, kept: str = "",
             os.unlink(tmp)
         except OSError:
             pass
-    return OutputWriteError(f"could not write {what} {path}: {describe_os_error(exc)}. "
+    why = describe_os_error(exc)
+    fix = "Free space there" if why.startswith("the disk is full") else (
+        "Make it writable" if why.startswith("it is not writable") else "Mend that")
+    return OutputWriteError(f"could not write {what} {path}: {why}. "
                             + (f"{kept[0].upper()}{kept[1:]}. " if kept else "")
-                            + "Free space there or choose another folder (--out, or DAEBENCH_RESULTS), "
+                            + f"{fix} or choose another folder (--out, or DAEBENCH_RESULTS), "
                               "then run again; this is not a fault of the integrator")
 
 
@@ -124,3 +129,64 @@ def jsonable(x: Any) -> Any:
     if isinstance(x, np.bool_):
         return bool(x)
     return x
+
+
+class DamagedFile(ValueError):
+    """A file daebench wrote earlier (a sidecar, a table) that cannot be read back as what it
+    should be; the message says which file and what is wrong with it."""
+
+
+#: the largest JSON file daebench reads back (sidecars and summaries are kilobytes to megabytes)
+MAX_JSON_BYTES = 64 << 20
+
+
+def read_json(path: str | Path, what: str = "the file", max_bytes: int = MAX_JSON_BYTES) -> Any:
+    """The JSON value in ``path``, read safely: a regular file of at most ``max_bytes``
+    (its size read with ``stat`` before a byte is read), UTF-8, and parsed with every way
+    a hostile or damaged file breaks the parser (nesting thousands deep, an integer of
+    thousands of digits, invalid text) turned into :class:`DamagedFile`.
+
+    Raises
+    ------
+    DamagedFile
+    """
+    p = Path(path)
+    try:
+        data = read_bounded(p, max_bytes)
+    except UnreadableFile as exc:
+        raise DamagedFile(f"{what} {p} {exc}") from None
+    return parse_json(data, f"{what} {p}")
+
+
+def parse_json(data: str | bytes, what: str = "the JSON text") -> Any:
+    """``json.loads`` with its hostile failures (deep nesting: RecursionError; huge
+    numbers: ValueError, OverflowError; bad bytes) as :class:`DamagedFile`."""
+    try:
+        text = data.decode("utf-8") if isinstance(data, bytes) else data
+        return json.loads(text)
+    except UnicodeDecodeError:
+        raise DamagedFile(f"{what} is not UTF-8 text") from None
+    except RecursionError:
+        raise DamagedFile(f"{what} is nested too deeply to be what daebench wrote") from None
+    except (ValueError, OverflowError) as exc:  # JSONDecodeError is a ValueError; so is a 5000-digit number
+        raise DamagedFile(f"{what} is not valid JSON ({type(exc).__name__}: {str(exc)[:120]})") from None
+
+
+def under_root(root: str | Path, *names: str, what: str = "output file") -> Path:
+    """The one rule for a path written under an output root: ``root/names[0]/…/names[-1]``
+    where every name is a plain file name (no separator, no '..', not absolute, not
+    empty), checked at the moment of writing so that a name changed after it was first
+    validated cannot lead outside ``root``.
+
+    Raises
+    ------
+    OutputError
+    """
+    base = Path(root)
+    for n in names:
+        s = str(n)
+        if (not s or s in (".", "..") or "/" in s or "\\" in s or "\x00" in s
+                or os.path.isabs(s) or s != os.path.basename(s)):
+            raise OutputError(f"{what} name {s[:60]!r} is not a plain file name (a path, '..' or empty); names are "
+                              f"written under the output folder {base} only: give a plain name, e.g. my-run")
+    return base.joinpath(*map(str, names))

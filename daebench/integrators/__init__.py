@@ -1,8 +1,10 @@
 """The integrators: one file per method, each a class with its name, settings,
 declared capabilities (order, fixed/adaptive, constraints, contact laws it resolves
 itself) and the compiled stepper it uses. :mod:`.base` holds the contract and the
-registry (entry-point group ``daebench.integrators``), :mod:`.compiled` the adapter for
-compiled steppers, :mod:`.family` the public Newmark family.
+registry (entry-point group ``daebench.integrators``, and classes registered in a
+process), :mod:`.compiled` the adapter for compiled steppers, :mod:`.family` the public
+Newmark family, :mod:`.protocols` what `compare` runs of the built-ins per case (one table
+per step family).
 
 May import: :mod:`daebench.core` and :mod:`daebench.stepping`; never a model — a
 model's own stepper part reaches an integrator through the system it is handed.

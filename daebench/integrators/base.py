@@ -42,10 +42,11 @@ party package does the same in its own ``pyproject.toml``.
 
 from __future__ import annotations
 
+import re
 import sys
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from importlib.metadata import entry_points
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
@@ -70,6 +71,12 @@ class StepFailure(RuntimeError):
 
 class IntegratorError(ParamError):
     """Bad integrator name, settings, or a capability mismatch — raised before any step."""
+
+
+class ContractViolation(StepFailure):
+    """A step broke the integrator contract (a wrong shape, no advance in t, a step past
+    ``t_stop``): raised at the step where it happens, naming what and what was expected.
+    The driver ends the run with it as the reason (status ``failed``)."""
 
 
 Setting = Param  # an integrator setting is a declared parameter
@@ -117,6 +124,17 @@ class Capabilities:
     friction: bool = False
 
 
+@dataclass(frozen=True)
+class Runs:
+    """What `daebench compare` (and the survey) runs of one integrator on one case: fixed
+    steps ``steps`` [s] or tolerances ``tols`` (adaptive: rtol = tol, atol = tol/100) —
+    neither: one run at its defaults — with the fixed settings ``options``."""
+
+    steps: tuple[float, ...] = ()
+    tols: tuple[float, ...] = ()
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+
 DEFAULT_STEP = 1e-4  # s: the default fixed step (the paper's protocol outside contact)
 AUTO_STEP = "auto"   # h = auto: the largest stable step of a conditionally stable method (Integrator.use_step)
 
@@ -162,6 +180,9 @@ class Integrator:
     #: contact laws whose contacts it takes over (``capabilities.contacts`` only):
     #: "complementarity" = left to it (no law), "constraint" = the impact law's restitution applies
     contact_laws: ClassVar[tuple[str, ...]] = ("complementarity", "constraint")
+    #: its protocol per case (scene name → :class:`Runs`), read by :meth:`protocol`; daebench's
+    #: own share one table per step family (:mod:`daebench.integrators.protocols`)
+    protocols: ClassVar[Mapping[str, Runs]] = {}
 
     def __init__(self, **settings: Any) -> None:
         spec = {s.name: s for s in self.settings_spec}
@@ -196,6 +217,7 @@ class Integrator:
         self.h = 0.0
         self._eval_base = (0, 0)
         self._events: list[Impact] = []
+        self.failure: Exception | None = None   # the exception that ended a step, with its traceback
 
     # -- configuration ------------------------------------------------------
     def _check_settings(self) -> None:
@@ -227,6 +249,14 @@ class Integrator:
             raise IntegratorError(f"config is for '{name}', not '{cls.name}'")
         return cls(**cfg)
 
+    @classmethod
+    def protocol(cls, case: str) -> Runs | None:
+        """What `daebench compare` runs of this integrator on the scene named ``case`` (its
+        steps or tolerances and fixed settings); None: nothing declared (compare runs it
+        once at its defaults, the survey at its default step and halvings). Override it to
+        decide from the case name, or declare the table ``protocols``."""
+        return cls.protocols.get(case)
+
     @property
     def adaptive(self) -> bool:
         return bool(self.settings.get("adaptive", False))
@@ -255,7 +285,12 @@ class Integrator:
         if t_stop <= self.state.t:
             raise ValueError(f"t_stop = {t_stop} is not after t = {self.state.t}")
         prev = self.state
-        new = self._step_impl(t_stop)
+        try:
+            new = self._step_impl(t_stop)
+            check_step(self, prev, new, t_stop)
+        except Exception as exc:  # kept with its traceback: the plugin's frames, for `run --traceback`
+            self.failure = exc
+            raise
         self.prev = prev
         self.state = new
         self.counters.steps += 1
@@ -313,6 +348,37 @@ class Integrator:
         raise NotImplementedError
 
 
+def check_step(integ: Integrator, prev: State, new: Any, t_stop: float) -> None:
+    """Hold one step to the contract (rule 3): a :class:`State` after ``prev.t``, not past
+    ``t_stop``, with q, v, a of shape (n,) and λ of shape (m,) for the phase's problem.
+
+    Raises
+    ------
+    ContractViolation
+        Naming the integrator, the time, the array, its shape and the expected one."""
+    p = integ.problem
+    where = f"integrator '{integ.name}' broke the step contract in the step from t = {prev.t:.9g} s"
+    if not isinstance(new, State):
+        raise ContractViolation(f"{where}: _step_impl returned {type(new).__name__}, not a "
+                                f"daebench.core.system.State", prev.t)
+    expected = {"q": (p.n,), "v": (p.n,), "a": (p.n,), "lam": (p.m,)}
+    for key, shape in expected.items():
+        got = np.shape(getattr(new, key))
+        own = key == "lam" and integ.capabilities.contacts and got == (p.m + p.n_contacts,)
+        if got != shape and not own:
+            what = f"{p.n} coordinates" if key != "lam" else f"{p.m} active constraints" + (
+                f"; or {(p.m + p.n_contacts,)} with one contact force per contact point, for an integrator that "
+                f"resolves contacts" if integ.capabilities.contacts else "")
+            raise ContractViolation(f"{where}: {key} has shape {got}, expected {shape} ({what} in this phase)", prev.t)
+    t = float(new.t)
+    if not t > prev.t:
+        raise ContractViolation(f"{where}: the step returned t = {t:.9g} s, which does not advance t (a step must "
+                                f"advance one accepted step; the run ends here instead of calling it again)", prev.t)
+    if t > t_stop:
+        raise ContractViolation(f"{where}: the step returned t = {t:.9g} s, past t_stop = {t_stop:.9g} s (land on "
+                                f"t_stop: daebench.stepping.control.land)", prev.t)
+
+
 @dataclass
 class Advance:
     """What :meth:`Integrator.advance` hands the driver: the last step (prev → new), how
@@ -352,22 +418,62 @@ def hermite_state(s0: State, s1: State, t: float) -> State:
     return State(float(t), q, v, a, lam)
 
 
-# -- registry -------------------------------------------------------------------
+# -- registry -------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Registered:
     name: str
     cls: type[Integrator] | None
     distribution: str
     error: str = ""  # why the entry point could not be loaded (cls is None then)
+    source: str = ""  # where it comes from: the entry point's value, or module.Class of a registered class
+
+    @property
+    def provider(self) -> str:
+        """Who provides it, for messages naming two providers of one name."""
+        if self.distribution == "daebench":
+            return f"daebench's built-in ({self.source})" if self.source else "daebench's built-in"
+        if self.distribution.startswith(REGISTERED):
+            return f"the class {self.source} registered in this process"
+        return f"the installed distribution {self.distribution} ({self.source})"
 
 
-_REGISTRY_CACHE: tuple[tuple[str, ...], dict[str, Registered]] | None = None
+REGISTERED = "registered"   # the distribution of a class registered with :func:`register`
+_REGISTRY_CACHE: tuple[tuple[str, ...], dict[str, Registered], tuple[str, ...]] | None = None
+_IN_PROCESS: dict[str, Registered] = {}   # classes registered with register(), by name
+
+
+def _scan_entry_points() -> tuple[dict[str, Registered], list[str]]:
+    """The entry points' integrators, and the refusals of those that shadow another."""
+    found: dict[str, Registered] = {}
+    refused: list[str] = []
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        dist = ep.dist.name if ep.dist is not None else "?"
+        new = Registered(ep.name, None, dist, source=ep.value)
+        if ep.name in found:
+            old = found[ep.name]
+            keep, drop = (old, new) if old.distribution == "daebench" or dist != "daebench" else (new, old)
+            refused.append(f"integrator '{ep.name}' of {drop.provider} is refused: {keep.provider} provides that "
+                           f"name (a plugin may not shadow a built-in or another plugin; rename its entry point and "
+                           f"its class's name)")
+            if keep is old:
+                continue
+        try:
+            cls = ep.load()
+        except Exception as exc:  # a broken plugin must not take the others down
+            found[ep.name] = replace(new, error=f"{type(exc).__name__}: {exc}")
+            continue
+        problems = declaration_problems(cls, ep.name)
+        found[ep.name] = replace(new, error=f"{ep.value}: {'; '.join(problems)}") if problems \
+            else replace(new, cls=cls)
+    return found, refused
 
 
 def registry(refresh: bool = False) -> dict[str, Registered]:
-    """All integrators from the ``daebench.integrators`` entry points. A plugin may not
-    shadow a built-in (one provided by daebench). A plugin that fails to import is listed
-    with its error instead of breaking the registry.
+    """All integrators: the ``daebench.integrators`` entry points and the classes
+    registered in this process (:func:`register`). A plugin may not shadow a built-in (one
+    provided by daebench) nor another plugin (:func:`refusals` says which were refused). A
+    plugin that fails to import, or whose class breaks the contract's declarations
+    (:func:`declaration_problems`), is listed with its error instead of breaking the registry.
 
     Scanning the installed distributions' entry points took ~12 ms — most of a short
     run's fixed cost in a sweep — so the result is kept for the process while
@@ -375,27 +481,81 @@ def registry(refresh: bool = False) -> dict[str, Registered]:
     already-listed directory while the process runs)."""
     global _REGISTRY_CACHE
     key = tuple(sys.path)
-    if not refresh and _REGISTRY_CACHE is not None and _REGISTRY_CACHE[0] == key:
-        return dict(_REGISTRY_CACHE[1])
-    found: dict[str, Registered] = {}
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
-        dist = ep.dist.name if ep.dist is not None else "?"
-        if ep.name in found:
-            if found[ep.name].distribution == "daebench":
-                continue  # a plugin may not shadow a built-in
-            if dist != "daebench":
-                raise IntegratorError(f"two plugins register integrator '{ep.name}'")
-        try:
-            cls = ep.load()
-        except Exception as exc:  # a broken plugin must not take the others down
-            found[ep.name] = Registered(ep.name, None, dist, f"{type(exc).__name__}: {exc}")
-            continue
-        if not (isinstance(cls, type) and issubclass(cls, Integrator)):
-            found[ep.name] = Registered(ep.name, None, dist, f"{ep.value} is not an Integrator subclass")
-            continue
-        found[ep.name] = Registered(ep.name, cls, dist)
-    _REGISTRY_CACHE = (key, dict(sorted(found.items())))
-    return dict(_REGISTRY_CACHE[1])
+    if refresh or _REGISTRY_CACHE is None or _REGISTRY_CACHE[0] != key:
+        found, refused = _scan_entry_points()
+        _REGISTRY_CACHE = (key, found, tuple(refused))
+    return dict(sorted({**_REGISTRY_CACHE[1], **_IN_PROCESS}.items()))
+
+
+def refusals() -> list[str]:
+    """Why installed plugins were refused (a name a built-in or another plugin provides)."""
+    registry()
+    return list(_REGISTRY_CACHE[2])
+
+
+NAME_RULE = re.compile(r"^[a-z0-9][a-z0-9_.-]*$")
+
+
+def declaration_problems(cls: Any, name: str | None = None) -> list[str]:
+    """What is wrong with the declarations of integrator class ``cls`` (rule 1 of the
+    contract: a subclass of :class:`Integrator`, a lower-case ``name`` — the entry point's
+    ``name`` when given —, :class:`Capabilities`, a tuple of :class:`Setting` —, and rules
+    2–3: ``_start`` and ``_step_impl`` implemented, unless it is compiled); [] when none."""
+    if not (isinstance(cls, type) and issubclass(cls, Integrator)):
+        return [f"{cls!r} is not a subclass of daebench.integrators.base.Integrator"]
+    out = []
+    own = getattr(cls, "name", "")
+    if not isinstance(own, str) or not NAME_RULE.match(own):
+        out.append(f"class attribute name = {own!r}: a lower-case name is needed (letters, digits, '-', '_', '.')")
+    elif name is not None and own != name:
+        out.append(f"the entry point is named '{name}' but the class declares name = '{own}' (make them agree: "
+                   f"rename the entry point in the plugin's pyproject.toml or the class attribute `name`)")
+    if not isinstance(cls.capabilities, Capabilities):
+        out.append(f"capabilities = {cls.capabilities!r}: a daebench.integrators.base.Capabilities is needed")
+    elif not isinstance(cls.capabilities.order, int) or cls.capabilities.order < 1:
+        out.append(f"capabilities.order = {cls.capabilities.order!r}: a whole number >= 1 is needed")
+    spec = cls.settings_spec
+    if not isinstance(spec, (tuple, list)) or not all(isinstance(x, Param) for x in spec):
+        out.append("settings_spec must be a tuple of daebench.integrators.base.Setting")
+    compiled = any(k.__name__ == "CompiledIntegrator" and k.__module__.startswith("daebench.") for k in cls.__mro__)
+    if not compiled:
+        for method in ("_start", "_step_impl"):
+            if getattr(cls, method) is getattr(Integrator, method) and cls.advance is Integrator.advance:
+                out.append(f"{method}() is not implemented (rule {2 if method == '_start' else 3} of the contract)")
+    return out
+
+
+def register(cls: type[Integrator]) -> type[Integrator]:
+    """Register integrator class ``cls`` in this process under ``cls.name`` (a notebook's or a
+    script's class; ``daebench.register``): it then runs like an installed plugin in `run`,
+    `bench`, `compare`, `survey`, `verify` and the report (sweeps' worker processes are forked
+    from this one and know it; a Dask cluster's do not). Usable as a class decorator.
+
+    Registering a class again under its name (the same module and class name: a notebook
+    cell run again) replaces it.
+
+    Raises
+    ------
+    IntegratorError
+        A class that breaks the contract's declarations (:func:`declaration_problems`), or a
+        name that a built-in, an installed plugin or another registered class provides
+        (both providers named).
+    """
+    problems = declaration_problems(cls)
+    if problems:
+        raise IntegratorError(f"cannot register {getattr(cls, '__qualname__', cls)!r}: " + "; ".join(problems))
+    new = Registered(cls.name, cls, f"{REGISTERED} ({cls.__module__})", source=f"{cls.__module__}.{cls.__qualname__}")
+    taken = next((r for n, r in registry().items() if n.lower() == cls.name.lower()), None)
+    if taken is not None and taken.source != new.source:
+        raise IntegratorError(f"integrator name '{cls.name}' is taken: {taken.provider} provides it, so {new.provider} "
+                              f"cannot take it; give the class another name (class attribute `name`)")
+    _IN_PROCESS[cls.name] = new
+    return cls
+
+
+def unregister(name: str) -> None:
+    """Forget the class registered under ``name`` in this process (entry points stay)."""
+    _IN_PROCESS.pop(name, None)
 
 
 def get_integrator(name: str) -> type[Integrator]:

@@ -12,7 +12,10 @@ driver's many-steps-per-call :meth:`advance`. Subclass contract:
   other settings may be formatted in).
 
 The stepper's three functions are registered for the method data class
-(``daebench.stepping.methods.start/step/accept.register``).
+(``daebench.stepping.methods.start/step/accept.register``). A plugin's stepper (a method
+data class from outside daebench) reaches the loop as compiled values
+(:mod:`daebench.stepping.method_handles`): the loop is compiled once for every plugin, and
+an edit of the plugin compiles only its own code.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from daebench.integrators.base import Advance, Integrator, RecordedAdvance, StepFailure
-from daebench.stepping import methods, runner, watch as _watch
+from daebench.stepping import method_handles, methods, runner, watch as _watch
 from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES, StateArrays
 from daebench.stepping.runner import C_REJECTED, UNDERFLOW_ERROR, UNDERFLOW_FAIL
 from daebench.core.system import State
@@ -62,7 +65,11 @@ class CompiledIntegrator(Integrator):
         self._cnt = np.zeros(runner.N_COUNTERS + 1, dtype=np.int64)
         self._blind = _watch.blind(p.n_contacts)
         self._h_next = self.h
-        status = methods.start(self._meth, self._ws, p.kernel, float(s.t), self._cur, self._cnt)
+        # a plugin's stepper reaches the loop as compiled values (its edits compile its own code only)
+        mh = method_handles.handle(self._meth, self._ws, p.kernel, self._ctl, self._cur, self._cnt) \
+            if method_handles.applies(self._meth) else None
+        self._stepper = (mh, mh) if mh is not None else (self._meth, self._ws)
+        status = methods.start(*self._stepper, p.kernel, float(s.t), self._cur, self._cnt)
         self._sync()
         if status:
             raise StepFailure(f"{self._message(status)} (start at t = {s.t:.9g})")
@@ -72,7 +79,7 @@ class CompiledIntegrator(Integrator):
         t0 = self.state.t
         t_out, out = self._outputs  # set by advance() for the one call that records output rows
         status, k, t_prev, t_now, h_next, h_fail, inner, err, self._n_recorded, _ = runner.run_phase(
-            self._meth, self._ws, self.problem.kernel, self._ctl, w, float(t0), float(t_stop), float(self._h_next),
+            *self._stepper, self.problem.kernel, self._ctl, w, float(t0), float(t_stop), float(self._h_next),
             self._cur, self._new, self._prev, int(max_steps), self._cnt, t_out, out)
         self._sync()
         self._h_next = h_next

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+from daebench.integrators import protocols
 from daebench.integrators.base import Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.stepping import newmark as _nm
@@ -54,6 +55,8 @@ def chung_hulbert(rho_inf: float) -> Coefficients:
 
 class NewmarkFamily(CompiledIntegrator):
     """Base of the Newmark-family integrators: subclasses implement :meth:`coefficients`."""
+
+    protocols = protocols.EVENT_DRIVEN   # compare's steps per case, shared by its step family
 
     fail_messages = {k: v.replace("{maxiter}", "{newton_maxiter}") for k, v in _nm.FAIL_MESSAGES.items()}
 

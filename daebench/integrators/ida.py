@@ -121,6 +121,7 @@ import math
 import numpy as np
 from sksundae.ida import IDA as _SundaeIDA
 
+from daebench.integrators import protocols
 from daebench.integrators.base import (
     STEP_SETTINGS,
     Advance,
@@ -178,6 +179,8 @@ class IDA(Integrator):
     (Hindmarsh et al. 2005; Gear, Gupta, Leimkuhler 1985; Brenan, Campbell,
     Petzold 1996).
     """
+
+    protocols = protocols.REFERENCE   # compare's steps per case, shared by its step family
 
     name = "ida"
     description = "SUNDIALS IDA: variable-order BDF (1-5) on the GGL index-2 form; the reference solver"

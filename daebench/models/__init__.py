@@ -23,12 +23,18 @@ from __future__ import annotations
 import importlib
 from importlib.metadata import entry_points
 from types import ModuleType
+from typing import Any
 
 from daebench.core.kernels import friction_coefficients
 from daebench.core.params import did_you_mean
 from daebench.core.scene import SceneError
 
 ENTRY_POINT_GROUP = "daebench.models"
+
+
+#: name → who provides it (a distribution, or "registered (module)")
+PROVIDERS: dict[str, str] = {}
+_REGISTERED: dict[str, ModuleType] = {}   # models registered in this process (register_model)
 
 
 def _scan() -> dict[str, str]:
@@ -39,6 +45,7 @@ def _scan() -> dict[str, str]:
         if ep.name in found and found[ep.name][1] == "daebench":
             continue
         found[ep.name] = (ep.value, dist)
+    PROVIDERS.update({name: dist for name, (_, dist) in found.items()})
     return {name: value for name, (value, _) in sorted(found.items())}
 
 
@@ -46,9 +53,54 @@ MODELS: dict[str, str] = _scan()
 
 
 def get_model(name: str) -> ModuleType:
+    if name in _REGISTERED:
+        return _REGISTERED[name]
     if name not in MODELS:
         raise KeyError(f"unknown model '{name}'{did_you_mean(name, MODELS)} Models: {', '.join(MODELS)}")
     return importlib.import_module(MODELS[name])
+
+
+def register_model(name: str, module: Any) -> Any:
+    """Register a model defined in this process (a notebook's module or namespace with
+    ``DESCRIPTION``, ``SCHEMA`` and ``build``, as this package's docstring lists) under
+    ``name``: a scene file naming it (``model = "name"``) then loads and runs. Registering
+    again from the same module replaces it.
+
+    Raises
+    ------
+    SceneError
+        Something it must define is missing, or the name is provided by a built-in, an
+        installed plugin or another registered model (both providers named).
+    """
+    missing = [k for k in ("DESCRIPTION", "SCHEMA", "build") if not hasattr(module, k)]
+    if missing or not callable(getattr(module, "build", None)) or not isinstance(getattr(module, "SCHEMA", None), dict):
+        raise SceneError(f"cannot register model '{name}': {module!r} needs DESCRIPTION, SCHEMA (a dict of Param) and "
+                         f"build(scene); missing or wrong: {', '.join(missing) or 'SCHEMA or build'}")
+    where = f"registered ({getattr(module, '__name__', type(module).__name__)})"
+    if not isinstance(name, str) or not name.strip():
+        raise SceneError(f"a model is registered under a name, e.g. register_model('mymodel', module); got {name!r}")
+    if name in MODELS and PROVIDERS.get(name) != where:
+        raise SceneError(f"model name '{name}' is taken: {_provider(PROVIDERS.get(name, '?'))} provides it, so the "
+                         f"model {where.removeprefix('registered ')} cannot take it; register it under another name")
+    _REGISTERED[name] = module
+    MODELS[name] = f"<{where}>"
+    PROVIDERS[name] = where
+    return module
+
+
+def unregister_model(name: str) -> None:
+    """Forget the model registered under ``name`` in this process (entry points stay)."""
+    if _REGISTERED.pop(name, None) is not None:
+        MODELS.pop(name, None)
+        PROVIDERS.pop(name, None)
+
+
+def _provider(dist: str) -> str:
+    if dist == "daebench":
+        return "daebench's built-in model"
+    if dist.startswith("registered"):
+        return f"the model {dist.removeprefix('registered ')} registered in this process"
+    return f"the installed distribution {dist}"
 
 
 def build_system(scene):

@@ -74,7 +74,8 @@ class BallData(NamedTuple):
 
 @njit(cache=True)
 def _mass_force(md, t, q, v, M, Q):
-    M[0, 0] = md.m
+    if M.shape[0]:  # an M with no rows: the force only (central differences, with lumped_mass)
+        M[0, 0] = md.m
     Q[0] = -md.m * md.g - md.k * (q[0] - md.x_rest)
 
 
@@ -123,6 +124,26 @@ class Ball(KernelSystem):
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         return np.array([self.x0]), np.array([self.v0])
+
+    @property
+    def lumped_mass(self) -> np.ndarray:
+        """The constant diagonal of M (the mass_force kernel accepts an M with no rows)."""
+        return np.array([self.m])
+
+    def exact_observables(self, t: np.ndarray) -> dict[str, np.ndarray]:
+        """The observables' exact values at times ``t`` (:func:`exact_motion`; free flight
+        without the wall): what runs are scored against."""
+        t = np.asarray(t, float)
+        if self.n_contacts:
+            _, at = exact_motion(self, float(t.max(initial=0.0)))
+            x, v = at(t)
+        else:
+            x, v = _free(self, self.x0, self.v0, t)
+        return {"x": x, "v": v, "gap": x - self.wall}
+
+    def exact_impacts(self, t_end: float) -> list[float]:
+        """The exact impact times up to ``t_end`` [s]."""
+        return [t for t, _, _ in exact_motion(self, t_end)[0]] if self.n_contacts else []
 
 
 def build(scene: Scene) -> Ball:

@@ -6,6 +6,8 @@
 * :mod:`.methods` — the generic stepper interface (``start``, ``step``, ``accept``)
   that a method's data class implements;
 * :mod:`.runner` — one loop for every stepper: many steps per call, fixed or adaptive;
+* :mod:`.method_handles` — a plugin's stepper as compiled values, so that the loop is
+  compiled once for every plugin and an edit compiles the plugin's own code;
 * the compiled steppers, every one of daebench's, one module each: :mod:`.newmark`
   (Newmark family: Newmark, HHT-α, generalized-α; its iteration matrix in
   :mod:`.newmark_matrix`), :mod:`.abm` (Adams–Bashforth–Moulton 4 with Baumgarte

@@ -142,7 +142,8 @@ def tip_force(label: str, run: Any) -> np.ndarray:
     return H[col].fillna(0.0).to_numpy() if col in H else np.zeros(len(H))
 
 
-def pendulum_figure(runs: dict[str, Any], path: str, window: tuple[float, float] = (0.6, 1.5)) -> None:
+def pendulum_figure(runs: dict[str, Any], path: str, window: tuple[float, float] = (0.6, 1.5),
+                    fmt: str | None = None) -> None:
     """Tip gap [m] and tip normal force [N] against time [s], one curve per run."""
     import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
 
@@ -166,5 +167,5 @@ def pendulum_figure(runs: dict[str, Any], path: str, window: tuple[float, float]
     ax1.set_title(f"double-pendulum: link-2 end on the foundation (E = {sc['links.modulus']:.2g} Pa, "
                   f"{sc['links.elements']} elements/link, h_s = {sc['damping.hs'] * 1e3:g} ms)", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format=fmt)
     plt.close(fig)

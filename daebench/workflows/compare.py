@@ -1,14 +1,18 @@
 """`daebench compare CASE`: every applicable integrator at the case's protocol, each run
 scored against the reference, one table and one work-precision figure.
 
-**Where a protocol is declared.** Here, in :data:`PROTOCOLS`, keyed by scene name — not
-in the scene file. A protocol names integrators and their settings (plugins, validated by
-each integrator's own settings when the sweep is planned), while a scene file describes
-physics: every scene key is typed and range-checked by the model's schema, and the scene
-hash that keys the cached references covers all of it, so a protocol inside the scene
-would re-key every reference when a step list changes. A scene without an entry gets
-:func:`default_protocol`: every registered integrator at its default settings, one run
-each.
+**Where a protocol is declared.** By each integrator, for the cases it names
+(:meth:`daebench.integrators.base.Integrator.protocol`, its ``protocols`` table: steps or
+tolerances and fixed settings; daebench's own share one table per step family,
+:mod:`daebench.integrators.protocols`) — not in the scene file. A protocol names
+integrators and their settings (validated by each integrator's own settings when the sweep
+is planned), while a scene file describes physics: every scene key is typed and
+range-checked by the model's schema, and the scene hash that keys the cached references
+covers all of it, so a protocol inside the scene would re-key every reference when a step
+list changes. An integrator that declares nothing for the case runs once at its default
+settings (:func:`protocol_for`). What a case's comparison plots (its error measures) is
+the case's own (:data:`MEASURES`). The table's heading says what was run
+(:func:`heading`).
 
 **Applicable.** An integrator the scene's contact law and constraints allow
 (:func:`daebench.harness.running.checks.check_applicable`, the driver's own rule, checked before anything
@@ -67,6 +71,7 @@ class Entry:
     steps: tuple[float, ...] = ()
     tols: tuple[float, ...] = ()
     options: Mapping[str, Any] = field(default_factory=dict)
+    declared: bool = False      # the integrator's own declaration for the case (else: its defaults)
 
 
 @dataclass(frozen=True)
@@ -84,39 +89,34 @@ class Protocol:
         return replace(self, measures=tuple(m.format(obs=obs) for m in self.measures))
 
 
-# beam-impact (docs/sources.md §G.2): the paper's h = 1e-4 s outside contact, 1e-6 s in contact, and
-# two halvings of h; IDA first (the longest run: a two-worker sweep then ends together).
-_PAPER = {"h_contact": 1e-6}
-_STEPS = (1e-4, 5e-5, 2.5e-5)
-_BEAM = Protocol(
-    entries=(Entry("ida", tols=(1e-4,)),
-             Entry("hht", _STEPS, options=_PAPER), Entry("newmark", _STEPS, options=_PAPER),
-             Entry("genalpha", _STEPS, options=_PAPER), Entry("baumgarte", _STEPS, options=_PAPER),
-             Entry("moreau", _STEPS), Entry("nsgenalpha", _STEPS)),
-    measures=("err_{obs}_max_trusted", "err_pre_{obs}_max", "err_impact1_t"),
-    why="the paper's steps (h = 1e-4 s, 1e-6 s in contact) and two halvings; the θ error over the "
-        "reference's trusted span beside the error before the first impact and the first impact's time error")
-# the nonsmooth cases with friction: both families at the same three steps, the reference a
-# fine Moreau–Jean run (daebench.harness.references.capturing); IDA and the integrators that cannot take the
-# case's friction are refused before running, each with its reason
-def _both_families(steps: tuple[float, ...]) -> tuple[Entry, ...]:
-    """The capturing and the event-driven integrators at ``steps``, and IDA at its default."""
-    return tuple(Entry(n, steps) for n in ("moreau", "nsgenalpha", "hht", "newmark", "genalpha")) + (Entry("ida"),)
+#: what a case's comparison plots (beside the table) and why: the case's own, whoever runs on it
+MEASURES: dict[str, tuple[tuple[str, ...], str]] = {
+    **{c: (("err_{obs}_max_trusted", "err_pre_{obs}_max", "err_impact1_t"),
+           "the θ error over the reference's trusted span beside the error before the first impact and the first "
+           "impact's time error") for c in ("beam-impact", "beam-impact-hub")},
+    "rocking-block": (("err_{obs}_max_trusted", "err_omega_max_trusted"),
+                      "θ and ω over the capturing reference's trusted span"),
+    "slider-crank-clearance": (("err_{obs}_max", "err_{obs}_max_trusted", "err_y_max"),
+                               "the crank angle over the whole run (the reference's estimated θ digits stay ≥ 4 of "
+                               "the range throughout) and over its trusted span (the chattering's bounces part from "
+                               "the coarse check run soon after the first impact), the slider's height"),
+}
 
 
-_ROCK = Protocol(
-    entries=_both_families((2e-3, 1e-3, 5e-4)),
-    measures=("err_{obs}_max_trusted", "err_omega_max_trusted"),
-    why="the event-capturing schemes and the event-driven ones (where they apply friction) at three halvings "
-        "of h; θ and ω over the capturing reference's trusted span")
-_CRANK = Protocol(
-    entries=_both_families((4e-5, 2e-5, 1e-5)),
-    measures=("err_{obs}_max", "err_{obs}_max_trusted", "err_y_max"),
-    why="the Siconos example's h = 1e-5 s and two doublings, both families; the crank angle over the whole run "
-        "(the reference's estimated θ digits stay ≥ 4 of the range throughout) and over its trusted span (the "
-        "chattering's bounces part from the coarse check run soon after the first impact), the slider's height")
-PROTOCOLS: dict[str, Protocol] = {"beam-impact": _BEAM, "beam-impact-hub": _BEAM, "rocking-block": _ROCK,
-                                  "slider-crank-clearance": _CRANK}
+def _entry(name: str, runs: base.Runs | None) -> Entry:
+    return Entry(name) if runs is None else Entry(name, tuple(runs.steps), tuple(runs.tols), dict(runs.options), True)
+
+
+def declared_entries(scene: Scene) -> dict[str, Entry]:
+    """The runs each registered integrator declares for ``scene`` (by its name), in run
+    order: tolerance runs first (the longest: a two-worker sweep then ends together), then
+    by name; integrators that declare nothing are not in it."""
+    out = {}
+    for name, reg in base.registry().items():
+        runs = reg.cls.protocol(scene.name) if reg.cls is not None else None
+        if runs is not None:
+            out[name] = _entry(name, runs)
+    return dict(sorted(out.items(), key=lambda kv: (not kv[1].tols, kv[0])))
 
 
 def default_protocol(scene: Scene) -> Protocol:
@@ -126,15 +126,17 @@ def default_protocol(scene: Scene) -> Protocol:
 
 
 def protocol_for(scene: Scene) -> Protocol:
-    """The declared protocol of ``scene`` (by name), else :func:`default_protocol`; a
-    registered integrator the protocol does not name (a new plugin) is added with one run
-    at its defaults, so that the comparison covers every integrator."""
-    proto = PROTOCOLS.get(scene.name)
-    if proto is None:
+    """What compare runs on ``scene``: each integrator's declared runs for it
+    (:func:`declared_entries`), then every registered integrator that declares none, once
+    at its defaults, so that the comparison covers every integrator; the case's measures."""
+    declared = declared_entries(scene)
+    if not declared:
         return default_protocol(scene)
-    named = {e.integrator for e in proto.entries}
-    extra = tuple(Entry(n) for n in sorted(base.registry()) if n not in named)
-    return Protocol(proto.entries + extra, proto.measures, proto.why)
+    measures, why = MEASURES.get(scene.name, (("err_{obs}_max_trusted",), ""))
+    extra = tuple(Entry(n) for n in sorted(base.registry()) if n not in declared)
+    return Protocol(tuple(declared.values()) + extra, measures,
+                    "each integrator's declared runs for this case, the others once at their defaults"
+                    + (f"; {why}" if why else ""))
 
 
 @dataclass
@@ -172,6 +174,10 @@ class CompareResult:
     def table_rows(self) -> tuple[list[str], list[list[Any]]]:
         """The printed table (:func:`table_rows`)."""
         return table_rows(self.table, self.headline)
+
+    def heading(self, case: str) -> str:
+        """What was run, in words (:func:`heading`)."""
+        return heading(self, case)
 
     def summary_lines(self) -> list[str]:
         """What the table does not say (:func:`summary_lines`)."""
@@ -335,6 +341,44 @@ def _setting(r: pd.Series) -> str:
     return f"h={h:g}" if isinstance(h, float) and math.isfinite(h) else ""
 
 
+def _values(xs: Sequence[Any]) -> str:
+    return ", ".join(f"{x:g}" for x in dict.fromkeys(x for x in xs if isinstance(x, float) and math.isfinite(x)))
+
+
+def heading(res: CompareResult, case: str) -> str:
+    """What was run, in words, from the table: each integrator's steps or tolerances as run
+    (integrators run alike grouped), whose declaration they are, and how many runs."""
+    df = res.table
+    if not len(df):
+        return f"{case}: no run"
+    entries = {e.integrator: e for e in res.protocol.entries}
+    groups: list[tuple[str, bool, list[str]]] = []   # (what, declared, integrators)
+    for name in dict.fromkeys(df["integrator"]):
+        rows = df[df["integrator"] == name]
+        e = entries.get(name, Entry(name))
+        steps = _values(rows["h"]) if "h" in rows and e.steps else ""
+        tols = _values(rows["tol"]) if "tol" in rows and e.tols else ""
+        what = f"h = {steps} s" if steps else f"tol = {tols}" if tols else "one run at its defaults"
+        if e.options:
+            what += " with " + ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
+                                         for k, v in e.options.items())
+        if groups and groups[-1][:2] == (what, e.declared):
+            groups[-1][2].append(name)
+        else:
+            groups.append((what, e.declared, [name]))
+    defaults = "one run at its defaults"
+    parts = [f"{', '.join(names)}: " + (what.replace(defaults, "one run each at their defaults") if len(names) > 1
+                                        else what) for what, _, names in groups]
+    given = [g for g in groups if not g[1] and not g[0].startswith(defaults)]
+    rest = [g for g in groups if not g[1] and g not in given]
+    sources = (["the runs each integrator declares for this case"] if any(g[1] for g in groups) else []) \
+        + (["runs given to compare"] if given else [])
+    if rest:
+        sources.append("the others once at their defaults: nothing declared for this case" if sources
+                       else "every integrator once at its defaults: none declares runs for this case")
+    return f"{case}: {len(df)} runs ({'; '.join(sources)}) — " + "; ".join(parts)
+
+
 def table_rows(df: pd.DataFrame, head: Any) -> tuple[list[str], list[list[Any]]]:
     """The printed table: one row per run — run, verdict, minimum wall time of its timed
     repeats, steps, the error measures of the headline observable ``head`` (over the
@@ -366,10 +410,13 @@ def summary_lines(res: CompareResult) -> list[str]:
     df = res.table[~ext]
     lines = []
     first = f"err_{res.headline.score_name}_max_trusted" if res.headline is not None else ""
-    scored = df[first].notna().sum() if first in df else 0
+    scored = df[df[first].notna()] if first in df else df.iloc[:0]
     verdicts = df["status"].value_counts().to_dict() if len(df) else {}
+    against = ", ".join(f"{n} against the {w}" for w, n in (scored["against"].value_counts().items()
+                                                             if "against" in scored else ()))
     lines.append(f"{len(df)} runs: " + ", ".join(f"{v} {k}" for k, v in verdicts.items())
-                 + f"; {scored} scored against the reference (a run that did not complete has no error)")
+                 + f"; {len(scored)} scored" + (f" ({against})" if against else "")
+                 + " (a run that did not complete has no error)")
     for _, r in res.table[ext].iterrows():
         cost = f"cost {r['wall_s']:.4g} s (as its file says)" if math.isfinite(float(r["wall_s"])) else \
             "no cost given: not on the work–precision figure"

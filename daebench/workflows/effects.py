@@ -26,7 +26,7 @@ import pandas as pd
 
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene
-from daebench.harness.files import results_dir
+from daebench.harness.files import atomic_write, ensure_writable_dir, results_dir, under_root, write_error
 from daebench.harness.running import provenance
 from daebench.harness.running.history_io import read_history
 from daebench.harness.scoring import metrics
@@ -85,7 +85,9 @@ def run_effects(scene: Scene, integrator: str = "hht", settings: Mapping[str, An
     keys = switchable(scene)
     if not keys:
         raise ParamError(f"scene '{scene.name}' has no effect switched on (effects.* keys); nothing to turn off")
-    folder = Path(folder) if folder is not None else results_dir() / "effects" / f"{scene.name}-{scene.hash[:8]}"
+    folder = (Path(folder) if folder is not None
+              else under_root(results_dir() / "effects", f"{scene.name}-{scene.hash[:8]}", what="the scene"))
+    ensure_writable_dir(folder, "output folder (--out)")  # before the runs, not after them
     specs, refused = plan_sweep(scene, [integrator], options=dict(settings or {})), {}
     for k in keys:
         try:
@@ -114,11 +116,16 @@ def run_effects(scene: Scene, integrator: str = "hht", settings: Mapping[str, An
     for k, why in refused.items():
         rows.append({"effect": k.split(".", 1)[1], "status": "refused", "message": why})
     table = pd.DataFrame(rows)
-    folder.mkdir(parents=True, exist_ok=True)
-    files = [folder / "effects.csv"]
-    table.to_csv(files[0], index=False)
-    files.append(provenance.write_sidecar(folder / "effects.json", provenance.collect([scene]), scene=scene.name,
-                                          integrator=integrator, options=dict(settings or {}), effects=keys))
+    kept = "the table is printed below"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise write_error(exc, "the effects folder", folder, kept) from None
+    files = [folder / "effects.csv", folder / "effects.json"]
+    atomic_write(files[0], lambda p: table.to_csv(p, index=False), "the effects table", kept)
+    atomic_write(files[1], lambda p: provenance.write_sidecar(p, provenance.collect([scene]), scene=scene.name,
+                                                              integrator=integrator, options=dict(settings or {}),
+                                                              effects=keys), "the effects sidecar", kept)
     return EffectsResult(table, files)
 
 

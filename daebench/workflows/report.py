@@ -22,8 +22,10 @@ from typing import Any, Sequence
 import pandas as pd
 
 from daebench.core.params import ParamError
+from daebench.core.scene import check_name
 from daebench.harness.analysis import plots, recommend
-from daebench.harness.files import atomic_write, results_dir
+from daebench.harness.files import (DamagedFile, OutputError, atomic_write, ensure_writable_dir, read_json, results_dir,
+                                    under_root)
 from daebench.harness.running import provenance
 from daebench.workflows.compare import marked, measures_present
 from daebench.workflows.score import is_external
@@ -166,7 +168,12 @@ def write_survey_report(res: Any, path: Path | None = None, compact: bool = Fals
     :data:`COMPACT_RUNS`; the survey's CSV files have every column)."""
     f = Path(res.folder)
     figs = f / "figures"
-    figs.mkdir(parents=True, exist_ok=True)
+    out = Path(path) if path is not None else f / "report.html"
+    # both places proved writable before any figure is drawn; the page is one regular file
+    if out.exists() and not out.is_file() or out.is_symlink():
+        raise OutputError(f"--out {out} exists and is not a regular file; give the path of an .html file to write")
+    ensure_writable_dir(out.parent, "the report's folder (--out)")
+    ensure_writable_dir(figs, "the survey's figure folder")
     prov = provenance.collect(scene_hashes(res.table))
     sections: list[tuple[str, str]] = []
     if len(res.profile):
@@ -195,10 +202,9 @@ def write_survey_report(res: Any, path: Path | None = None, compact: bool = Fals
     refused = [(r.case, k, v) for r in res.cases for k, v in r.refused.items()]
     if refused:
         sections.append(("Not applicable", table_html(pd.DataFrame(refused, columns=["case", "integrator", "why"]))))
-    out = Path(path) if path is not None else f / "report.html"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(page(f"daebench survey {res.name}", list(res.paragraphs.values()), sections, prov),
-                   encoding="utf-8")
+    text = page(f"daebench survey {res.name}", list(res.paragraphs.values()), sections, prov)
+    atomic_write(out, lambda p: Path(p).write_text(text, encoding="utf-8"), "the report page",
+                 f"the survey's own files in {f} are untouched")
     return out
 
 
@@ -209,7 +215,8 @@ def write_compare_report(res: Any, scene: Any, path: Path) -> Path:
     measures = measures_present(res.table, res.protocol.measures)
     own = res.table[~is_external(res.table)]
     recs = [line.removeprefix("recommendation — ") for line in recommend.compare_lines(own, measures)]
-    sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.protocol.why)}</p>")]
+    sections: list[tuple[str, str]] = [("The protocol", f"<p>{html.escape(res.heading(scene.name))}</p>"
+                                                        f"<p>{html.escape(res.protocol.why)}</p>")]
     figs = [figure_html(p, f"{scene.name}: work–precision") for p in res.files if Path(p).suffix == ".png"]
     if figs:
         sections.append(("Work–precision", "".join(figs)))
@@ -250,16 +257,29 @@ def load_survey(name: str, folder: Path | None = None) -> Any:
     ParamError
         When there is no such survey.
     """
-    f = Path(folder) if folder is not None else results_dir() / "survey" / name
+    f = Path(folder) if folder is not None else under_root(results_dir() / "survey", check_name(name, "survey name"),
+                                                            what="survey")
     side = f / "survey.json"
     if not side.exists():
         raise ParamError(f"no survey '{name}' in {f.parent} (run `daebench survey --name {name}` first)")
-    meta = json.loads(side.read_text())
-    tab = pd.read_parquet(f / "table.parquet") if (f / "table.parquet").exists() else pd.DataFrame()
-    reach = pd.read_csv(f / "reach.csv") if (f / "reach.csv").exists() else pd.DataFrame()
-    prof = pd.read_csv(f / "profiles.csv") if (f / "profiles.csv").exists() else pd.DataFrame()
-    paras = recommend.paragraphs(reach) if len(reach) else {}
-    cases = [CaseResult(c["case"], tab[tab["case"] == c["case"]] if len(tab) else tab, c["not_applicable"],
-                        c["measures"], c["wall_s"], c["rounds_run"], c["rounds"], c["note"], c["repeat_check"])
-             for c in meta["cases"]]
-    return SurveyResult(name, f, tab, reach, prof, paras, cases, float(meta["wall_s"]))
+
+    def damaged(why: str) -> ParamError:
+        return ParamError(f"the survey folder {f} is damaged ({why}); run the survey again "
+                          f"(`daebench survey --name {name} --overwrite`)")
+
+    try:
+        meta = read_json(side, "survey.json")
+        tab = pd.read_parquet(f / "table.parquet") if (f / "table.parquet").exists() else pd.DataFrame()
+        reach = pd.read_csv(f / "reach.csv") if (f / "reach.csv").exists() else pd.DataFrame()
+        prof = pd.read_csv(f / "profiles.csv") if (f / "profiles.csv").exists() else pd.DataFrame()
+        cases = [CaseResult(str(c["case"]), tab[tab["case"] == c["case"]] if len(tab) else tab,
+                            dict(c["not_applicable"]), list(c["measures"]), float(c["wall_s"]), int(c["rounds_run"]),
+                            int(c["rounds"]), str(c["note"]), c["repeat_check"])
+                 for c in meta["cases"]]
+        wall = float(meta["wall_s"])
+        paras = recommend.paragraphs(reach) if len(reach) else {}
+    except DamagedFile as exc:
+        raise damaged(str(exc)) from None
+    except Exception as exc:  # a missing key, a wrong type; pyarrow raises several types for a truncated file
+        raise damaged(f"{type(exc).__name__}: {str(exc)[:120]}") from None
+    return SurveyResult(name, f, tab, reach, prof, paras, cases, wall)

@@ -5,6 +5,7 @@ case's exact solution or its cached reference; :class:`RunOutput` is a view of i
 
 from __future__ import annotations
 
+import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
@@ -44,6 +45,8 @@ class RunOutput:
         when one exists ({'against': ..., 'err_<observable>_{final,max,l2}': ...}), else
         {'against': None, 'why': ...}: no cached reference (with the command that makes one)
         or a damaged one (what failed, and the fix)
+    traceback : for a run a step's exception ended (status failed), where it was raised,
+        the integrator's own frames included; "" otherwise
     """
 
     record: RunRecord
@@ -55,6 +58,7 @@ class RunOutput:
     lam: np.ndarray
     observables: pd.DataFrame
     error: dict[str, Any] = field(default_factory=dict)
+    traceback: str = ""     # where the exception that ended the run was raised (the integrator's frames)
 
     integrator = property(lambda self: self.record.integrator)
     settings = property(lambda self: self.record.settings)
@@ -132,4 +136,12 @@ def run(scene: Scene, integrator: str, settings: dict[str, Any] | None = None, w
             bar.stop()
     st = res.states
     return RunOutput(rec, scene, st["t"], st["q"], st["v"], st["a"], st["lam"], res.history,
-                     errors(scene, res.history, res.impacts))
+                     errors(scene, res.history, res.impacts), failure_traceback(integ, rec.status))
+
+
+def failure_traceback(integ: Any, status: str) -> str:
+    """The traceback of the exception a step of ``integ`` raised, when it ended the run."""
+    exc = getattr(integ, "failure", None)
+    if exc is None or status == "completed":
+        return ""
+    return "".join(traceback.format_exception(exc))

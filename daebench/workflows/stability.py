@@ -39,9 +39,10 @@ from typing import Any, Callable, Iterable, Sequence
 import pandas as pd
 
 from daebench.core.params import ParamError
-from daebench.core.scene import Scene
+from daebench.core.scene import Scene, check_name
 from daebench.driver.history import DIVERGENCE_ENERGY
-from daebench.harness.running.deadline import RunTimeout
+from daebench.core.interrupt import RunTimeout
+from daebench.harness.files import ensure_writable_dir, results_dir
 from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.models import build_system
 from daebench.stepping.stability import (OMEGA_GRID, STRICT_SLACK, AbmPece, Linearization,  # noqa: F401 (re-exported)
@@ -256,9 +257,12 @@ def parse_method(text: str) -> tuple[str, dict[str, Any]]:
     """``"baumgarte:delta=10,epsilon=50"`` → ("baumgarte", {"delta": 10.0, "epsilon": 50.0}),
     validated and typed by the integrator's own settings."""
     name, _, rest = text.partition(":")
-    raw = dict(kv.split("=", 1) for kv in rest.split(",") if kv.strip()) if rest.strip() else {}
-    if any(not k.strip() for k in raw):
-        raise ParamError(f"--method '{text}': write integrator:name=value,name=value")
+    pairs = [kv for kv in rest.split(",") if kv.strip()]
+    if any("=" not in kv or not kv.split("=", 1)[0].strip() for kv in pairs):
+        bad = next(kv for kv in pairs if "=" not in kv or not kv.split("=", 1)[0].strip())
+        raise ParamError(f"--method '{text}': '{bad}' is not name=value; write integrator:name=value,name=value, "
+                         f"e.g. hht:alpha=-0.1")
+    raw = dict(kv.split("=", 1) for kv in pairs)
     integ = make_integrator(name.strip(), {k.strip(): v.strip() for k, v in raw.items()})
     return integ.name, {k.strip(): integ.settings[k.strip()] for k in raw}
 
@@ -275,11 +279,24 @@ class StabilityResult:
     summary: str
 
 
+def _whole_numbers(text: str, key: str) -> list[int]:
+    """``"3,5,7"`` → [3, 5, 7]; a ValueError that says what --n takes."""
+    out = []
+    for x in (x.strip() for x in text.split(",") if x.strip()):
+        if not x.isdigit() or len(x) > 6:
+            raise ValueError(f"--n takes whole numbers for {key}, comma-separated, e.g. --n 3,5,7 ('' = the "
+                             f"scene's own, auto = {','.join(map(str, DEFAULT_N))}); got {x[:20]!r}")
+        out.append(int(x))
+    return out
+
+
 def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str = "auto",
-                  search: Bisection = Bisection(), out: Path = Path("results/stability"),
+                  search: Bisection = Bisection(), out: Path | None = None,
                   name: str | None = None, progress: Callable[[str], None] | None = None) -> StabilityResult:
     """The stability map of ``scene`` (:func:`stability_map`) with its files under ``out``
-    (``<name or scene-stability>``.parquet, .csv, .md, .png: :mod:`.stability_report`).
+    (default results/stability; ``<name or scene-stability>``.parquet, .csv, .md, .png:
+    :mod:`.stability_report`), the folder proved writable and the name a plain file-name
+    stem before any run.
 
     ``methods`` are ``integrator:setting=value,...`` texts (:func:`parse_method`); ``n``
     the values of ``search.n_key``, comma-separated ('': the scene's own; 'auto':
@@ -294,7 +311,7 @@ def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str
         parsed = [parse_method(m) for m in methods]
         if n.strip() == "auto":
             n = ",".join(map(str, DEFAULT_N)) if search.n_key in scene.schema else ""
-        ns = [int(x) for x in n.split(",") if x.strip()] if n.strip() else None
+        ns = _whole_numbers(n, search.n_key) if n.strip() else None
     except ValueError as exc:
         raise ParamError(str(exc)) from None
     if ns is not None and search.n_key not in scene.schema:
@@ -302,6 +319,9 @@ def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str
     if not (0.0 < search.h_min < search.h_max) or not (0.0 < search.tol < 1.0) or search.jobs < 1 \
             or (search.t_end is not None and search.t_end <= 0.0) or search.periods <= 0.0:
         raise ParamError("need 0 < --h-min < --h-max, 0 < --tol < 1, --jobs ≥ 1, --t-end ≥ 0 and --periods > 0")
+    stem = check_name(name if name is not None else f"{scene.name}-stability", "--name")
+    out = ensure_writable_dir(Path(out) if out is not None else results_dir() / "stability", "output folder (--out)",
+                              stem + ".parquet")
     te = min(search.t_end, scene.t_end) if search.t_end is not None else None
     search = replace(search, t_end=te)
     length = f"{te:g} s" if te is not None else f"{search.periods:g} periods of the fastest mode"
@@ -317,8 +337,7 @@ def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str
     extra = ", ".join(f"{k}={v}" for k, v in scene.changes().items())
     title = (f"{scene.name}{' (' + extra + ')' if extra else ''}: largest stable step, trials of {length}, "
              f"bisection to {search.tol:.0%}")
-    files = stability_report.write(df, Path(out), name or f"{scene.name}-stability", title, search.h_max,
-                                   search.mark_h)
+    files = stability_report.write(df, out, stem, title, search.h_max, search.mark_h)
     summary = (f"{int(df['agrees'].sum())}/{len(df)} rows agree with the prediction within one bisection step; "
                f"{int(df['runs'].sum())} runs in {time.perf_counter() - wall0:.1f} s")
     return StabilityResult(df, files, stability_report.markdown(df, search.h_max), heading, summary)

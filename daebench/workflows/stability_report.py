@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from daebench.harness.files import atomic_write, under_root, write_error
+
 
 def _h(x: float) -> str:
     return "∞" if x == math.inf else ("—" if not math.isfinite(x) else f"{x:.3g}")
@@ -37,7 +39,8 @@ def markdown(df: pd.DataFrame, h_max: float) -> str:
     return "\n".join(lines)
 
 
-def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float | None = None) -> Path:
+def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float | None = None,
+           fmt: str | None = None) -> Path:
     """h_max against N, one colour per integrator setting: measured (markers; ▲ = no
     instability up to the bisection bound) and predicted (dashed lines), log axis."""
     import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
@@ -81,19 +84,25 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
     ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=150)
+    fig.savefig(path, dpi=150, format=fmt)
     plt.close(fig)
     return path
 
 
 def write(df: pd.DataFrame, out_dir: Path, stem: str, title: str, h_max: float,
           mark_h: float | None = None) -> list[Path]:
-    """<stem>.parquet, .csv, .md and .png in ``out_dir``."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+    """<stem>.parquet, .csv, .md and .png in ``out_dir`` (each path checked to stay in it,
+    each file written atomically; a failure says what was kept)."""
     flat = df.assign(settings=df["settings"].astype(str))
-    files = [out_dir / f"{stem}.parquet", out_dir / f"{stem}.csv", out_dir / f"{stem}.md"]
-    flat.to_parquet(files[0], index=False)
-    flat.to_csv(files[1], index=False, float_format="%.6g")
-    files[2].write_text(f"# {title}\n\n{markdown(df, h_max)}\n")
-    files.append(figure(df, out_dir / f"{stem}.png", title, h_max, mark_h))
+    files = [under_root(out_dir, f"{stem}{suffix}") for suffix in (".parquet", ".csv", ".md", ".png")]
+    kept = "the table was printed above"
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise write_error(exc, "the stability folder", out_dir, kept) from None
+    atomic_write(files[0], lambda p: flat.to_parquet(p, index=False), "the stability table", kept)
+    atomic_write(files[1], lambda p: flat.to_csv(p, index=False, float_format="%.6g"), "the stability table", kept)
+    atomic_write(files[2], lambda p: p.write_text(f"# {title}\n\n{markdown(df, h_max)}\n"), "the stability table",
+                 kept)
+    atomic_write(files[3], lambda p: figure(df, p, title, h_max, mark_h, fmt="png"), "the stability figure", kept)
     return files

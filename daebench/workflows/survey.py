@@ -1,9 +1,8 @@
 """`daebench survey`: the protocol of every case, within a per-case budget, one table of
 the cost to reach a few target errors, performance profiles and a recommendation.
 
-**Protocols.** A case with a protocol in :data:`daebench.workflows.compare.PROTOCOLS` runs
-it as `daebench compare` does; every registered integrator it does not name, and every
-integrator of a case without one, runs at its default settings and two halvings
+**Protocols.** An integrator that declares runs for a case (its ``protocol``, as `daebench
+compare` reads it) runs them; every other integrator runs at its default settings and two halvings
 (:func:`halvings`: h, h/2, h/4 for a fixed-step method; an adaptive-only method at its
 default rtol, /10, /100 — halving a tolerance moves the error by less than its
 run-to-run scatter, a decade is the adaptive analogue of a halving). Integrators the case
@@ -47,7 +46,7 @@ from typing import Any, Iterator, Mapping, Sequence
 import pandas as pd
 
 from daebench.core.params import ParamError
-from daebench.core.scene import Scene, list_scenes
+from daebench.core.scene import Scene, scene_names
 from daebench.harness.analysis import costs, profiles, recommend
 from daebench.harness.files import atomic_write, results_dir
 from daebench.harness.references import fingerprints
@@ -184,17 +183,17 @@ def halvings(name: str, levels: int = LEVELS) -> Entry:
 
 
 def survey_protocol(scene: Scene, quick: bool = False) -> Protocol:
-    """The case's declared protocol (as `compare` has it) with every integrator it does not
-    name at defaults and halvings; under ``quick`` every integrator at its default and one
-    halving."""
+    """The runs each integrator declares for the case (as `compare` has them) and every
+    other integrator at its defaults and halvings; under ``quick`` every integrator at its
+    default and one halving."""
     levels = QUICK_LEVELS if quick else LEVELS
-    declared = None if quick else compare.PROTOCOLS.get(scene.name)
-    entries = list(declared.entries) if declared else []
-    named = {e.integrator for e in entries}
-    entries += [halvings(n, levels) for n in sorted(base.registry()) if n not in named]
-    measures = declared.measures if declared else compare.default_protocol(scene).measures
-    why = (declared.why + "; others at defaults and two halvings") if declared else \
-        f"every integrator at its defaults and {levels - 1} halving(s)"
+    declared = {} if quick else compare.declared_entries(scene)
+    # a plugin that cannot be loaded gets one entry, which planning lists as not applicable with the reason
+    entries = list(declared.values()) + [halvings(n, levels) if r.cls is not None else Entry(n)
+                                         for n, r in sorted(base.registry().items()) if n not in declared]
+    measures = compare.protocol_for(scene).measures if declared else compare.default_protocol(scene).measures
+    why = "each integrator's declared runs for this case, the others at their defaults and two halvings" \
+        if declared else f"every integrator at its defaults and {levels - 1} halving(s)"
     return Protocol(tuple(entries), tuple(measures), why).resolved(pipeline.headline(scene).score_name)
 
 
@@ -332,7 +331,7 @@ def repeat_check(df: pd.DataFrame, specs: Sequence[RunSpec], scene: Scene, ref_m
 
 def select_cases(opts: SurveyOptions) -> list[str]:
     """The cases of the survey: ``opts.cases``, else the quick set, else every case."""
-    names = [n for n, _ in list_scenes()]
+    names = scene_names()
     want = list(opts.cases) or (list(QUICK_CASES) if opts.quick else names)
     unknown = [c for c in want if c not in names]
     if unknown:

@@ -19,6 +19,7 @@ import pandas as pd  # noqa: E402
 
 from daebench.core.observables import Observable  # noqa: E402
 from daebench.core.params import ParamError  # noqa: E402
+from daebench.harness.files import DamagedFile, parse_json  # noqa: E402
 from daebench.harness.running import provenance  # noqa: E402
 from daebench.harness.scoring import pipeline  # noqa: E402
 from daebench.models.scenes import load_scene  # noqa: E402
@@ -319,6 +320,11 @@ def sweep_title(df: pd.DataFrame, what: str = "work–precision") -> str:
     shared: dict[str, Any] = {}
     for col in ("scene_set", "overrides"):     # --set of the sweep, then a grid's per-run overrides
         if col in df.columns and df[col].nunique() == 1 and str(df[col].iloc[0]) not in ("{}", "nan", "None"):
-            shared.update(json.loads(df[col].iloc[0]))
+            try:
+                cell = parse_json(str(df[col].iloc[0]), f"the table's {col} cell")
+            except DamagedFile:
+                cell = None
+            if isinstance(cell, dict):  # a damaged cell only leaves the title without it
+                shared.update(cell)
     over = (" " + ", ".join(f"{k}={v}" for k, v in shared.items())) if shared else ""
     return f"{what}, {case}{over} ({len(df)} runs)"

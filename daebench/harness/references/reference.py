@@ -22,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import shlex
 import shutil
 from contextlib import nullcontext
@@ -35,7 +36,7 @@ from daebench.core.params import ParamError
 from daebench.core.scene import Scene, cases_dir
 from daebench.driver.events import CONTACT_LAW_REVISION
 from daebench.driver.simulate import simulate
-from daebench.harness.files import atomic_write, results_dir, write_error
+from daebench.harness.files import DamagedFile, atomic_write, read_json, results_dir, write_error
 from daebench.harness.references import accuracy, capturing, modelprobe, side_runs
 from daebench.harness.running import provenance
 from daebench.harness.running.runner import make_integrator, run_scene
@@ -93,7 +94,8 @@ class Reference:
         """What computed it, in a few words: 'ida rtol 1e-11' or 'moreau h 5e-06 (event capturing)'."""
         if self.kind == "capturing":
             return f"{self.meta.get('integrator', '?')} h {float(self.meta['settings']['h']):g} (event capturing)"
-        return f"{self.meta.get('integrator', 'ida')} rtol {self.rtol:g}"
+        method = self.meta["settings"].get("method")  # the index-1 ODE's solver (DOP853, Radau)
+        return f"{str(method).upper() if method else self.meta.get('integrator', 'ida')} rtol {self.rtol:g}"
 
     def summary_lines(self, t_end: float) -> list[str]:
         """What `daebench reference` says about it: what computed it and how long it took,
@@ -168,8 +170,92 @@ def sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+#: the sidecar field that holds the SHA-256 of the rest of the sidecar (:func:`seal`)
+SEAL_KEY = "sidecar_sha256"
+#: the largest sidecar read (a reference's sidecar is tens of kilobytes; a long impact list a few MB)
+MAX_SIDECAR_BYTES = 32 << 20
+
+
+def _canonical(meta: dict[str, Any]) -> bytes:
+    return json.dumps({k: v for k, v in meta.items() if k != SEAL_KEY}, sort_keys=True,
+                      separators=(",", ":")).encode()
+
+
+def seal(meta: dict[str, Any]) -> dict[str, Any]:
+    """``meta`` as it will read back from JSON, with :data:`SEAL_KEY`: the SHA-256 of the
+    canonical JSON of every other field (sorted keys, no spaces). Together with the
+    sidecar's ``sha256`` of the history this covers everything a score depends on: the
+    impact times, the accuracy record (``trust_t``), the settings and the scene's values."""
+    plain = json.loads(json.dumps(meta, default=str))
+    plain[SEAL_KEY] = hashlib.sha256(_canonical(plain)).hexdigest()
+    return plain
+
+
+def write_sidecar(path: Path, meta: dict[str, Any]) -> None:
+    """Write a reference's sidecar, sealed (:func:`seal`)."""
+    path.write_text(json.dumps(seal(meta), indent=1) + "\n")
+
+
+def _finite(x: Any) -> bool:
+    """A JSON number that is a finite float (an integer of 400 digits is not)."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(x))
+    except OverflowError:
+        return False
+
+
+def _check_fields(meta: dict[str, Any], t_end: float) -> str:
+    """What is wrong with the fields a score depends on ('' when nothing): types and ranges
+    of the impact times, the accuracy record, the time span, the row count and columns."""
+    kinds = {"sha256": str, "rows": int, "columns": list, "t_span": list, "settings": dict, "impacts": list}
+    wrong = [k for k, typ in kinds.items() if not isinstance(meta[k], typ) or isinstance(meta[k], bool)]
+    if wrong:
+        return (f"sidecar field {', '.join(repr(k) for k in wrong)} has the wrong type "
+                f"({', '.join(f'{k} = {meta[k]!r:.40}' for k in wrong)})")
+    imp = meta["impacts"]
+    if not all(_finite(t) for t in imp):
+        bad = next(t for t in imp if not _finite(t))
+        return f"sidecar field 'impacts' holds {bad!r:.40}, not a finite time"
+    span = 1e-9 * max(1.0, t_end)
+    if imp and (imp[0] < -span or imp[-1] > t_end + span):
+        return f"sidecar field 'impacts' has a time outside [0, {t_end:g}] s ({min(imp)!r}, {max(imp)!r})"
+    if any(b < a for a, b in zip(imp, imp[1:])):
+        return "sidecar field 'impacts' is not in time order"
+    if meta["rows"] < 2 or not all(isinstance(c, str) for c in meta["columns"]):
+        return f"sidecar fields 'rows' ({meta['rows']}) or 'columns' are not those of a history"
+    if len(meta["t_span"]) != 2 or not all(_finite(t) for t in meta["t_span"]):
+        return f"sidecar field 't_span' {meta['t_span']!r:.60} is not two finite times"
+    for k in ("accuracy", "agreement", "counters"):
+        if k in meta and not isinstance(meta[k], dict):
+            return f"sidecar field {k!r} is not a mapping"
+    acc = meta.get("accuracy") or {}
+    if "trust_t" in acc or "trust_impacts" in acc:
+        tt, ti = acc.get("trust_t"), acc.get("trust_impacts")
+        if not _finite(tt) or not 0 <= tt <= t_end + span:
+            return f"accuracy.trust_t {tt!r:.40} is not a time in [0, {t_end:g}] s"
+        if isinstance(ti, bool) or not isinstance(ti, int) or not 0 <= ti <= len(imp):
+            return f"accuracy.trust_impacts {ti!r:.40} is not a count from 0 to {len(imp)} (the impacts)"
+    if "wall_s" in meta and not _finite(meta["wall_s"]):
+        return f"sidecar field 'wall_s' {meta['wall_s']!r:.40} is not a finite number"
+    return ""
+
+
+def _plausible_bytes(meta: dict[str, Any]) -> int:
+    """The largest size the history file can have for the sidecar's rows and columns (its
+    values uncompressed, twice over, plus a megabyte of Parquet metadata)."""
+    return 16 * max(1, int(meta["rows"])) * max(1, len(meta["columns"])) + (1 << 20)
+
+
 def validate(scene: Scene, path: Path) -> Reference:
-    """Read and check a cached reference; :class:`ReferenceDamaged` says what is wrong."""
+    """Read and check a cached reference; :class:`ReferenceDamaged` says what is wrong.
+
+    The sidecar is read safely (its size first; deep or huge JSON is damage, not a crash),
+    its seal checked (:func:`seal`: any edited field is damage), its fields' types and
+    ranges checked, the history's size checked against its rows and columns with ``stat``
+    before it is hashed, then its checksum, columns, span, kind, contact-law revision and
+    model probe."""
     side = path.with_suffix(".json")
 
     def damaged(why: str) -> ReferenceDamaged:
@@ -179,24 +265,31 @@ def validate(scene: Scene, path: Path) -> Reference:
         if not f.is_file():
             raise damaged(f"{what} {f.name} is {'a folder' if f.is_dir() else 'not a regular file'}")
     try:
-        meta = json.loads(side.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise damaged(f"sidecar unreadable: {type(exc).__name__}") from None
+        meta = read_json(side, "the sidecar", MAX_SIDECAR_BYTES)
+    except DamagedFile as exc:
+        raise damaged(f"sidecar unreadable: {exc}") from None
     if not isinstance(meta, dict):
         raise damaged("sidecar is not a JSON object")
+    if not isinstance(meta.get(SEAL_KEY), str):
+        raise damaged("the sidecar carries no checksum of its own fields (written by an older daebench?)")
+    if hashlib.sha256(_canonical(meta)).hexdigest() != meta[SEAL_KEY]:
+        raise damaged("checksum mismatch: a field of the sidecar changed after it was written")
     need = ("sha256", "rows", "columns", "t_span", "settings", "scene_hash", "impacts")
     missing = [k for k in need if k not in meta]
     if missing:
         raise damaged(f"sidecar lacks {', '.join(missing)} (written by an older daebench?)")
-    kinds = {"sha256": str, "rows": int, "columns": list, "t_span": list, "settings": dict, "impacts": list}
-    wrong = [k for k, typ in kinds.items() if not isinstance(meta[k], typ) or isinstance(meta[k], bool)]
-    wrong += [] if wrong or all(isinstance(t, (int, float)) and not isinstance(t, bool) for t in meta["impacts"]) \
-        else ["impacts"]
+    wrong = _check_fields(meta, scene.t_end)
     if wrong:
-        raise damaged(f"sidecar field {', '.join(repr(k) for k in wrong)} has the wrong type "
-                      f"({', '.join(f'{k} = {meta[k]!r:.40}' for k in wrong)})")
+        raise damaged(wrong)
     if meta["scene_hash"] != scene.hash:
         raise damaged(f"sidecar is for scene hash {meta['scene_hash']}, not {scene.hash}")
+    try:
+        size = os.stat(path).st_size
+    except OSError as exc:
+        raise damaged(f"the history cannot be read: {exc.strerror or exc}") from None
+    if size > _plausible_bytes(meta):
+        raise damaged(f"the history is {size} bytes, more than {meta['rows']} rows × {len(meta['columns'])} "
+                      f"columns can take ({_plausible_bytes(meta)} bytes); it was not read")
     if sha256(path) != meta["sha256"]:
         raise damaged("checksum mismatch: the parquet file changed after it was written")
     try:
@@ -267,8 +360,7 @@ def install_shipped(scene: Scene) -> Path | None:
         raise write_error(exc, "the reference folder", dest.parent, kept) from None
     meta = {**ref.meta, "installed_from": f"shipped with daebench ({src.name})"}
     atomic_write(dest, lambda p: shutil.copyfile(src, p), "the reference", kept)
-    atomic_write(dest.with_suffix(".json"), lambda p: p.write_text(json.dumps(meta, indent=1) + "\n"),
-                 "the reference's sidecar", kept)
+    atomic_write(dest.with_suffix(".json"), lambda p: write_sidecar(p, meta), "the reference's sidecar", kept)
     return dest
 
 
@@ -293,7 +385,7 @@ def load_reference(scene: Scene, compute: bool = False, mode: str | None = None,
     if not (path.exists() and path.with_suffix(".json").exists()):
         try:
             if install_shipped(scene) is not None:
-                return validate(scene, path)
+                return _meets(scene, validate(scene, path), mode, kwargs)
         except ReferenceDamaged:
             if mode not in ("compute", "auto"):
                 raise
@@ -305,11 +397,33 @@ def load_reference(scene: Scene, compute: bool = False, mode: str | None = None,
             f"Make it with `{reference_command(scene)}` "
             f"(or pass --reference compute / --reference none to `daebench bench`).")
     try:
-        return validate(scene, path)
+        ref = validate(scene, path)
     except ReferenceDamaged:
         if mode in ("compute", "auto"):
             return compute_reference(scene, **kwargs)
         raise
+    return _meets(scene, ref, mode, kwargs)
+
+
+def _meets(scene: Scene, ref: Reference, mode: str, kwargs: dict[str, Any]) -> Reference:
+    """``ref`` when it is at least as tight as an explicitly requested ``rtol``; otherwise
+    recomputed at that rtol (modes 'compute', 'auto') or refused with the reason."""
+    assessed = list((ref.meta.get("scene_values") or {}).get("output.observables") or [])
+    scored = list(scene["output.observables"])
+    if assessed and not (scored and set(scored) <= set(assessed)):
+        # its accuracy record (trust_t) covers only the observables its scene named
+        if mode in ("compute", "auto"):
+            return compute_reference(scene, **kwargs)
+        raise ReferenceDamaged(f"the cached reference {ref.path} assessed its accuracy on {', '.join(assessed)} only, "
+                               f"this scene scores {', '.join(scored) or 'every observable'}; recompute it with "
+                               f"{_fix(scene)}")
+    want = kwargs.get("rtol")
+    if want is None or ref.kind != "ida" or not ref.rtol > float(want) * (1 + 1e-9):
+        return ref
+    if mode in ("compute", "auto"):
+        return compute_reference(scene, **kwargs)
+    raise ReferenceDamaged(f"the cached reference {ref.path} was computed at rtol {ref.rtol:g}, looser than the "
+                           f"requested {float(want):g}; recompute it with {_fix(scene)} --rtol {float(want):g}")
 
 
 def reference_tolerances(tightest_rtol: float | None = None, rtol: float | None = None,
@@ -453,9 +567,8 @@ def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: di
             "energy_residual_max": res.energy_residual, "model_probe": modelprobe.record(build_system(scene)),
             **extra, "sha256": sha256(path), "rows": len(hist),
             "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}
-    atomic_write(path.with_suffix(".json"),
-                 lambda p: provenance.write_sidecar(p, provenance.collect([scene]), **meta),
-                 "the reference's sidecar", kept)
+    meta = {**meta, "provenance": provenance.collect([scene])}
+    atomic_write(path.with_suffix(".json"), lambda p: write_sidecar(p, meta), "the reference's sidecar", kept)
     return Reference(hist, impacts, meta, path)
 
 

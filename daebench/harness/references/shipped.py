@@ -27,7 +27,8 @@ import shutil
 from pathlib import Path
 
 from daebench.core.scene import Scene
-from daebench.harness.references.reference import SHIPPED_DIR, Reference, ReferenceDamaged, shipped_path, validate
+from daebench.harness.references.reference import (SHIPPED_DIR, Reference, ReferenceDamaged, shipped_path,
+                                                    validate, write_sidecar)
 
 
 def ship(scene: Scene, ref: Reference) -> Path:
@@ -44,5 +45,5 @@ def ship(scene: Scene, ref: Reference) -> Path:
     shutil.copyfile(ref.path, dest)
     meta = json.loads(ref.path.with_suffix(".json").read_text())  # the sidecar as written (provenance too)
     meta.pop("installed_from", None)
-    dest.with_suffix(".json").write_text(json.dumps(meta, indent=1) + "\n")
+    write_sidecar(dest.with_suffix(".json"), meta)  # sealed anew without the cache's own note
     return dest

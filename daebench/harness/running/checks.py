@@ -10,10 +10,11 @@ the command line).
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 from daebench.core.params import ParamError, did_you_mean
-from daebench.core.scene import list_scenes
+from daebench.core.scene import scene_names
 from daebench.integrators import base
 from daebench.integrators.base import Integrator, IntegratorError
 from daebench.driver.history import DIVERGENCE_ENERGY
@@ -23,6 +24,11 @@ from daebench.stepping import stability
 
 MAX_STEPS = 1e8          # fixed steps a run may plan without force (≈ 3 min compiled, hours in Python)
 MAX_OUTPUT_ROWS = 1e7    # history rows (each ~30 floats: ~2.4 GB at this size)
+#: dense (n + m) × (n + m) float64 matrices a run may hold at once (the driver's augmented system and its
+#: factor, an implicit step's mass, stiffness, damping and iteration matrices and their factor)
+DENSE_MATRICES = 8
+#: the share of the machine's memory a run's estimate may take
+MEMORY_FRACTION = 0.5
 
 
 class GuardError(ParamError):
@@ -71,6 +77,37 @@ def check_size(scene: Any, integ: Integrator) -> None:
         raise GuardError(
             f"output.dt = {scene['output.dt']:g} s over t_end = {scene.t_end:g} s is ≈ {rows:.2g} history rows, beyond "
             f"the limit of {MAX_OUTPUT_ROWS:.0e}; use a larger output.dt (e.g. --set output.dt=1e-3), or pass --force")
+
+
+def machine_memory() -> int:
+    """The machine's physical memory in bytes (0 when the system does not say)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 0
+
+
+def memory_estimate(scene: Any, system: Any) -> int:
+    """Bytes a run of ``scene`` needs at most, from its size: :data:`DENSE_MATRICES` dense
+    (n + m)² float64 matrices (n coordinates, m constraints and contacts) plus the history
+    (rows × columns × 8 bytes, twice: the rows and the table)."""
+    n = int(system.n)
+    m = int(system.n_bilateral) + int(system.n_contacts)
+    rows = scene.t_end / float(scene["output.dt"]) + 1
+    cols = 30 + 2 * m + len(scene.get("output.observables") or [])
+    return int(DENSE_MATRICES * 8 * (n + m) ** 2 + 2 * 8 * rows * cols)
+
+
+def check_memory(scene: Any, system: Any) -> None:
+    """Refuse, before any step, a run whose memory estimate (:func:`memory_estimate`) is over
+    :data:`MEMORY_FRACTION` of the machine's memory, with both numbers and the fix."""
+    need, have = memory_estimate(scene, system), machine_memory()
+    if have and need > MEMORY_FRACTION * have:
+        raise GuardError(
+            f"scene '{scene.name}' has {system.n} coordinates: a run needs ≈ {need / 2 ** 30:.3g} GiB (dense "
+            f"{system.n}² matrices and the history), more than {MEMORY_FRACTION:.0%} of this machine's "
+            f"{have / 2 ** 30:.3g} GiB; use a coarser mesh or fewer modes (fewer elements, see `daebench show "
+            f"{scene.name} --keys`) or a larger output.dt")
 
 
 def check_observables(scene: Any, system: Any) -> list[str]:
@@ -163,8 +200,11 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
                                   + f" (scene '{scene.name}' uses '{current}')")
 
     offer = []
-    for name, _ in list_scenes():
-        p = load_scene(name).schema.get("contact.law")
+    for name in scene_names():
+        try:
+            p = load_scene(name).schema.get("contact.law")
+        except ParamError:  # a broken scene file offers nothing
+            continue
         if p is not None and p.choices and any(c in p.choices for c in cls.contact_laws):
             offer.append(name)
     laws = " or ".join(f"'{c}'" for c in cls.contact_laws)

@@ -1,13 +1,14 @@
 """The wall-time cap of a run (:func:`deadline`).
 
-It raises :class:`RunTimeout` in the thread that runs the simulation, from a watchdog
-thread. It works in any thread (a Dask worker runs tasks in threads, where SIGALRM cannot
-reach) and takes effect at the next Python bytecode of the run; the driver returns to
-Python at least every compiled batch of steps. It waits while numba compiles in that
+A watchdog thread asks the thread that runs the simulation to stop
+(:mod:`daebench.core.interrupt`): the driver raises :class:`RunTimeout` at its next safe
+point, after the integrator's call (at least every compiled batch of steps). It works in
+any thread (a Dask worker runs tasks in threads, where SIGALRM cannot reach). A run that
+reaches no safe point within :data:`GRACE_S` (a plugin stuck in its own step) is
+interrupted at its next Python bytecode instead — but never while numba compiles in that
 thread (:data:`daebench.harness.running.compile_events.COMPILE_DEPTH`): an exception
 raised inside numba's compiler (LLVM calls back into Python) killed the worker process or
-left an error on a cold cache, so a cap that falls inside a compilation takes effect when
-the compilation ends.
+left an error on a cold cache, so such an interrupt waits for the compilation's end.
 """
 
 from __future__ import annotations
@@ -18,15 +19,12 @@ import threading
 from contextlib import contextmanager
 from typing import Any, Iterator
 
+from daebench.core.interrupt import RunTimeout, pending, request, withdraw
 from daebench.core.params import ParamError
 from daebench.harness.running.compile_events import COMPILE_DEPTH
 
 RECHECK_S = 0.05    # while the capped thread compiles, the watchdog looks again this often
-
-
-class RunTimeout(BaseException):
-    """A run exceeded its wall-time cap (a BaseException so that a plugin's broad
-    ``except Exception`` cannot swallow it)."""
+GRACE_S = 2.0       # a run that has not reached a safe point this long after the cap is interrupted
 
 
 class RunCapError(ParamError):
@@ -54,7 +52,7 @@ def deadline(seconds: float | None) -> Iterator[None]:
     check_run_cap(seconds)
     target = threading.get_ident()
     lock = threading.Lock()
-    state = {"active": True, "fired": False}
+    state = {"active": True, "fired": False, "async": False}
 
     timers: list[threading.Timer] = []
 
@@ -68,11 +66,26 @@ def deadline(seconds: float | None) -> Iterator[None]:
         with lock:
             if not state["active"]:
                 return
-            if COMPILE_DEPTH.compiling(target):
-                arm(RECHECK_S)          # never inside numba's compiler: once it is done
-                return
             state["fired"] = True
-            _raise_in(target, RunTimeout)
+            request(target, RunTimeout)  # honoured at the driver's next safe point (core.interrupt)
+            arm_late(GRACE_S)
+
+    def late() -> None:
+        with lock:
+            if not state["active"] or not pending(target):
+                return
+            if COMPILE_DEPTH.compiling(target):
+                arm_late(RECHECK_S)     # never inside numba's compiler: once it is done
+                return
+            withdraw(target)
+            state["async"] = True
+            _raise_in(target, RunTimeout)  # no safe point within the grace time: interrupt it
+
+    def arm_late(delay: float) -> None:
+        timer = threading.Timer(delay, late)
+        timer.daemon = True
+        timers.append(timer)
+        timer.start()
 
     arm(float(seconds))
     try:
@@ -80,22 +93,22 @@ def deadline(seconds: float | None) -> Iterator[None]:
     except RunTimeout:
         raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s") from None
     except Exception as exc:
-        if not state["fired"]:
+        if not state["async"]:
             raise
-        # the asynchronous RunTimeout landed in a Python model's call from compiled code
-        # (numba.objmode): numba's own exception handling then fails with it pending
-        # ("SystemError: … returned a result with an exception set", or a garbled
-        # TypeError). The run is over its cap either way: a timeout, the error its cause
+        # the asynchronous RunTimeout (a run that reached no safe point within the grace time)
+        # landed in a Python model's call from compiled code (numba.objmode): numba's own
+        # exception handling then fails with it pending ("SystemError: … returned a result
+        # with an exception set", or a garbled TypeError). The run is over its cap either way
         raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s") from exc
     finally:
         with lock:
             for timer in timers:
                 timer.cancel()
             state["active"] = False
-            pending = state["fired"]
-        if pending:
-            _raise_in(target, None)  # the block ended just as the timer fired: drop the pending one
-    if pending:
+            unhonoured = withdraw(target)   # the block ended before its next safe point
+            if state["async"]:
+                _raise_in(target, None)     # the block ended just as the interrupt came: drop it
+    if state["fired"] and unhonoured:
         raise RunTimeout(f"run exceeded the wall-time cap of {seconds:g} s")
 
 

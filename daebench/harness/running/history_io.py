@@ -17,9 +17,9 @@ from pathlib import Path
 import pandas as pd
 
 from daebench.core.params import ParamError
-from daebench.core.scene import Scene
+from daebench.core.scene import Scene, check_name
 from daebench.driver.simulate import RunResult
-from daebench.harness.files import OutputError, atomic_write, jsonable, results_dir, write_error
+from daebench.harness.files import DamagedFile, OutputError, atomic_write, read_json, jsonable, results_dir, under_root, write_error
 from daebench.integrators.base import Integrator, get_integrator
 
 
@@ -44,7 +44,7 @@ def write_history(result: RunResult, scene: Scene, integ: Integrator, out_dir: s
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise write_error(exc, "the history folder", out, "the run finished; its history was not kept") from None
-    path = out / history_name(scene, integ)
+    path = under_root(out, history_name(scene, integ), what="the history")  # the names checked again here
     kept = f"the run itself finished ({result.status}); only its history file is missing"
     if path.suffix == ".parquet":
         atomic_write(path, lambda p: result.history.to_parquet(p, index=False), "the history", kept)
@@ -60,13 +60,20 @@ def write_history(result: RunResult, scene: Scene, integ: Integrator, out_dir: s
 
 
 def history_name(scene: Scene, integ: Integrator) -> str:
-    """<scene>-<integrator>-<run id>.<csv|parquet>"""
+    """<scene>-<integrator>-<run id>.<csv|parquet>; the scene's name is checked as a plain file-name
+    stem here, when the name is used (a ``Scene`` whose ``name`` was changed after loading included).
+
+    Raises
+    ------
+    SceneError
+    """
+    check_name(scene.name)
     return f"{scene.name}-{integ.name}-{run_id(scene, integ)}.{scene.get('output.format', 'csv')}"
 
 
 def keep_history(hist: pd.DataFrame, folder: str | Path, stem: str) -> Path:
     """A sweep row's history as ``<folder>/<stem>.parquet`` (the row's ``history`` column)."""
-    path = Path(folder) / f"{stem}.parquet"
+    path = under_root(folder, f"{stem}.parquet", what="the history")
     path.parent.mkdir(parents=True, exist_ok=True)
     hist.to_parquet(path, index=False)
     return path
@@ -104,9 +111,9 @@ def history_label(path: str | Path, taken: set[str] = frozenset()) -> str:
     defaults, from the sidecar `daebench run` writes (else the file name)."""
     p = Path(path)
     try:
-        meta = json.loads(p.with_suffix(".json").read_text())
+        meta = read_json(p.with_suffix(".json"), "the history's sidecar")
         name, settings = str(meta["integrator"]), dict(meta["settings"])
-    except (OSError, ValueError, KeyError, TypeError):
+    except (DamagedFile, KeyError, TypeError, ValueError, AttributeError):  # a damaged sidecar: the file name
         return p.stem
     try:
         defaults = {s.name: s.default for s in get_integrator(name).settings_spec}

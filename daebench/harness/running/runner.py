@@ -90,7 +90,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
     scene, integrator, options : what to run
     out_dir, write : where the history goes (default results/runs), and whether it is written
     force : run even when the step count or history size is beyond :mod:`.checks`' limits
-    run_cap : wall-time cap in seconds (:class:`.deadline.RunTimeout` beyond it)
+    run_cap : wall-time cap in seconds (:class:`daebench.core.interrupt.RunTimeout` beyond it)
     progress : called with the simulated time, at most every 0.25 s of wall time
     record_states : keep the integrator's (t, q, v, a, λ) at the output times (``RunResult.states``)
     step_check : check a conditionally stable method's step against the scene before the first
@@ -103,6 +103,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
         (GuardError, IntegratorError) before the first step: bad settings, an output
         folder that cannot be written, an unknown observable, a run beyond the limits.
     """
+    scene.revalidated()  # values changed in place after loading are refused like overrides
     integ = integrator if isinstance(integrator, Integrator) else make_integrator(integrator, options)
     checks.check_contacts_fit(scene, type(integ))
     system = build_system(scene)
@@ -114,6 +115,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
     if write:  # the folder and the longest name written there are checked before any step
         ensure_writable_dir(history_dir(out_dir), "history folder",
                                    longest_name=f".{history_name(scene, integ)}.json.{os.getpid()}.tmp")
+    checks.check_memory(scene, system)
     checks.check_observables(scene, system)
     # the history keeps every observable (modal participations included); the scene's
     # output.observables are the ones scored (see bench)

@@ -220,7 +220,8 @@ def impact_energy_scores(system: Any, impacts: Sequence[Any], restitution: float
     losses, exact = [], []
     for imp in impacts:
         losses.append(float(imp.energy_loss))
-        if getattr(imp, "q", None) is None or getattr(imp, "v_minus", None) is None:
+        if getattr(imp, "q", None) is None or getattr(imp, "v_minus", None) is None \
+                or getattr(imp, "law", "") == "lzb":  # no state, or not Newton's law
             exact.append(math.nan)
         else:
             exact.append(exact_impact_loss(system, imp.q, imp.v_minus, int(imp.contact), restitution, float(imp.t)))

@@ -42,7 +42,8 @@ scene's. What the run's values are, per family:
   these errors are O(h): the cost of resolving the impact inside a step.
 
 Checked are the records with a state (q, v⁻, v⁺) and an impulse; others (a continuous-law
-episode, a record without state) are counted as skipped.
+episode, a record without state, an impact under the Liu–Zhao–Brogliato multiple-impact
+law, whose outcome is not Newton's) are counted as skipped.
 """
 
 from __future__ import annotations
@@ -150,8 +151,8 @@ def check_impact(system: Any, record: Any, restitution: float) -> ImpactCheck | 
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(vm)) and np.all(np.isfinite(vp))):
         return None
     P = run_impulse(record)
-    if not math.isfinite(P):
-        return None  # a continuous-law episode: no impulse
+    if not math.isfinite(P) or getattr(record, "law", "") == "lzb":
+        return None  # a continuous-law episode (no impulse), or the multiple-impact law (not Newton's)
     e_rec = float(getattr(record, "restitution", math.nan))
     res = exact_impact(system, q, vm, int(record.contact), e_rec if math.isfinite(e_rec) else restitution,
                        float(record.t))

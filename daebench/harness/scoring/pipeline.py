@@ -4,7 +4,8 @@ and ``daebench compare`` alike.
 
 **Against what.** The model's exact solution where it has one for this run — a system
 method ``exact_observables(t) -> {column: values}`` that raises ``ValueError`` outside
-its range (the pendulum's elliptic-function solution; a revolving pendulum has none) —
+its range (the pendulum's elliptic-function solution; a revolving pendulum has none), and
+``exact_impacts(t_end) -> times`` where the motion has impacts (the ball's) —
 else the scene's cached reference (:mod:`daebench.harness.references.reference`), else nothing.
 :func:`truth` picks it; :func:`score` scores against it.
 
@@ -85,10 +86,14 @@ class Truth:
     #: impacts there; an exact solution: its whole span; a reference without an accuracy record: NaN, -1
     trust_t: float = math.nan
     trust_impacts: int = -1
+    #: what computed the reference, in a few words ('ida rtol 1e-11', 'moreau h 5e-06 (event capturing)')
+    made_by: str = ""
 
     @property
     def description(self) -> str:
-        return self.against if self.against != "reference" else f"cached reference (IDA rtol {self.rtol:g})"
+        if self.against != "reference":
+            return self.against
+        return f"cached reference ({self.made_by or f'ida rtol {self.rtol:g}'})"
 
 
 @dataclass(frozen=True)
@@ -129,15 +134,17 @@ def exact_truth(run: Run) -> Truth | None:
         return None
     if not set(run.scored_columns()) <= set(cols):
         return None
+    exact_impacts = getattr(run.system, "exact_impacts", None)   # a model with impacts: their exact times
+    impacts = tuple(float(x) for x in exact_impacts(float(t[-1]))) if exact_impacts is not None else ()
     return Truth(pd.DataFrame({"t": t, **{k: np.asarray(v, float) for k, v in cols.items()}}),
-                 (), "exact solution", trust_t=float(t[-1]), trust_impacts=0)
+                 impacts, "exact solution", trust_t=float(t[-1]), trust_impacts=len(impacts))
 
 
 def reference_truth(ref: Any) -> Truth:
     """A cached reference (:class:`daebench.harness.references.reference.Reference`) as a truth."""
     acc = ref.meta.get("accuracy") or {}
     return Truth(ref.history, tuple(float(x) for x in ref.impacts), "reference", float(ref.rtol),
-                 float(acc.get("trust_t", math.nan)), int(acc.get("trust_impacts", -1)))
+                 float(acc.get("trust_t", math.nan)), int(acc.get("trust_impacts", -1)), ref.describe())
 
 
 def truth(run: Run, reference: Callable[[], Any] | None) -> Truth | None:

@@ -108,7 +108,9 @@ def plan_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequenc
     variants = {}
     for i, sc in enumerate(scene_combos):
         variants[i] = scene.with_overrides(sc)
-        checks.check_observables(variants[i], build_system(variants[i]))
+        system = build_system(variants[i])
+        checks.check_memory(variants[i], system)
+        checks.check_observables(variants[i], system)
     specs: list[RunSpec] = []
     for name, cls in classes.items():
         spec_names = {s.name for s in cls.settings_spec}

@@ -12,7 +12,7 @@ from typing import Any
 
 from daebench.core.scene import Scene
 from daebench.harness.references.reference import Reference, ReferenceMissing, load_reference
-from daebench.harness.running.deadline import RunTimeout
+from daebench.core.interrupt import RunTimeout
 from daebench.harness.running.history_io import keep_history
 from daebench.harness.running.runner import run_scene
 from daebench.harness.running.timing import WARMUP_CAP_S, time_call
@@ -127,7 +127,7 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
         _nan_errors(row)
     except Exception as exc:  # never lose a row
         row.update(outcome_row(spec, scene, "error", f"{type(exc).__name__}: {exc}"))
-        row["traceback"] = traceback.format_exc(limit=4)
+        row["traceback"] = traceback.format_exc()   # whole: the integrator's own frames are the innermost
         _nan_errors(row)
     return row
 

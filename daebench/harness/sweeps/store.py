@@ -114,7 +114,9 @@ class SweepStore:
         """
         check_name(name)
         folder = ensure_writable_dir(folder, "table folder")
-        fd = os.open(folder / f"{name}.lock", os.O_RDWR | os.O_CREAT, 0o644)
+        lock = folder / f"{name}.lock"
+        made = not lock.exists()
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -122,11 +124,15 @@ class SweepStore:
             raise StoreError(f"table '{name}' is being written by another sweep right now; wait for it, or "
                              f"choose another --name") from None
         try:
-            return cls._open_locked(folder, name, manifest, resume, overwrite, fd)
+            store = cls._open_locked(folder, name, manifest, resume, overwrite, fd)
         except BaseException:
+            if made:   # refused: the lock this call made goes with it
+                lock.unlink(missing_ok=True)
             fcntl.flock(fd, fcntl.LOCK_UN)
             os.close(fd)
             raise
+        store.new = not resume
+        return store
 
     @classmethod
     def _open_locked(cls, folder: Path, name: str, manifest: dict[str, Any], resume: bool, overwrite: bool,
@@ -182,10 +188,44 @@ class SweepStore:
                 f"the {n} rows stored before it are kept there; free space and complete the sweep with "
                 f"--resume --name {self.name} (the runs without a row are run then)") from None
 
+    new = False   # opened for a new sweep (not resumed): discard() may remove it
+
+    def discard(self) -> None:
+        """Close, and remove the row store and the lock of a new sweep that was refused
+        before any row was stored: a refused sweep leaves nothing behind."""
+        try:
+            rows = self.db.execute("SELECT COUNT(*) FROM rows").fetchone()[0]
+        except sqlite3.Error:   # cannot tell: keep it
+            rows = -1
+        self.close()
+        if self.new and not rows:
+            for p in (self.path, self.folder / f"{self.path.name}-journal", self.folder / f"{self.name}.lock"):
+                p.unlink(missing_ok=True)
+
     def close(self) -> None:
         """Close the database and release the lock."""
         try:
             self.db.close()
+        finally:
+            if self._lock_fd >= 0:
+                fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
+                os.close(self._lock_fd)
+                self._lock_fd = -1
+
+    def discard(self) -> None:
+        """Remove a store that was made for a sweep refused before any run (its rows file and
+        lock; the lock file is removed while still held, then released), so that nothing
+        is left behind and the corrected command starts afresh."""
+        rows = self.db.execute("SELECT COUNT(*) FROM rows").fetchone()[0]
+        self.db.close()
+        try:
+            if rows == 0:
+                for p in (self.path, self.path.with_name(self.path.name + "-journal"),
+                          self.folder / f"{self.name}.lock"):
+                    try:
+                        p.unlink()
+                    except FileNotFoundError:
+                        pass
         finally:
             if self._lock_fd >= 0:
                 fcntl.flock(self._lock_fd, fcntl.LOCK_UN)

@@ -78,7 +78,7 @@ def prepare_references(specs: Sequence[RunSpec], scene: Scene, reference_mode: s
                 continue
             raise
         except RuntimeError as exc:
-            raise SweepError(f"the reference could not be computed: {exc}") from None
+            raise ReferenceFailed(f"the reference could not be computed: {exc}") from None
         if (tight is not None and ref.rtol > tight / REF_MARGIN and reference_mode == "compute"
                 and reference_tolerances(tight)[0] <= tight / REF_MARGIN):
             # asked to compute: a cached reference too loose for these runs is replaced by a tighter
@@ -89,12 +89,19 @@ def prepare_references(specs: Sequence[RunSpec], scene: Scene, reference_mode: s
             try:
                 ref = compute_reference(sc, tightest_rtol=tight, progress=progress)
             except RuntimeError as exc:
-                raise SweepError(f"the reference could not be computed: {exc}") from None
+                raise ReferenceFailed(f"the reference could not be computed: {exc}") from None
         if tight is not None and ref.rtol > tight / REF_MARGIN:
             raise SweepError(
                 f"the cached reference of '{sc.name}' (rtol {ref.rtol:g}) is not {REF_MARGIN:g}× tighter than "
                 f"the tightest scored rtol {tight:g}; run `daebench reference {sc.name} --force "
                 f"--rtol {tight / REF_MARGIN:g}`")
+
+
+class ReferenceFailed(SweepError):
+    """The reference run itself did not complete: the input was fine, the work failed (the
+    command line exits 1, not 2)."""
+
+    exit_code = 1
 
 
 # ==== running ===================================================================================
@@ -174,6 +181,7 @@ def _make_row(spec: RunSpec, status: str, message: str, scene: Scene) -> dict[st
 def manifest(scene: Scene, specs: Sequence[RunSpec], reference_mode: str, repeats: int) -> dict[str, Any]:
     """What a resumed sweep must share with the original: scene, plan, scoring, timing."""
     return {"scene": scene.name, "scene_hash": scene.hash, "reference_mode": reference_mode, "repeats": repeats,
+            "observables": list(scene["output.observables"]),  # scored, yet outside the scene's hash
             "plan": [[s.index, s.integrator, s.options, s.scene_overrides, s.skip] for s in specs]}
 
 
@@ -213,16 +221,27 @@ def run_sweep(scene: Scene, plan: Plan, options: SweepOptions = SweepOptions()) 
         client, release = executors.connect_dask(execution.scheduler,
                                                  _int_at_least_1(execution.jobs, "jobs", MAX_JOBS))
         options = replace(options, execution=replace(execution, scheduler=client))
-    store = None
+    store, new = None, False
     try:
+        # every option a refusal can come from is checked before the store exists
+        _int_at_least_1(execution.jobs, "jobs", MAX_JOBS)
+        _int_at_least_1(options.timing.repeats, "repeats", 1000)
+        check_run_cap(options.timing.run_cap)
         if storage.write:
             folder = Path(storage.folder) if storage.folder is not None else results_dir() / "bench"
             name = storage.name if storage.name is not None else unique_name(scene.name)
+            new = not storage.resume
             store = SweepStore.open(folder, name, manifest(scene, specs, options.reference, options.timing.repeats),
                                     storage.resume, storage.overwrite)
         elif storage.resume or storage.overwrite:
             raise SweepError("resume and overwrite need a stored sweep (write=True)")
-        prepare_references(specs, scene, options.reference, run_progress_factory(execution.progress))
+        try:
+            prepare_references(specs, scene, options.reference, run_progress_factory(execution.progress))
+        except BaseException:
+            if store is not None and new:  # refused before any run: the store made for it goes again
+                store.discard()
+                store = None
+            raise
         try:
             df = run_specs(specs, scene, options, store, description=scene.name)
         except SweepInterrupted as exc:
@@ -232,6 +251,10 @@ def run_sweep(scene: Scene, plan: Plan, options: SweepOptions = SweepOptions()) 
         if store is not None:
             df.attrs["path"] = write_table(df, store.name, [scene], store.folder, complete=True)
         return df
+    except Exception:   # refused before any run (a missing reference, bad options): nothing is left behind
+        if store is not None:
+            store.discard()
+        raise
     finally:
         if store is not None:
             store.close()

@@ -23,7 +23,7 @@ import pandas as pd
 
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene
-from daebench.harness.files import results_dir
+from daebench.harness.files import ensure_writable_dir, results_dir
 from daebench.harness.running import provenance
 from daebench.harness.running.history_io import read_history
 from daebench.harness.sweeps import sweep
@@ -137,7 +137,7 @@ def run_paper(quick: bool = False, jobs: int = 1, out: str | Path | None = None,
         raise ParamError(f"unknown paper variant '{variant}'; choose one of {', '.join(VARIANTS)}")
     p = Protocol.quick() if quick else VARIANTS[variant]()
     folder = Path(out) if out is not None else results_dir() / "paper" / p.name
-    folder.mkdir(parents=True, exist_ok=True)
+    ensure_writable_dir(folder, "output folder (--out)")  # before the runs, not after them
     scene = base_scene(p)
     specs = plan(p)
     options = SweepOptions(reference="auto", timing=Timing(run_cap=run_cap),

@@ -96,7 +96,10 @@ def cost(out: Path) -> list[dict]:
     return rows
 
 
-def figure(out: Path, dest: Path = Path("results/curated/slider-slot.png")) -> None:
+def figure(out: Path, dest: Path | None = None) -> None:
+    """The slider figure from the slider part's rows in ``out``, written to ``dest`` (default
+    ``out``/slider-slot.png: under the chosen output folder, like every output; the curated
+    copy is results/curated/slider-slot.png)."""
     import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # lazy: as above
@@ -121,7 +124,7 @@ def figure(out: Path, dest: Path = Path("results/curated/slider-slot.png")) -> N
     ax[0].legend(fontsize=7, loc="lower right")
     ax[1].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(dest, dpi=120)
+    fig.savefig(dest if dest is not None else out / "slider-slot.png", dpi=120)
 
 
 def _dump(path: Path, rows: list[dict]) -> None:
@@ -132,7 +135,7 @@ def _dump(path: Path, rows: list[dict]) -> None:
 PARTS = {"rodwall": rod_wall, "slider": slider, "rodplate": rod_plate, "cost": cost, "figure": figure}
 
 
-def run_part(part: str, out: Path = Path("results/flexcontact")) -> None:
+def run_part(part: str, out: Path) -> None:
     """One part of :data:`PARTS`, its files written under ``out``."""
     out.mkdir(parents=True, exist_ok=True)
     PARTS[part](out)

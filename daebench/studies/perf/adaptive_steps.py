@@ -9,7 +9,8 @@ from typing import Any
 import numpy as np
 
 from daebench.harness.scoring import metrics
-from daebench.harness.running.deadline import RunTimeout, deadline
+from daebench.core.interrupt import RunTimeout
+from daebench.harness.running.deadline import deadline
 from daebench.harness.references.reference import load_reference
 from daebench.harness.running.runner import run_scene
 from daebench.models.scenes import load_scene
