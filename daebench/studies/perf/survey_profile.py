@@ -28,6 +28,10 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any, Callable
 
+from daebench.harness.scoring import pipeline
+from daebench.harness.sweeps import row, store
+from daebench.workflows import survey
+
 WORKER_STAGES = ("warm-up", "timed", "repeats", "system build", "truth", "digest", "energy")
 MAIN_STAGES = ("case", "plan", "references", "writing", "repeat check")
 
@@ -63,10 +67,6 @@ def since_start() -> float:
 
 def install(rec: Recorder) -> None:
     """Wrap the survey's stages (module docstring) with ``rec``'s timers."""
-    from daebench.harness.scoring import pipeline
-    from daebench.harness.sweeps import row, store
-    from daebench.workflows import survey
-
     execute = row.execute
 
     def execute_in_case(spec: Any, scene: Any, *args: Any, **kwargs: Any) -> Any:
@@ -154,7 +154,6 @@ def main(argv: list[str] | None = None) -> None:
         return
     if not a.name:
         ap.error("NAME (the survey's name) is needed to run one")
-    from daebench.workflows import survey
     rec = Recorder(a.out)
     rec.emit("import", since_start(), time.process_time(), "(all)")
     install(rec)
