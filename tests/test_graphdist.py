@@ -1,6 +1,6 @@
 """The graph (Hausdorff) distance (daebench.harness.scoring.graphdist): closed forms (a jump moved by
-d is d away, a constant offset c is c away), the strided search against a full search,
-the velocity-level probe, and the convergence order of Moreau–Jean and the nonsmooth
+d is d away, a constant offset c is c away, simple polylines), the compiled search against a
+brute-force dense resampling, the velocity-level probe, and the convergence order of Moreau–Jean and the nonsmooth
 generalized-α scheme on the bouncing ball against its exact piecewise-parabolic motion,
 where a pointwise error does not converge but the graph distance falls like h."""
 
@@ -60,16 +60,47 @@ def test_bad_input_is_refused():
         gd.graph_errors(step(0.5), pd.DataFrame({"t": [1.0, 1.0], "y": [0.0, 1.0]}), ["y"])
 
 
+def test_polyline_closed_forms():
+    """Simple polylines with known distances: a tent of height 1 over [0, 2] against the flat
+    line (1: the apex; back, the flat line's middle is 1/√2 from the tent); a flat line over
+    [0, 4] given by its ends only against a graph that leaves it at t = 1 and returns at t = 3
+    (the directed distance is 1, at the line's midpoint, inside its one segment: the search
+    must split the segment to find it; back, the plateau at height 5 is 5 away)."""
+    tent_t, tent_y = np.r_[0.0, 1.0, 2.0], np.r_[0.0, 1.0, 0.0]
+    flat_t, flat_y = np.r_[0.0, 2.0], np.r_[0.0, 0.0]
+    assert gd.polyline_distance(tent_t, tent_y, flat_t, flat_y, 1e-9, 0.0) == pytest.approx(1.0, abs=1e-9)
+    assert gd._directed(flat_t, flat_y, tent_t, tent_y, 1e-9, 0.0) == pytest.approx(1 / math.sqrt(2), abs=1e-9)
+    line_t, line_y = np.r_[0.0, 4.0], np.r_[0.0, 0.0]
+    box_t, box_y = np.r_[0.0, 1.0, 1.0, 3.0, 3.0, 4.0], np.r_[0.0, 0.0, 5.0, 5.0, 0.0, 0.0]
+    assert gd._directed(line_t, line_y, box_t, box_y, 1e-9, 0.0) == pytest.approx(1.0, abs=1e-9)
+    assert gd.polyline_distance(line_t, line_y, box_t, box_y, 1e-9, 0.0) == pytest.approx(5.0, abs=1e-9)
+    # the stated resolution: a coarse δ = 0.1 finds the midpoint's 1 to within δ/2
+    assert abs(gd._directed(line_t, line_y, box_t, box_y, 0.1, 0.0) - 1.0) <= 0.05
+
+
+def dense_points(t: np.ndarray, y: np.ndarray, step: float) -> np.ndarray:
+    """Points along the polyline through (t, y), no more than ``step`` apart."""
+    p = np.column_stack([t, y])
+    k = np.maximum(np.ceil(np.hypot(*np.diff(p, axis=0).T) / step).astype(int), 1)
+    s = np.concatenate([np.arange(j) / j for j in k])
+    seg = np.repeat(np.arange(k.size), k)
+    return np.vstack([p[seg] + s[:, None] * (p[seg + 1] - p[seg]), p[-1:]])
+
+
 @settings(max_examples=25, deadline=None)
-@given(st.integers(0, 2**31 - 1), st.integers(150, 3000), st.integers(150, 3000))
-def test_strided_search_equals_full_search(seed, n, m):
-    """:func:`directed` (every STRIDE-th point first, then the neighbourhoods of the best)
-    returns exactly the maximum over all points of the nearest-neighbour distance."""
+@given(st.integers(0, 2**31 - 1), st.integers(2, 400), st.integers(2, 400))
+def test_polyline_distance_equals_brute_force(seed, n, m):
+    """:func:`polyline_distance` (branch and bound, exact point-to-segment distances) against
+    a brute force: both polylines resampled 2e-4 apart and the point sets' Hausdorff distance
+    by k-d tree (within 2e-4 of the polylines'): equal within the two resolutions."""
     rng = np.random.default_rng(seed)
-    a = np.cumsum(rng.normal(scale=1e-3, size=(n, 2)), axis=0)
-    b = np.cumsum(rng.normal(scale=1e-3, size=(m, 2)), axis=0) + rng.normal(scale=5e-3, size=2)
-    full = float(np.max(cKDTree(b).query(a)[0]))
-    assert gd.directed(a, b) == full
+    ta, tb = np.sort(rng.uniform(0.0, 1.0, n)), np.sort(rng.uniform(0.0, 1.0, m))
+    ya = np.cumsum(rng.normal(scale=2e-2, size=n))
+    yb = np.cumsum(rng.normal(scale=2e-2, size=m)) + rng.normal(scale=5e-2)
+    d = gd.polyline_distance(ta, ya, tb, yb, resolution=1e-5, relative=0.0)
+    a, b = dense_points(ta, ya, 2e-4), dense_points(tb, yb, 2e-4)
+    brute = max(float(np.max(cKDTree(b).query(a)[0])), float(np.max(cKDTree(a).query(b)[0])))
+    assert abs(d - brute) <= 2e-4 + 1e-5
 
 
 def test_velocity_level_probe():

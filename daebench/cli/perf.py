@@ -24,7 +24,8 @@ def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke te
          section: Optional[str] = typer.Option(None, "--section",
                                                help="one measurement alone: model-floor (the floor under steps/s), "
                                                     "structure (rod-wall banded scaling), new-model (a new model's "
-                                                    "compile cost), cold-start (first commands on an empty cache)"),
+                                                    "compile cost), cold-start (first commands on an empty cache), "
+                                                    "friction (stick/slip per step against μ = 0)"),
          out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/perf)")) -> None:
     """Measure the speed figures in one run and write them to results/perf/.
 

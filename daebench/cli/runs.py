@@ -72,6 +72,7 @@ def run_summary(r: Any) -> list[tuple[str, str]]:
     pairs = [("run", f"{r.scene.name} with integrator {r.integrator}"),
              ("settings", _settings_text(r.settings) or "(none)"),
              ("status", f"{r.status}{' — ' + r.message if r.message else ''} ({r.wall_s:.3g} s wall)")]
+    pairs += [("warning", w) for w in getattr(r.record, "warnings", [])]
     declared = r.declared
     obs = r.record.observables
     finals = [("t", "s")] + [(o.name, o.unit) for o in declared.declared if o.summary]

@@ -46,7 +46,7 @@ import numpy as np
 from numba import njit
 
 from daebench.core.borrow import copy_to, uncounted
-from daebench.core import kernels
+from daebench.core import coulomb, kernels
 from daebench.core.kernels import fd_step
 from daebench.core.linalg import lu_factor, lu_solve
 
@@ -62,6 +62,8 @@ class PhaseData(NamedTuple):
     chi: np.ndarray         # float64 per contact: hysteresis factor of the current episode
     gq: np.ndarray          # float64[n] scratch: one gap-Jacobian row
     work: np.ndarray        # float64[5n] scratch: contact-force differences, tangent rows
+    friction: tuple         # coulomb.FrictionData: stick rows and slipping contacts (coulomb.NONE: none)
+    lumped: np.ndarray      # float64[n]: a lumped model's constant diagonal mass (its kernel's M may have no rows); [0]: none
 
 
 # -- contact laws ------------------------------------------------------------------------
@@ -136,7 +138,16 @@ def _contact_force(ph, i, q, v, gq, tq, fric=True):
 
 @uncounted
 def mass_force(ph, t, q, v, M, Q):
-    """M(q) and the phase's force Q (model force + engaged contact forces g_qᵀF_N + t_qᵀF_T)."""
+    """M(q) and the phase's force Q (model force + engaged contact forces g_qᵀF_N + t_qᵀF_T
+    + the slip friction of closed contacts, :func:`add_slip_force`)."""
+    _mass_force(ph, t, q, v, M, Q)
+    if ph.friction.slip.shape[0]:
+        add_slip_force(ph, t, q, v, M, Q)
+
+
+@uncounted
+def _mass_force(ph, t, q, v, M, Q):
+    """M(q) and the phase's force without the slip friction of closed contacts."""
     kernels.mass_force(ph.model, t, q, v, M, Q)
     if ph.law[0] != LAW_NONE:
         n = q.shape[0]
@@ -147,6 +158,143 @@ def mass_force(ph, t, q, v, M, Q):
                 if g < 0.0:
                     for j in range(n):
                         Q[j] += gq[j] * F + tq[j] * FT
+
+
+# -- Coulomb friction at closed contacts (daebench.core.coulomb, daebench.driver.stickslip) --------------
+@uncounted
+def slip_normal_forces(ph, t, q, v, M, Q):
+    """The consistent multipliers of the phase at (t, q, v) with the slip friction columns,
+    [[M, C_qᵀ + Σ μ s t_qᵀ e_Nᵀ], [C_q, 0]] [a; λ] = [Q; γ] (M, Q without the slip force):
+    λ into ``friction.b[n:]``, the slipping contacts' tangent rows into ``friction.T``.
+    Returns the LU info (0 = solved)."""
+    fr = ph.friction
+    n = q.shape[0]
+    m = fr.C.shape[0]
+    A, b = fr.A, fr.b
+    constraints(ph, t, q, v, fr.C, fr.Cq, fr.Ct, fr.gam)
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = M[i, j]
+        b[i] = Q[i]
+    for k in range(m):
+        for j in range(n):
+            A[j, n + k] = fr.Cq[k, j]
+            A[n + k, j] = fr.Cq[k, j]
+        for l in range(m):
+            A[n + k, n + l] = 0.0
+        b[n + k] = fr.gam[k]
+    for k in range(fr.slip.shape[0]):
+        tq = fr.T[k]
+        kernels.tangent(ph.model, fr.slip[k], q, v, tq)
+        col = n + ph.nb + fr.slip_act[k]
+        ms = fr.slip_mu[k] * fr.slip_s[k]
+        for j in range(n):
+            A[j, col] += ms * tq[j]
+    info = lu_factor(A, fr.piv)
+    if info != 0:
+        return info
+    lu_solve(A, fr.piv, b)
+    return 0
+
+
+@uncounted
+def add_slip_force(ph, t, q, v, M, Q):
+    """Q −= Σ μ s λ_N t_q over the slipping contacts, λ_N their consistent normal forces
+    (:func:`slip_normal_forces` at this M and Q); a singular system leaves NaN (the step
+    fails on it). An M without rows (a lumped mass) is evaluated here."""
+    fr = ph.friction
+    n = q.shape[0]
+    if M.shape[0] != n:
+        kernels.mass_force(ph.model, t, q, v, fr.M, fr.Q)
+        M = fr.M
+    if slip_normal_forces(ph, t, q, v, M, Q) != 0:
+        for j in range(n):
+            Q[j] = math.nan
+        return
+    _subtract_slip(ph, n, Q)
+
+
+@uncounted
+def _subtract_slip(ph, n, Q):
+    """Q −= Σ μ s λ_N t_q with the λ and tangent rows :func:`slip_normal_forces` left."""
+    fr = ph.friction
+    for k in range(fr.slip.shape[0]):
+        f = fr.slip_mu[k] * fr.slip_s[k] * fr.b[n + ph.nb + fr.slip_act[k]]
+        for j in range(n):
+            Q[j] = Q[j] - f * fr.T[k, j]
+
+
+@uncounted
+def slip_power(ph, t, q, v):
+    """Power of the slip friction forces, −Σ μ λ_N |t_q v| ≤ 0 (0 without slip)."""
+    fr = ph.friction
+    if fr.slip.shape[0] == 0:
+        return 0.0
+    n = q.shape[0]
+    _mass_force(ph, t, q, v, fr.M, fr.Q)
+    if slip_normal_forces(ph, t, q, v, fr.M, fr.Q) != 0:
+        return math.nan
+    P = 0.0
+    for k in range(fr.slip.shape[0]):
+        u = 0.0
+        for j in range(n):
+            u += fr.T[k, j] * v[j]
+        P += -fr.slip_mu[k] * fr.slip_s[k] * fr.b[n + ph.nb + fr.slip_act[k]] * u
+    return P
+
+
+@uncounted
+def _slip_force(ph, t, q, v, out):
+    """The slip friction force alone into ``out`` (NaN where its system is singular)."""
+    fr = ph.friction
+    n = q.shape[0]
+    _mass_force(ph, t, q, v, fr.M, fr.Q)
+    info = slip_normal_forces(ph, t, q, v, fr.M, fr.Q)
+    for j in range(n):
+        out[j] = 0.0 if info == 0 else math.nan
+    if info == 0:
+        _subtract_slip(ph, n, out)
+
+
+@uncounted
+def _slip_force_jacobian(ph, t, q, v, Kq, Kv):
+    """Central differences of the slip friction force, added to Kq and Kv."""
+    fr = ph.friction
+    n = q.shape[0]
+    x, fp, fm = fr.xd, fr.fp, fr.fm
+    for wrt_v in (False, True):
+        base = v if wrt_v else q
+        K = Kv if wrt_v else Kq
+        for j in range(n):
+            dx = fd_step(base[j])
+            copy_to(x, base)
+            x[j] = base[j] + dx
+            if wrt_v:
+                _slip_force(ph, t, q, x, fp)
+            else:
+                _slip_force(ph, t, x, v, fp)
+            x[j] = base[j] - dx
+            if wrt_v:
+                _slip_force(ph, t, q, x, fm)
+            else:
+                _slip_force(ph, t, x, v, fm)
+            for r in range(n):
+                K[r, j] = K[r, j] + (fp[r] - fm[r]) / (2.0 * dx)
+
+
+@uncounted
+def book_friction(ph, t0, t1, q, v):
+    """Book the slip friction's work over the step t0 → t1 ending at (q, v)
+    (:func:`daebench.core.coulomb.book_step`); nothing without slip."""
+    if ph.friction.slip.shape[0]:
+        coulomb.book_step(ph.friction, t0, t1, slip_power(ph, t1, q, v))
+
+
+@uncounted
+def friction_switches(ph, q, v, lam):
+    """Whether a stick/slip switch happened at (q, v), λ the consistent multipliers there
+    (:func:`daebench.core.coulomb.switches`)."""
+    return coulomb.switches(ph.model, ph.friction, ph.nb, q, v, lam)
 
 
 @uncounted
@@ -172,6 +320,8 @@ def force_jacobian(ph, t, q, v, Kq, Kv):
     """∂Q/∂q, ∂Q/∂v of the phase's force: the model's kernel plus central differences of
     each engaged, penetrating contact force g_iᵀF_N,i + t_iᵀF_T,i."""
     kernels.force_jacobian(ph.model, t, q, v, Kq, Kv)
+    if ph.friction.slip.shape[0]:
+        _slip_force_jacobian(ph, t, q, v, Kq, Kv)
     if ph.law[0] == LAW_NONE:
         return
     n = q.shape[0]
@@ -208,8 +358,12 @@ def mass_jacobian_product(ph, q, a, K):
 # -- constraints ----------------------------------------------------------------------------
 @uncounted
 def constraints(ph, t, q, v, C, Cq, Ct, gam):
-    """Rows of the active constraints: bilateral, then C = −g of each closed contact."""
+    """Rows of the active constraints: bilateral, the stick rows of sticking contacts
+    (:func:`daebench.core.coulomb.stick_rows`), then C = −g of each closed contact."""
     kernels.constraints(ph.model, t, q, v, C, Cq, Ct, gam)
+    ns = ph.friction.stick.shape[0]
+    if ns:
+        coulomb.stick_rows(ph.model, ph.friction, ph.nb - ns, q, v, C, Cq, Ct, gam)
     r = ph.nb
     gq = ph.gq
     for c in ph.active:
@@ -328,9 +482,12 @@ def augmented_work(n, m):
 def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
     """q̈ and λ from [[M, C_qᵀ], [C_q, 0]] [q̈; λ] = [Q; γ − 2δ(C_q v + C_t) − ε²C];
     δ = ε = 0 gives the consistent acceleration of the phase. Returns the LU info
-    (0 = solved)."""
+    (0 = solved). A lumped model's (diagonal M) goes through the Schur complement
+    (:func:`_solve_lumped`): O(n·m + m³) instead of the dense O((n + m)³)."""
     n = q.shape[0]
     m = lam.shape[0]
+    if ph.lumped.shape[0] == n:
+        return _solve_lumped(ph, t, q, v, delta, eps, w, acc, lam)
     mass_force(ph, t, q, v, w.M, w.Q)
     A, b = w.A, w.b
     for i in range(n):
@@ -340,18 +497,8 @@ def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
     if m:
         C, Cq, Ct, gam = w.C, w.Cq, w.Ct, w.gam
         constraints(ph, t, q, v, C, Cq, Ct, gam)
-        d2 = 2.0 * delta
-        e2 = eps ** 2
         for k in range(m):
-            rc = gam[k]
-            if delta:
-                cv = 0.0
-                for j in range(n):
-                    cv += Cq[k, j] * v[j]
-                rc = rc - d2 * (cv + Ct[k])
-            if eps:
-                rc = rc - e2 * C[k]
-            b[n + k] = rc
+            b[n + k] = _rhs_row(delta, eps, k, n, v, C, Cq, Ct, gam)
             for j in range(n):
                 A[j, n + k] = Cq[k, j]
                 A[n + k, j] = Cq[k, j]
@@ -365,6 +512,64 @@ def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
         acc[i] = b[i]
     for k in range(m):
         lam[k] = b[n + k]
+    return 0
+
+
+@uncounted
+def _rhs_row(delta, eps, k, n, v, C, Cq, Ct, gam):
+    """Row k of the constraint right-hand side γ − 2δ(C_q v + C_t) − ε²C."""
+    rc = gam[k]
+    if delta:
+        cv = 0.0
+        for j in range(n):
+            cv += Cq[k, j] * v[j]
+        rc = rc - 2.0 * delta * (cv + Ct[k])
+    if eps:
+        rc = rc - eps ** 2 * C[k]
+    return rc
+
+
+@uncounted
+def _solve_lumped(ph, t, q, v, delta, eps, w, acc, lam):
+    """:func:`solve_augmented` for a diagonal M = diag(d) (``ph.lumped``): the Schur complement
+    (C_q D⁻¹ C_qᵀ) λ = C_q D⁻¹ Q − r, q̈ = D⁻¹ (Q − C_qᵀ λ), over the nonzeros of each
+    constraint row (a contact row touches a few nodes). Neither M nor the n × n parts of the
+    workspace are touched (the kernel's force alone: a lumped model's M may have no rows)."""
+    n = q.shape[0]
+    m = lam.shape[0]
+    d = ph.lumped
+    mass_force(ph, t, q, v, w.M[:0], w.Q)
+    Q = w.Q
+    if m:
+        C, Cq, Ct, gam = w.C, w.Cq, w.Ct, w.gam
+        constraints(ph, t, q, v, C, Cq, Ct, gam)
+        S, b, idx = w.A[:m, :m], w.b, w.piv[m:]
+        for k in range(m):
+            nz = 0
+            s = 0.0
+            for j in range(n):
+                if Cq[k, j] != 0.0:
+                    idx[nz] = j
+                    nz += 1
+                    s += Cq[k, j] * (Q[j] / d[j])
+            b[k] = s - _rhs_row(delta, eps, k, n, v, C, Cq, Ct, gam)
+            for l in range(m):
+                s = 0.0
+                for a in range(nz):
+                    j = idx[a]
+                    s += Cq[k, j] * Cq[l, j] / d[j]
+                S[k, l] = s
+        info = lu_factor(S, w.piv[:m])
+        if info != 0:
+            return info
+        lu_solve(S, w.piv[:m], b[:m])
+        for k in range(m):
+            lam[k] = b[k]
+    for j in range(n):
+        f = Q[j]
+        for k in range(m):
+            f -= w.Cq[k, j] * lam[k]
+        acc[j] = f / d[j]
     return 0
 
 

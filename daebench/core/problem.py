@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from daebench.core import phase
+from daebench.core import coulomb, phase
 from daebench.core.system import MechanicalSystem
 
 @dataclass
@@ -49,24 +49,34 @@ class Problem:
     engaged : contacts whose continuous-law force acts in this phase (default: all, for
         use without the driver)
     chi : hysteresis factor per contact (default 0: no contact damping)
+    friction : Coulomb friction at the closed contacts, {'groups': {kept stick contact: its
+        parallel group}, 'anchors': {contact: q*}, 'slip': {contact: s}, 'mu': μ per contact}
+        (:mod:`daebench.driver.stickslip` decides them): the stick rows follow the model's
+        bilateral rows and count among ``n_bilateral``; the slip friction is part of the
+        applied force (:mod:`daebench.core.coulomb`). None: no friction.
     """
 
     def __init__(self, system: MechanicalSystem, active: tuple[int, ...] = (),
-                 engaged: np.ndarray | None = None, chi: np.ndarray | None = None):
+                 engaged: np.ndarray | None = None, chi: np.ndarray | None = None,
+                 friction: dict | None = None):
         self.system = system
         self.active = tuple(int(i) for i in active)
         self.n = system.n
-        self.n_bilateral = system.n_bilateral
-        self.m = system.n_bilateral + len(self.active)
+        n_stick = len(friction["groups"]) if friction else 0
+        self.n_bilateral = system.n_bilateral + n_stick
+        self.m = self.n_bilateral + len(self.active)
         self.n_contacts = system.n_contacts
         nc = system.n_contacts
         self.engaged = np.ones(nc) if engaged is None else np.asarray(engaged, dtype=float).copy()
         self.chi = np.zeros(nc) if chi is None else np.asarray(chi, dtype=float).copy()
         self.counters = EvalCounters()
         n = self.n
-        self.kernel = phase.PhaseData(system.kernel_handle(), int(system.n_bilateral),
+        fr = coulomb.NONE if not friction else coulomb.friction_data(
+            n, self.m, self.active, friction["groups"], friction["anchors"], friction["slip"], friction["mu"])
+        self.kernel = phase.PhaseData(system.kernel_handle(), int(self.n_bilateral),
                                       np.array(self.active, dtype=np.int64), law_parameters(system),
-                                      self.engaged, self.chi, np.zeros(n), np.zeros(5 * n))
+                                      self.engaged, self.chi, np.zeros(n), np.zeros(5 * n), fr,
+                                      _lumped(system))
         self._zeros = np.zeros(n)
 
     @property
@@ -191,6 +201,16 @@ class Problem:
         return law.dissipation_power(g[pen], (G @ v)[pen], (self.engaged != 0.0)[pen], self.chi[pen]) \
             + float(phase.friction_power(self.kernel, _f(q), _f(v)))
 
+    # -- Coulomb friction at closed contacts (daebench.core.coulomb) ----------------------------
+    @property
+    def slips(self) -> bool:
+        """Whether a closed contact slips in this phase (its friction does work)."""
+        return bool(self.kernel.friction.slip.shape[0])
+
+    def slip_power(self, t: float, q: np.ndarray, v: np.ndarray) -> float:
+        """Power of the slip friction at closed contacts, −Σ μ λ_N |t_q v| ≤ 0."""
+        return float(phase.slip_power(self.kernel, float(t), _f(q), _f(v)))
+
     # -- helpers every integrator needs ----------------------------------------
     def acceleration(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Consistent (q̈, λ) from [[M, C_qᵀ], [C_q, 0]] [q̈; λ] = [Q; γ]."""
@@ -203,6 +223,13 @@ class Problem:
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> float:
         return self.system.total_energy(q, v)
+
+
+def _lumped(system: MechanicalSystem) -> np.ndarray:
+    """The constant diagonal mass a lumped model declares (``lumped_mass``; its mass kernel
+    accepts an M without rows), else an empty array: the phase solves through it."""
+    d = getattr(system, "lumped_mass", None)
+    return np.zeros(0) if d is None else np.ascontiguousarray(d, dtype=np.float64)
 
 
 def _f(x: np.ndarray) -> np.ndarray:

@@ -58,7 +58,8 @@ from daebench.core.lzb import NAME as LZB_NAME, failure_message as lzb_failure, 
 from daebench.core.problem import Problem
 from daebench.core.resting_contacts import failure_message as resting_failure, resting_lcp
 from daebench.core.system import MechanicalSystem, State
-from daebench.driver.stickslip import (CONE_TOL, PAINLEVE_SLIP, SLIP_MIN, FrictionPhase, stick_groups,
+from daebench.core.coulomb import cone_margin
+from daebench.driver.stickslip import (PAINLEVE_SLIP, SLIP_MIN, phase_friction, slip_velocity, stick_groups,
                                        tangent_row)
 from daebench.integrators.base import StepFailure
 from daebench.stepping.watch import GAP_BAND, GAP_ROUNDOFF, gap_event, near
@@ -148,7 +149,7 @@ class ContactState:
             self.stick.pop(c, None)
             self.slip.pop(c, None)
             if c in self.active and self.mu[c] > 0.0:
-                ut = float(tangent_row(md, c, q) @ v)
+                ut = slip_velocity(md, c, q, v)
                 if abs(ut) < SLIP_MIN:
                     self.stick[c] = q.copy()
                 else:
@@ -174,7 +175,7 @@ class ContactState:
             lam_t = float(lam[nb0 + r])
             lam_n = sum(float(lam[k + self.active.index(m)]) for m in members)
             mu = min(float(self.mu[m]) for m in members)
-            out[c] = (mu * lam_n * (1.0 + CONE_TOL) + 1e-12 * abs(lam_t) - abs(lam_t), lam_t)
+            out[c] = (float(cone_margin(mu, lam_n, lam_t)), lam_t)
         return out
 
     @property
@@ -193,8 +194,9 @@ class ContactState:
         (:func:`daebench.stepping.watch.near`)."""
         if self.near_h <= 0.0 or not self.watched:
             return
+        rows = problem.gap_rows(q, v)
         self.near = {i for i in range(problem.n_contacts) if i not in self.active and i not in self.penetrating
-                     and is_near(problem, q, v, a, i, self.near_h)}
+                     and is_near(problem, q, v, a, i, self.near_h, rows)}
 
     def close(self, contacts: list[int], t: float) -> None:
         """Close open contacts at t (they join the phase's constraints)."""
@@ -225,10 +227,8 @@ class ContactState:
         if self.continuous:
             engaged[list(self.penetrating)] = 1.0
             chi = system.contact_law.chi(self.approach_speed)
-        if self.groups or self.slip:
-            system = FrictionPhase(system, tuple(self.active), {c: self.stick[c] for c in self.groups},
-                                   self.slip, self.mu)
-        return Problem(system, tuple(self.active), engaged, chi)
+        return Problem(system, tuple(self.active), engaged, chi,
+                       phase_friction(self.active, self.stick, self.groups, self.slip, self.mu))
 
 
 def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
@@ -272,9 +272,10 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
                 cs.armed[i] = True
         if cs.near_h > 0.0 and not cands:
             # proximity changes, at the step's end (only where no event came first)
+            rows = problem.gap_rows(new.q, new.v)
             for i in range(problem.n_contacts):
                 if i not in cs.active and i not in cs.penetrating and \
-                        is_near(problem, new.q, new.v, new.a, i, cs.near_h) != (i in cs.near):
+                        is_near(problem, new.q, new.v, new.a, i, cs.near_h, rows) != (i in cs.near):
                     cands.append(Event(new.t, "far" if i in cs.near else "near", i))
     if cs.constraint and cs.active:
         fc = cs.force_cache
@@ -296,10 +297,12 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
     return min(cands, key=lambda c: c.t) if cands else None
 
 
-def is_near(problem: Problem, q: np.ndarray, v: np.ndarray, a: np.ndarray, i: int, near_h: float) -> bool:
+def is_near(problem: Problem, q: np.ndarray, v: np.ndarray, a: np.ndarray, i: int, near_h: float,
+            rows: tuple | None = None) -> bool:
     """:func:`daebench.stepping.watch.near` for contact i at (q, v, a) (a state without an
-    acceleration: its gap moving at constant ġ)."""
-    g, G, gam = problem.gap_rows(q, v)
+    acceleration: its gap moving at constant ġ); ``rows``: the gap rows at (q, v), when the
+    caller asks about several contacts (each evaluation computes every contact's row)."""
+    g, G, gam = problem.gap_rows(q, v) if rows is None else rows
     gdd = float(G[i] @ a - gam[i]) if np.size(a) == q.shape[0] else 0.0
     return bool(near(float(g[i]), float(G[i] @ v), gdd, near_h))
 
@@ -338,8 +341,8 @@ def _friction_events(cs: ContactState, prev: State, new: State, problem: Problem
     for c, s in cs.slip.items():
         def ut(t: float, c: int = c, s: float = s) -> float:
             st = dense(t)
-            return s * float(tangent_row(md, c, st.q) @ st.v)
-        u0, u1 = s * float(tangent_row(md, c, prev.q) @ prev.v), s * float(tangent_row(md, c, new.q) @ new.v)
+            return s * slip_velocity(md, c, st.q, st.v)
+        u0, u1 = s * slip_velocity(md, c, prev.q, prev.v), s * slip_velocity(md, c, new.q, new.v)
         if u1 < 0.0:
             out.append(Event(_root(ut, prev, new) if u0 > 0.0 else prev.t, "stop", c))
     if cs.groups:
@@ -403,7 +406,7 @@ def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, 
     elif kind == "stop":
         # the contact and every other slipping one at rest with it stick here
         md = cs.base.kernel.model
-        stopped = {c: s for c, s in cs.slip.items() if c == i or abs(float(tangent_row(md, c, q) @ v)) < SLIP_MIN}
+        stopped = {c: s for c, s in cs.slip.items() if c == i or abs(slip_velocity(md, c, q, v)) < SLIP_MIN}
         for c in stopped:
             del cs.slip[c]
             cs.stick[c] = q.copy()

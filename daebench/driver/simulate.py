@@ -39,13 +39,13 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from daebench.core import impact_checks, interrupt
+from daebench.core import coulomb, impact_checks, interrupt
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
 from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name, project, settle
 from daebench.driver.history import (Block, block, columns, divergence, frame, penetration, state_row,
                                      states_arrays)
-from daebench.driver.stickslip import PAINLEVE_SLIP, FrictionPhase
+from daebench.driver.stickslip import PAINLEVE_SLIP
 from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
 from daebench.core.problem import Problem
 from daebench.stepping import dense as _dense, watch as _watch
@@ -229,9 +229,14 @@ class Driver:
         powers0 = self._power(state)
         batch = self._batch_ok(problem)
         while True:
-            watch = self._watch(problem) if (batch and not powers0
+            # the compiled loop books the slip friction's work itself (core.coulomb): no other power
+            watch = self._watch(problem) if (batch and not set(powers0) - {"friction"}
                                              and self.out_i < len(self.t_out)) else None
+            if watch is not None and problem.slips:
+                coulomb.start_book(problem.kernel.friction, self.work["friction"], powers0["friction"])
             adv = self._advance(watch)
+            if watch is not None and problem.slips:
+                powers0 = self._booked_friction(problem, adv, powers0)
             interrupt.check()  # a safe point: a wall-time cap's request is honoured here
             prev, new = adv.prev, adv.new
             self._t_last = new.t
@@ -284,8 +289,7 @@ class Driver:
         without event, output time or sign change is exactly what the runner does itself
         (re-arming gaps, constraint maxima); the step that needs more is handed back and
         processed below like any other step, so results do not depend on the path."""
-        return self.system.power_free and not self.contacts.penetrating and not isinstance(problem.system,
-                                                                                           FrictionPhase)
+        return self.system.power_free and not self.contacts.penetrating
 
     def _watch(self, problem: Problem) -> Watch:
         cs = self.contacts
@@ -333,10 +337,28 @@ class Driver:
         out = self.system.power(t, q, v)
         if self._continuous_contacts and self.contacts.penetrating:
             out = {**out, "contact": self._current.contact_power(q, v)}
-        phase_sys = self._current.system
-        if isinstance(phase_sys, FrictionPhase) and phase_sys.slip:
-            out = {**out, "friction": phase_sys.friction_power(t, q, v)}
+        if self._current.slips:
+            out = {**out, "friction": self._current.slip_power(t, q, v)}
         return out
+
+    def _booked_friction(self, problem: Problem, adv: Advance, powers0: dict) -> dict:
+        """After a compiled call in a slipping phase: the slip friction's work at the start of
+        its last step and the power there, as the loop booked them over its quiet steps
+        (:func:`daebench.core.coulomb.book_step`); the driver books the last step itself."""
+        book = problem.kernel.friction.book
+        if adv.steps > 1 and int(book[4]) != adv.steps:
+            raise StepFailure(f"{type(self.integ).__name__} took {adv.steps} steps in one call of a slipping "
+                              f"phase without booking their friction work (daebench.core.coulomb.book_step)")
+        self.work["friction"] = float(book[0])
+        return {**powers0, "friction": float(book[1])}
+
+    def _output_work(self, problem: Problem, k: int) -> list[dict[str, float]]:
+        """The work booked at each of the first ``k`` output rows a compiled call wrote: the
+        slip friction's from the loop (:func:`daebench.core.coulomb.book_rows`), the rest unchanged."""
+        if not problem.slips:
+            return [dict(self.work) for _ in range(k)]
+        rows = problem.kernel.friction.row_work
+        return [{**self.work, "friction": float(rows[i])} for i in range(k)]
 
     def _accumulate_work(self, prev: State, end: State, p0: dict, p1: dict, problem: Problem) -> None:
         dt = end.t - prev.t
@@ -376,9 +398,10 @@ class Driver:
         """:meth:`_row` of (output time, state) pairs, the work unchanged between them; the
         model's ``output_rows`` (:class:`~daebench.core.system.MechanicalSystem`), if any, in one call."""
         batch = getattr(self.system, "output_rows", None)
+        works = self._output_work(problem, len(outputs))   # (the rows of a slipping phase: closed contacts)
         if batch is None or len(outputs) < 2:
-            for to, s in outputs:
-                self._row(to, s, dict(self.work), problem)
+            for (to, s), work in zip(outputs, works):
+                self._row(to, s, work, problem)
             return
         t = np.array([to for to, _ in outputs])
         obs, terms = batch(t, np.array([s.q for _, s in outputs]), np.array([s.v for _, s in outputs]))
@@ -386,7 +409,7 @@ class Driver:
         if cs.continuous or (problem.m and cs.active):  # per-row contact forces or constraint residuals
             obs_cols, term_cols = ({k: c.tolist() for k, c in d.items()} for d in (obs, terms))
             for i, (to, s) in enumerate(outputs):
-                self._row(to, s, dict(self.work), problem, {k: c[i] for k, c in obs_cols.items()},
+                self._row(to, s, works[i], problem, {k: c[i] for k, c in obs_cols.items()},
                           {k: c[i] for k, c in term_cols.items()})
             return
         # a stretch without events: the rows as one block of columns (driver.history)

@@ -136,6 +136,7 @@ class Runs:
 
 
 DEFAULT_STEP = 1e-4  # s: the default fixed step (the paper's protocol outside contact)
+AUTO_STEP = "auto"   # h = auto: the largest stable step of a conditionally stable method (Integrator.use_step)
 
 # Settings every stepping integrator shares: the paper's protocol and adaptivity.
 STEP_SETTINGS = (
@@ -185,6 +186,13 @@ class Integrator:
 
     def __init__(self, **settings: Any) -> None:
         spec = {s.name: s for s in self.settings_spec}
+        # h = auto: the largest stable step of a conditionally stable method, chosen before the
+        # first step by the harness (daebench.harness.running.checks.check_step), then use_step()
+        self.auto_step = isinstance(settings.get("h"), str) and settings["h"].strip().lower() == AUTO_STEP \
+            and "h" in spec
+        if self.auto_step:
+            settings = {k: v for k, v in settings.items() if k != "h"}
+        self.default_step = "h" in spec and "h" not in settings and not self.auto_step   # h not chosen
         unknown = [k for k in settings if k not in spec]
         if unknown:
             k = unknown[0]
@@ -214,6 +222,21 @@ class Integrator:
     # -- configuration ------------------------------------------------------
     def _check_settings(self) -> None:
         """Cross-setting validation hook (raise IntegratorError)."""
+
+    def stability_model(self) -> Any:
+        """The linear stability model of this method at its fixed step
+        (:mod:`daebench.stepping.stability`: a ``NewmarkMember`` or ``AbmPece``), or None when
+        it has none. A method whose interval is finite (explicit, conditionally stable) has its
+        step checked against the scene's ω_max before the first step, and may take h = auto."""
+        return None
+
+    def use_step(self, h: float) -> None:
+        """Take the fixed step ``h`` (h = auto resolved by the harness before the first step);
+        h_contact too where it is unset or larger."""
+        self.settings["h"] = float(h)
+        hc = float(self.settings.get("h_contact", 0.0) or 0.0)
+        if "h_contact" in self.settings and hc > h:
+            self.settings["h_contact"] = float(h)
 
     def to_config(self) -> dict[str, Any]:
         return {"integrator": self.name, **self.settings}

@@ -8,6 +8,7 @@ from daebench.integrators import protocols
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.stepping import abm as _abm
+from daebench.stepping.stability import AbmPece
 
 
 class BaumgarteABM4(CompiledIntegrator):
@@ -86,3 +87,6 @@ class BaumgarteABM4(CompiledIntegrator):
 
     def workspace(self, n: int, m: int) -> _abm.AbmWork:
         return _abm.workspace(n, m)
+
+    def stability_model(self) -> AbmPece:
+        return AbmPece()

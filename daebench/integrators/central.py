@@ -11,6 +11,7 @@ import numpy as np
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, IntegratorError, Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.stepping.central import FAIL_MESSAGES, CentralMethod, CentralWork, workspace
+from daebench.stepping.stability import CENTRAL, NewmarkMember
 
 
 def method_for(system) -> CentralMethod:
@@ -33,7 +34,8 @@ class CentralDifference(CompiledIntegrator):
     --------
     h, h_contact : float
         Fixed step sizes (h_contact while a penalty contact penetrates); both must
-        satisfy h ω_max ≤ 2.
+        satisfy h ω_max ≤ 2 — checked before the first step against the scene's ω_max
+        (a refusal names the limit); ``h = auto`` takes the largest stable step.
 
     Notes
     -----
@@ -52,3 +54,6 @@ class CentralDifference(CompiledIntegrator):
 
     def workspace(self, n: int, m: int) -> CentralWork:
         return workspace(n)
+
+    def stability_model(self) -> NewmarkMember:
+        return CENTRAL

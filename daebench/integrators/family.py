@@ -15,6 +15,7 @@ from daebench.integrators import protocols
 from daebench.integrators.base import Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.stepping import newmark as _nm
+from daebench.stepping.stability import NewmarkMember
 
 NEWTON_SETTINGS = (
     Setting("newton_tol", float, 1e-12, "Newton tolerance on the scaled displacement increment and "
@@ -72,3 +73,7 @@ class NewmarkFamily(CompiledIntegrator):
     def workspace(self, n: int, m: int) -> _nm.NewmarkWork:
         declared = getattr(self.problem.system, "sparsity", None)  # a model's Sparsity, if it declares one
         return _nm.workspace(n, m, bool(self.coefficients().ggl) and m > 0, declared() if declared else None)
+
+    def stability_model(self) -> NewmarkMember:
+        c = self.coefficients()
+        return NewmarkMember(c.alpha_m, c.alpha_f, c.beta, c.gamma, bool(c.accel_avg), type(self).__name__)

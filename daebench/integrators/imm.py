@@ -69,6 +69,7 @@ from daebench.integrators.central import method_for, workspace as central_worksp
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.integrators.family import hht_coefficients
 from daebench.stepping import newmark as _nm
+from daebench.stepping.stability import CENTRAL, NewmarkMember
 
 
 class InteractiveMode(CompiledIntegrator):
@@ -141,6 +142,14 @@ class InteractiveMode(CompiledIntegrator):
         radius = float(s["radius"]) or float(getattr(self.problem.system, "imm_radius", 0.0))
         return loc.ImmMethod(inner, radius, float(s["tol"]), int(s["maxiter"]), 4 * md.slave.shape[0] + 8,
                              loc.smallest_element(md), md)
+
+    def stability_model(self) -> NewmarkMember:
+        """The global module's method: explicit central differences (checked before the first
+        step against the scene's ω_max; the lagged contact force is stable about as far) or HHT."""
+        if self.settings["global_method"] == "central":
+            return CENTRAL
+        c = hht_coefficients(float(self.settings["alpha"]), ggl=False)
+        return NewmarkMember(c.alpha_m, c.alpha_f, c.beta, c.gamma, False, "HHT-α")
 
     def workspace(self, n: int, m: int) -> Any:
         loc = self._local()

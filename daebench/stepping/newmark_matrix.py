@@ -73,17 +73,33 @@ def mass_rows(ws):
     return (ws.Mb if compact else ws.M), compact
 
 
+_STRUCTURES: dict[tuple, tuple] = {}   # (id of the sparsity, n, nx) → (sparsity, order, sp, ij, pos)
+
+
 def structure(sparsity: Sparsity | None, n: int, nx: int) -> tuple:
     """(bw, sp, ij, pos) of a workspace: the bordered-banded work (the constraint rows join
     the border), sp = [declared, mass half-bandwidth (−1 dense), constant mass], ij the
     (row, column) pairs of the n × n block inside the structure (2 × P), and pos the place
-    of each DOF in the declared order."""
-    if sparsity is None:
-        z = np.zeros(0, np.int64)
-        return bordered_work(z, 0, 0, 0), np.array([0, -1, 0], np.int64), np.zeros((2, 0), np.int64), z
+    of each DOF in the declared order. The index tables (read only) are computed once per
+    model and phase size — a large model's take a sort of its whole band, every phase
+    start otherwise; bw, the factors, is new each time."""
+    if sparsity is not None:
+        key = (id(sparsity), n, nx)
+        hit = _STRUCTURES.get(key)
+        if hit is None or hit[0] is not sparsity:
+            if len(_STRUCTURES) > 64:
+                _STRUCTURES.clear()
+            hit = _STRUCTURES[key] = (sparsity, *_structure(sparsity, n, nx))
+        _, order, sp, ij, pos = hit
+        return bordered_work(order, int(sparsity.n_banded), int(sparsity.kl), int(sparsity.ku)), sp, ij, pos
+    z = np.zeros(0, np.int64)
+    return bordered_work(z, 0, 0, 0), np.array([0, -1, 0], np.int64), np.zeros((2, 0), np.int64), z
+
+
+def _structure(sparsity: Sparsity, n: int, nx: int) -> tuple:
+    """(order, sp, ij, pos) of :func:`structure`."""
     nb, kl, ku = int(sparsity.n_banded), int(sparsity.kl), int(sparsity.ku)
     order = np.concatenate([np.asarray(sparsity.order, np.int64), np.arange(n, nx, dtype=np.int64)])
-    bw = bordered_work(order, nb, kl, ku)
     sp = np.array([1, int(sparsity.mass_band), int(bool(sparsity.constant_mass))], np.int64)
     jj, d = np.meshgrid(np.arange(nb), np.arange(-ku, kl + 1), indexing="ij")   # band: row pos jj + d
     ii = jj + d
@@ -98,7 +114,7 @@ def structure(sparsity: Sparsity | None, n: int, nx: int) -> tuple:
     ij = np.vstack([key // n, key % n])
     pos = np.empty(n, np.int64)
     pos[order[order < n]] = np.arange(n)
-    return bw, sp, np.ascontiguousarray(ij, dtype=np.int64), pos
+    return order, sp, np.ascontiguousarray(ij, dtype=np.int64), pos
 
 
 @uncounted

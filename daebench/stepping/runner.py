@@ -18,6 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
+from daebench.core import coulomb, phase
 from daebench.core.borrow import borrow, copy_to
 from daebench.stepping import control, dense, methods, watch
 from daebench.stepping.methods import N_COUNTERS
@@ -87,6 +88,7 @@ def run_phase(meth, ws, ph, ctl, w, t, t_stop, h_next, cur, new, prev, max_steps
         t_prev = t
         t = t_new
         steps += 1
+        phase.book_friction(ph, t_prev, t, cur.q, cur.v)   # a slipping phase's friction work (core.coulomb)
         # watch.quiet, with the rows of a quiet step's output times written here when t_out is given
         if steps >= max_steps or watch.events(ph, w, t, cur):
             break
@@ -94,7 +96,8 @@ def run_phase(meth, ws, ph, ctl, w, t, t_stop, h_next, cur, new, prev, max_steps
             if t_out.shape[0] == 0:
                 break
             j = dense.record_outputs(t_prev, prev, t, cur, t_out, oi, w.t_end, out, nrow)
-            if j < 0:
+            if j < 0 or (ph.friction.slip.shape[0] and not coulomb.book_rows(ph.friction, t_prev, t, t_out, oi, j,
+                                                                             nrow)):
                 break
             nrow += j - oi
             oi = j

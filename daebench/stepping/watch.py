@@ -1,8 +1,8 @@
 """Which step the event-driven driver must see — the one rule, for every integrator.
 
 The driver (:mod:`daebench.driver.simulate`) watches, after every accepted step, for a contact
-closing, a closed contact turning tensile, an output time, the end time and a
-non-finite state. A closed contact's force is its consistent multiplier at the step's
+closing, a closed contact turning tensile, a stick/slip switch of a frictional one, an
+output time, the end time and a non-finite state. A closed contact's force is its consistent multiplier at the step's
 (t, q, v) — the acceleration-level law of the phase (:func:`daebench.core.phase.solve_augmented`),
 as the driver reads it (:func:`daebench.driver.events.contact_forces`) — never the
 multiplier the integrator's step produced. A compiled runner that takes many steps per call stops after the
@@ -154,6 +154,8 @@ def events(ph, w, t, cur):
         for r in w.lam_rows:
             if w.lam[r] < 0.0:
                 stop = True
+        if phase.friction_switches(ph, q, v, w.lam):   # stick/slip (daebench.core.coulomb: the driver's rule)
+            stop = True
     return stop
 
 

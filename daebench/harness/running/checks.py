@@ -2,13 +2,14 @@
 
 Everything a run would only discover late — an observable the model does not have,
 ~1e10 steps, an integrator that cannot handle the scene's contacts, a start through a
-rigid surface — is refused here, before any step, with a message that says what to
+rigid surface, an explicit method's step beyond its stability limit — is refused here, before any step, with a message that says what to
 change (:class:`GuardError`, a :class:`~daebench.core.params.ParamError`: exit code 2 on
 the command line).
 """
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Any
 
@@ -16,8 +17,10 @@ from daebench.core.params import ParamError, did_you_mean
 from daebench.core.scene import scene_names
 from daebench.integrators import base
 from daebench.integrators.base import Integrator, IntegratorError
+from daebench.driver.history import DIVERGENCE_ENERGY
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
+from daebench.stepping import stability
 
 MAX_STEPS = 1e8          # fixed steps a run may plan without force (≈ 3 min compiled, hours in Python)
 MAX_OUTPUT_ROWS = 1e7    # history rows (each ~30 floats: ~2.4 GB at this size)
@@ -230,3 +233,88 @@ def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> N
     base.check_capabilities(cls, needs_constraints, contacts_by_integrator=system.contacts_by_integrator,
                        contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
                        what=f"scene '{scene.name}'")
+
+
+# -- the step of a conditionally stable method -----------------------------------------------------
+AUTO_FRACTION = 0.9   # h = auto: this fraction of the largest stable step of linear theory at the start
+TOP_MODES = 4         # the fastest modes the check computes (the limit is theirs)
+_MODES: dict[str, Any] = {}   # scene hash → its fastest modes (a sweep runs one scene many times)
+_PREDICTED: dict[tuple, float] = {}
+
+
+def _fastest(scene: Any, system: Any) -> Any:
+    lin = _MODES.get(scene.hash)
+    if lin is None:
+        if len(_MODES) > 32:
+            _MODES.clear()
+        lin = _MODES[scene.hash] = stability.linearize_system(system, top=TOP_MODES)
+    return lin
+
+
+def check_step(scene: Any, system: Any, integ: Integrator) -> list[str]:
+    """Check the fixed step of a conditionally stable method against the scene before the
+    first step (:mod:`daebench.stepping.stability`: ω_max from the assembled mass and tangent
+    stiffness at the start, the method's interval); returns the warnings for the run record.
+
+    * A method with a strict interval Ω (central differences: hω ≤ 2; a Newmark member with
+      2β < γ) beyond it — h or h_contact above Ω/ω_max — is refused (IntegratorError, with
+      the limit and the fix); a default h it did not choose is replaced by h = auto.
+    * ABM4-PECE (Baumgarte), which has no strict interval (its growth per step is tiny
+      below hω ≈ 0.93), beyond its predicted stable step for the run's length gets a warning:
+      it runs and diverges as the stability map shows (``daebench paper`` and ``compare``
+      run it there on purpose and expect the diverged row).
+    * ``h = auto`` takes :data:`AUTO_FRACTION` × that largest stable step and says so.
+
+    The contact stiffness of a penalty contact is not in the start's K (no contact is
+    engaged there): a step in contact may need to be smaller still."""
+    model = integ.stability_model()
+    if model is None or not integ.capabilities.fixed_step or integ.adaptive:
+        if integ.auto_step:
+            raise IntegratorError(f"h = auto takes the largest stable step of a conditionally stable method; "
+                                  f"'{integ.name}' has no stability limit to take it from here: give h")
+        return []
+    strict = stability.strict_interval(model) if model.strict else 0.0
+    if math.isinf(strict):   # unconditionally stable: nothing to check, no step to choose
+        if integ.auto_step:
+            raise IntegratorError(f"h = auto takes the largest stable step of a conditionally stable method; "
+                                  f"'{integ.name}' ({model.name}) is unconditionally stable: give h")
+        return []
+    lin = _fastest(scene, system)
+    w = float(lin.omega.max(initial=0.0))
+    if w <= 0.0:
+        if integ.auto_step:
+            raise IntegratorError(f"h = auto: '{scene.name}' has no oscillating mode at its start to bound the "
+                                  f"step of {model.name} (ω_max = 0); give h")
+        return []
+    h, hc = float(integ.settings["h"]), float(integ.settings.get("h_contact", 0.0) or 0.0)
+    where = f"{scene.name} (ω_max = {w:.4g} rad/s from the assembled mass and stiffness at the start)"
+    hard = model.strict
+    if hard:
+        limit, rule = strict / w, f"h ω_max ≤ {strict:.4g}"
+    else:
+        key = (scene.hash, model, scene.t_end)
+        if key not in _PREDICTED:
+            _PREDICTED[key] = stability.predict(model, lin, scene.t_end, DIVERGENCE_ENERGY)["h_pred"]
+        limit = _PREDICTED[key]
+        rule = f"its interval over this run's {scene.t_end:g} s, h ω_max ≤ {limit * w:.3g} (daebench stability)"
+    if integ.auto_step or (hard and integ.default_step and max(h, hc) > limit):
+        chosen = AUTO_FRACTION * limit
+        integ.use_step(chosen)
+        how = "h = auto" if integ.auto_step else f"the default h = {h:g} s is beyond it"
+        return [f"{how}: took h = {chosen:.4g} s = {AUTO_FRACTION:g} × the largest stable step of {model.name} on "
+                f"{where}, {rule}"]
+    over = [f"{k} = {x:g} s" for k, x in (("h", h), ("h_contact", hc)) if x > limit]
+    if not over:
+        return []
+    text = (f"{' and '.join(over)} beyond the stable step of {model.name} on {where}: {rule} gives "
+            f"h ≤ {limit:.4g} s")
+    if hard:
+        raise IntegratorError(f"{text}; give --opt h={_floor2(limit):g} (or smaller), or --opt h=auto for "
+                              f"{AUTO_FRACTION:g} × the limit")
+    return [f"{text}: the run is expected to diverge (--opt h=auto takes {AUTO_FRACTION:g} × the limit)"]
+
+
+def _floor2(x: float) -> float:
+    """x rounded down to two significant digits (a step to suggest that is below the limit)."""
+    e = math.floor(math.log10(x)) - 1
+    return math.floor(x / 10 ** e) * 10 ** e

@@ -69,6 +69,7 @@ class RunRecord:
     constraint_max: dict[str, float] = field(default_factory=dict)
     t_final: float = math.nan
     impact_law: str = ""   # the driver's impact law (daebench.driver.events.impact_law_name; "": none applied)
+    warnings: list[str] = field(default_factory=list)   # e.g. a step beyond the method's stability limit
 
     def as_dict(self) -> dict[str, Any]:
         return {k: jsonable(v) for k, v in self.__dict__.items()}
@@ -81,7 +82,7 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
               options: Iterable[str] | dict[str, Any] = (), out_dir: str | Path | None = None,
               write: bool = True, *, force: bool = False, run_cap: float | None = None,
               progress: Callable[[float], None] | None = None,
-              record_states: bool = False) -> tuple[RunRecord, RunResult]:
+              record_states: bool = False, step_check: bool = True) -> tuple[RunRecord, RunResult]:
     """Run ``scene`` with ``integrator`` (an instance, or a name plus ``options``).
 
     Parameters
@@ -92,6 +93,9 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
     run_cap : wall-time cap in seconds (:class:`daebench.core.interrupt.RunTimeout` beyond it)
     progress : called with the simulated time, at most every 0.25 s of wall time
     record_states : keep the integrator's (t, q, v, a, λ) at the output times (``RunResult.states``)
+    step_check : check a conditionally stable method's step against the scene before the first
+        step (:func:`.checks.check_step`: refused beyond a strict limit, a warning in the
+        record for Baumgarte's ABM4, h = auto resolved)
 
     Raises
     ------
@@ -102,12 +106,15 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
     scene.revalidated()  # values changed in place after loading are refused like overrides
     integ = integrator if isinstance(integrator, Integrator) else make_integrator(integrator, options)
     checks.check_contacts_fit(scene, type(integ))
+    system = build_system(scene)
+    # an explicit method's step against the scene's ω_max (h = auto resolved here); the stability
+    # map's trials run beyond it on purpose (step_check=False)
+    warnings = checks.check_step(scene, system, integ) if step_check else []
     if not force:
         checks.check_size(scene, integ)
     if write:  # the folder and the longest name written there are checked before any step
         ensure_writable_dir(history_dir(out_dir), "history folder",
                                    longest_name=f".{history_name(scene, integ)}.json.{os.getpid()}.tmp")
-    system = build_system(scene)
     checks.check_memory(scene, system)
     checks.check_observables(scene, system)
     # the history keeps every observable (modal participations included); the scene's
@@ -133,6 +140,6 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
         status=result.status, message=result.message, wall_s=result.wall_s, counters=result.counters,
         energy_residual=result.energy_residual, observables=final, history=str(path) if path else None,
         impacts=[i.as_dict() for i in result.impacts], constraint_max=result.constraint_max,
-        t_final=result.t_final, impact_law=result.impact_law,
+        t_final=result.t_final, impact_law=result.impact_law, warnings=warnings,
     )
     return rec, result

@@ -25,12 +25,17 @@ max-norm meets exact ties all along two parallel flat stretches, and slows down 
 magnitude. The Hausdorff distance of two polylines A, B is max(sup_a d(a, B), sup_b d(b, A)); a
 jump moved by δt is δt/T away, a constant offset c is c/Y away, in either metric.
 
-Computation: both polylines are resampled so that consecutive points lie at most δ apart
-(δ = the larger of :data:`RESOLUTION` and 1 % of the distance, :func:`graph_distance`;
-coarser only when a graph would need more than :data:`MAX_POINTS` points; the δ used is
-reported as ``graph_resolution``), and the point sets' Hausdorff distance is found with
-:class:`scipy.spatial.cKDTree` nearest neighbours, O(n log n). It differs from the
-polylines' distance by at most δ.
+Computation (:func:`polyline_distance`, compiled): the directed distance sup_a d(a, B) by
+branch and bound along each segment of A — d(·, B) is 1-Lipschitz, so a piece of length ℓ
+whose ends lie d₀ and d₁ from B holds no point farther than (d₀ + d₁ + ℓ)/2, and the
+distance to one segment of B is convex along the piece, so no point is farther from the
+segment nearest to one end than that segment is from the piece's ends; a piece whose bound
+cannot beat the largest distance found by more than δ/2 is left, the others are halved —
+with d(a, B) exact (point to segment) over the segments of B within d of a in time, d
+bounded by the point of B at a's own time (B is a graph over time). The result is within δ/2
+of the polylines' distance, δ = the larger of :data:`RESOLUTION` and :data:`RELATIVE` of the
+distance (reported as ``graph_resolution``); the work follows the pieces near the maximum,
+not the graphs' length over δ.
 
 A history resolves a jump only to its output interval (a jump between two output rows is a
 segment across that interval) and a vibration only to its output rate. A sweep row
@@ -52,22 +57,18 @@ Columns: ``err_graph_q`` (max over the observables of position level), ``err_gra
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, Iterable, Sequence
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 import pandas as pd
+from numba import njit
 
 from daebench.core.params import ParamError
 from daebench.harness.scoring.metrics import interpolate
 
-if TYPE_CHECKING:  # pragma: no cover
-    from scipy.spatial import cKDTree
-
-RESOLUTION = 1e-5        #: largest spacing of the resampled polylines, in scaled units
-MAX_POINTS = 1_000_000   #: at most this many points per resampled graph (δ grows to fit)
-STRIDE = 32              #: :func:`directed` queries every STRIDE-th point first
-COARSE = 1e-3            #: the first pass's resolution (:func:`graph_distance`)
-RELATIVE = 1e-2          #: the second pass resolves the distance to this fraction of itself
+RESOLUTION = 1e-5        #: the distance is resolved to this, in scaled units, at least
+RELATIVE = 1e-2          #: … and to this fraction of itself
+STACK = 128              #: pieces a segment is split into at most at once (depth-first: ≥ log2 of length/δ)
 
 
 def value_scale(y: np.ndarray) -> float:
@@ -83,82 +84,123 @@ def value_scale(y: np.ndarray) -> float:
     return m if m > 0.0 else 1.0
 
 
-def resample(t: np.ndarray, y: np.ndarray, time_scale: float, y_scale: float,
-             resolution: float = RESOLUTION) -> tuple[np.ndarray, float]:
-    """Points (N × 2, scaled) along the polyline through (t, y) no more than the resolution
-    apart; the resolution is raised when N would exceed :data:`MAX_POINTS`.
-    Rows with a non-finite t or y are dropped. Returns (points, resolution used)."""
-    t = np.asarray(t, float)
-    y = np.asarray(y, float)
-    ok = np.isfinite(t) & np.isfinite(y)
-    p = np.column_stack([t[ok] / time_scale, y[ok] / y_scale])
-    if len(p) < 2:
-        return p, float(resolution)
-    d = np.hypot(*np.diff(p, axis=0).T)
-    delta = float(resolution)
-    total = float(np.sum(np.ceil(d / delta))) + 1.0
-    if total > MAX_POINTS:
-        delta *= total / MAX_POINTS * 1.01
-    k = np.maximum(np.ceil(d / delta).astype(np.int64), 1)
-    seg = np.repeat(np.arange(k.size), k)
-    s = (np.arange(seg.size) - np.repeat(np.cumsum(k) - k, k)) / k[seg]
-    pts = p[seg] + s[:, None] * (p[seg + 1] - p[seg])
-    return np.vstack([pts, p[-1:]]), delta
+@njit(cache=True)
+def _segment(px, py, ax, ay, bx, by):
+    """Distance from (px, py) to the segment (ax, ay)–(bx, by)."""
+    dx, dy = bx - ax, by - ay
+    l2 = dx * dx + dy * dy
+    u = 0.0
+    if l2 > 0.0:
+        u = min(1.0, max(0.0, ((px - ax) * dx + (py - ay) * dy) / l2))
+    return math.hypot(ax + u * dx - px, ay + u * dy - py)
 
 
-def directed(a: np.ndarray, b: np.ndarray, tree: cKDTree | None = None) -> float:
-    """sup over the points a of their distance to the point set b, as if every point
-    were queried, querying every :data:`STRIDE`-th point first: a point lies within
-    STRIDE/2 spacings of a queried one and the distance to b is 1-Lipschitz, so only the
-    neighbourhoods of queried points within (STRIDE/2)·(largest spacing) of the maximum
-    can hold a larger one; those are queried in full."""
-    if len(a) == 0 or len(b) == 0:
+@njit(cache=True)
+def _to_graph(px, py, tb, yb):
+    """(exact distance from (px, py) to the polyline B (time-ordered), its nearest segment):
+    the point of B at time px (its end outside B's span) bounds it, and only the segments
+    within that bound in time can be nearer."""
+    nb = tb.shape[0]
+    if nb == 1:
+        return math.hypot(px - tb[0], py - yb[0]), 0
+    j = min(max(np.searchsorted(tb, px, "right"), 1), nb - 1)     # segment j − 1 holds time px
+    w = min(max((px - tb[j - 1]) / (tb[j] - tb[j - 1]), 0.0), 1.0) if tb[j] > tb[j - 1] else 1.0
+    bound = math.hypot(px - (tb[j - 1] + w * (tb[j] - tb[j - 1])), py - (yb[j - 1] + w * (yb[j] - yb[j - 1])))
+    lo = max(np.searchsorted(tb, px - bound, "left") - 1, 0)
+    hi = min(np.searchsorted(tb, px + bound, "right"), nb - 1)
+    d, near = bound, j - 1
+    for i in range(lo, hi):
+        di = _segment(px, py, tb[i], yb[i], tb[i + 1], yb[i + 1])
+        if di < d:
+            d, near = di, i
+    return d, near
+
+
+@njit(cache=True)
+def _to_segment(px, py, tb, yb, i):
+    """Distance from (px, py) to segment i of B (its one point when B has one)."""
+    if tb.shape[0] == 1:
+        return math.hypot(px - tb[0], py - yb[0])
+    return _segment(px, py, tb[i], yb[i], tb[i + 1], yb[i + 1])
+
+
+@njit(cache=True)
+def _piece_bound(x0, y0, x1, y1, d0, d1, s0, s1, tb, yb):
+    """An upper bound of the distance to B over the piece (x0, y0)–(x1, y1) whose ends lie d0,
+    d1 from B, nearest to its segments s0, s1: the 1-Lipschitz cone, and the distance to
+    either end's nearest segment — convex along the piece, so its larger end value."""
+    cone = 0.5 * (d0 + d1 + math.hypot(x1 - x0, y1 - y0))
+    via0 = max(d0, _to_segment(x1, y1, tb, yb, s0))
+    via1 = max(d1, _to_segment(x0, y0, tb, yb, s1))
+    return min(cone, via0, via1)
+
+
+@njit(cache=True)
+def _directed(ta, ya, tb, yb, resolution, relative):
+    """sup over the polyline A of the distance to the polyline B, to δ/2 with δ = max(resolution,
+    relative × the result) (module docstring: branch and bound on the 1-Lipschitz distance)."""
+    na = ta.shape[0]
+    dv = np.empty(na)
+    sv = np.empty(na, np.int64)
+    best = 0.0
+    for k in range(na):
+        dv[k], sv[k] = _to_graph(ta[k], ya[k], tb, yb)
+        best = max(best, dv[k])
+    st = np.empty((STACK, 4))   # pieces (u0, u1, d(u0), d(u1)) of the segment, depth first
+    si = np.empty((STACK, 2), np.int64)   # … and the nearest segments of B at their ends
+    for k in range(na - 1):
+        x0, y0 = ta[k], ya[k]
+        dx, dy = ta[k + 1] - x0, ya[k + 1] - y0
+        st[0, 0], st[0, 1], st[0, 2], st[0, 3] = 0.0, 1.0, dv[k], dv[k + 1]
+        si[0, 0], si[0, 1] = sv[k], sv[k + 1]
+        top = 1
+        while top:
+            top -= 1
+            u0, u1, d0, d1 = st[top, 0], st[top, 1], st[top, 2], st[top, 3]
+            s0, s1 = si[top, 0], si[top, 1]
+            bound = _piece_bound(x0 + u0 * dx, y0 + u0 * dy, x0 + u1 * dx, y0 + u1 * dy, d0, d1, s0, s1, tb, yb)
+            if bound <= best + 0.5 * max(resolution, relative * best) or top + 2 > STACK:
+                continue
+            um = 0.5 * (u0 + u1)
+            dm, sm = _to_graph(x0 + um * dx, y0 + um * dy, tb, yb)
+            best = max(best, dm)
+            st[top, 0], st[top, 1], st[top, 2], st[top, 3] = um, u1, dm, d1
+            si[top, 0], si[top, 1] = sm, s1
+            st[top + 1, 0], st[top + 1, 1], st[top + 1, 2], st[top + 1, 3] = u0, um, d0, dm
+            si[top + 1, 0], si[top + 1, 1] = s0, sm
+            top += 2
+    return best
+
+
+def polyline_distance(t_a: np.ndarray, y_a: np.ndarray, t_b: np.ndarray, y_b: np.ndarray,
+                      resolution: float = RESOLUTION, relative: float = RELATIVE) -> float:
+    """Hausdorff distance of two time-ordered polylines (scaled coordinates), to δ/2 with
+    δ = max(resolution, relative × the distance); NaN when one is empty. Rows with a
+    non-finite t or y are dropped."""
+    pts = []
+    for t, y in ((t_a, y_a), (t_b, y_b)):
+        t, y = np.asarray(t, float), np.asarray(y, float)
+        ok = np.isfinite(t) & np.isfinite(y)
+        pts.append((np.ascontiguousarray(t[ok]), np.ascontiguousarray(y[ok])))
+    (ta, ya), (tb, yb) = pts
+    if not ta.size or not tb.size:
         return math.nan
-    if tree is None:
-        from scipy.spatial import cKDTree  # lazy: importing scipy.spatial costs ~0.5 s of every start
-
-        tree = cKDTree(b)
-    if len(a) <= 4 * STRIDE:
-        return float(np.max(tree.query(a, k=1)[0]))
-    spacing = float(np.max(np.linalg.norm(np.diff(a, axis=0), axis=1)))
-    idx = np.arange(0, len(a), STRIDE)
-    d = tree.query(a[idx], k=1)[0]
-    m = float(d.max())
-    cand = idx[d >= m - 0.5 * STRIDE * spacing]
-    near = np.unique(np.clip(cand[:, None] + np.arange(-STRIDE, STRIDE + 1)[None, :], 0, len(a) - 1))
-    return max(m, float(np.max(tree.query(a[near], k=1)[0])))
-
-
-def hausdorff(a: np.ndarray, b: np.ndarray) -> float:
-    """Hausdorff distance of two point sets (N × d, M × d), Euclidean (cKDTree)."""
-    if len(a) == 0 or len(b) == 0:
-        return math.nan
-    return max(directed(a, b), directed(b, a))
+    return max(float(_directed(ta, ya, tb, yb, resolution, relative)),
+               float(_directed(tb, yb, ta, ya, resolution, relative)))
 
 
 def graph_distance(t_run: np.ndarray, y_run: np.ndarray, t_ref: np.ndarray, y_ref: np.ndarray,
                    time_scale: float, y_scale: float, resolution: float = RESOLUTION) -> tuple[float, float]:
     """Scaled Hausdorff distance of the graphs of (t_run, y_run) and (t_ref, y_ref) (module
-    docstring); returns (distance, the resolution δ it is accurate to).
-
-    Two passes: at δ = max(resolution, :data:`COARSE`), then, unless that δ is already within
-    :data:`RELATIVE` of the distance found, at δ = max(resolution, RELATIVE × that distance).
-    A far graph is so measured to 1 % at little cost (a nearest-neighbour search from far
-    away meets a near-tie at every point of the other polyline within √(2 d δ)); a near
-    one to the resolution."""
+    docstring); returns (distance, the resolution δ it is accurate to: within δ/2, δ the larger
+    of ``resolution`` and :data:`RELATIVE` of the distance)."""
     for name, val in (("time scale", time_scale), ("value scale", y_scale), ("resolution", resolution)):
         if not (math.isfinite(float(val)) and float(val) > 0.0):
             raise ParamError(f"the graph distance needs a positive finite {name}, got {val!r}")
-    delta = max(float(resolution), COARSE)
-    for second in (False, True):
-        a, da = resample(t_run, y_run, time_scale, y_scale, delta)
-        b, db = resample(t_ref, y_ref, time_scale, y_scale, delta)
-        d, used = hausdorff(a, b), max(da, db)
-        finer = max(float(resolution), RELATIVE * d) if math.isfinite(d) else used
-        if second or used <= finer * 1.0000001:
-            break
-        delta = finer
-    return d, used
+    T, Y = float(time_scale), float(y_scale)
+    d = polyline_distance(np.asarray(t_run, float) / T, np.asarray(y_run, float) / Y,
+                          np.asarray(t_ref, float) / T, np.asarray(y_ref, float) / Y, float(resolution), RELATIVE)
+    return d, max(float(resolution), RELATIVE * d) if math.isfinite(d) else float(resolution)
 
 
 def velocity_columns(system: Any, columns: Iterable[str], t: float = 0.0) -> set[str]:

@@ -8,10 +8,14 @@ Nonsmooth generalized-α adds two unknowns per contact to its Newton system
 penalty contact, regularised Coulomb (:mod:`daebench.core.phase`) against the same
 penalty run with μ = 0 (:data:`COMPLIANT`; its cost is the tangent rows in the force and
 its central-difference Jacobian). The event-driven family: hht through the driver with the
-``constraint`` law (:data:`EVENT_DRIVEN`): stick and slip phases as a
-:class:`daebench.driver.stickslip.FrictionPhase`, whose rows and slip force the compiled
-stepper calls back in Python, against the frictionless phases that stay compiled; over the
-first 0.1 s of each case (block-incline: slipping; rocking-block: rocking on a sticking corner).
+``constraint`` law (:data:`EVENT_DRIVEN`): stick and slip phases (:mod:`daebench.driver.stickslip`,
+compiled by :mod:`daebench.core.coulomb`: stick rows, slip force through a small augmented
+solve per force evaluation, the switches watched and the slip work booked in the compiled
+loop) against the frictionless phases; over the first 0.1 s of each case (block-incline:
+slipping; rocking-block: rocking on a sticking corner).
+
+Times are wall (``perf_counter``) and CPU (``process_time``) of the same interleaved runs; the
+ratios are the figures to read on a shared machine (``daebench perf --section friction``).
 """
 
 from __future__ import annotations
@@ -48,8 +52,9 @@ def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...
 
     Returns
     -------
-    DataFrame: case, integrator, law, mu, steps, wall_s, us_per_step, newton_per_step,
-    friction_over_frictionless (on the rows with μ > 0).
+    DataFrame: case, integrator, law, mu, steps, wall_s, cpu_s, us_per_step, cpu_us_per_step,
+    newton_per_step, friction_over_frictionless and friction_over_frictionless_cpu (on the
+    rows with μ > 0).
     """
     specs = []
     for case in cases:
@@ -61,33 +66,47 @@ def friction_step_rates(h: float = 1e-4, repeats: int = 3, cases: tuple[str, ...
         mu = float(load_scene(case)["contact.friction"])
         specs += [(case, name, mu, tuple(extra)), (case, name, 0.0, tuple(extra))]
 
-    def once(case: str, name: str, mu: float, extra: tuple = ()) -> tuple[float, Any]:
+    def once(case: str, name: str, mu: float, extra: tuple = ()) -> tuple[float, float, Any]:
         sc = load_scene(case, {**dict(extra), "contact.friction": mu})
         system = build_system(sc)
         integ = get_integrator(name)(h=h)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         res = simulate(system, integ, sc.t_end, min(sc["output.dt"], sc.t_end))
-        return time.perf_counter() - t0, res
+        return time.perf_counter() - t0, time.process_time() - c0, res
 
     for spec in specs:
         once(*spec)
-    best: dict[tuple, tuple[float, Any]] = {spec: (np.inf, None) for spec in specs}
+    best: dict[tuple, list] = {spec: [np.inf, np.inf, None] for spec in specs}
     for _ in range(max(int(repeats), 1)):
         for spec in specs:
-            wall, res = once(*spec)
-            if wall < best[spec][0]:
-                best[spec] = (wall, res)
+            wall, cpu, res = once(*spec)
+            b = best[spec]
+            b[0], b[1], b[2] = min(b[0], wall), min(b[1], cpu), res
     rows = []
-    for (case, name, mu, extra), (wall, res) in best.items():
+    for (case, name, mu, extra), (wall, cpu, res) in best.items():
         steps = int(res.counters["steps"])
         law = dict(extra).get("contact.law") or load_scene(case)["contact.law"]
         rows.append({"case": case, "integrator": name, "law": law, "mu": mu, "status": res.status, "steps": steps,
-                     "wall_s": wall, "us_per_step": 1e6 * wall / max(steps, 1),
+                     "wall_s": wall, "cpu_s": cpu, "us_per_step": 1e6 * wall / max(steps, 1),
+                     "cpu_us_per_step": 1e6 * cpu / max(steps, 1),
                      "newton_per_step": res.counters["newton_iterations"] / max(steps, 1)})
     df = pd.DataFrame(rows)
-    ratio = []
-    for r in df.itertuples():
-        base = df[(df.case == r.case) & (df.integrator == r.integrator) & (df.law == r.law) & (df.mu == 0.0)].us_per_step
-        ratio.append(r.us_per_step / float(base.iloc[0]) if r.mu > 0.0 and len(base) else np.nan)
-    df["friction_over_frictionless"] = ratio
+    for col, key in (("friction_over_frictionless", "us_per_step"), ("friction_over_frictionless_cpu",
+                                                                     "cpu_us_per_step")):
+        ratio = []
+        for r in df.itertuples():
+            base = df[(df.case == r.case) & (df.integrator == r.integrator) & (df.law == r.law) & (df.mu == 0.0)]
+            ratio.append(getattr(r, key) / float(base[key].iloc[0]) if r.mu > 0.0 and len(base) else np.nan)
+        df[col] = ratio
     return df
+
+
+def markdown(df: pd.DataFrame) -> str:
+    """The per-step figures as a Markdown table (``daebench perf --section friction``)."""
+    lines = ["| case | integrator | law | μ | status | steps | µs/step (wall) | µs/step (CPU) | "
+             "× μ = 0 (wall) | × μ = 0 (CPU) | Newton/step |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in df.itertuples():
+        lines.append(f"| {r.case} | {r.integrator} | {r.law} | {r.mu:g} | {r.status} | {r.steps} | "
+                     f"{r.us_per_step:.2f} | {r.cpu_us_per_step:.2f} | {r.friction_over_frictionless:.2f} | "
+                     f"{r.friction_over_frictionless_cpu:.2f} | {r.newton_per_step:.2f} |")
+    return "\n".join(lines) + "\n"

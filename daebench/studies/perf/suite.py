@@ -180,6 +180,7 @@ SECTIONS = {
     "structure": lambda out: structure.scaling_report(out=out),
     "new-model": lambda out: new_model.markdown(new_model.measure()),
     "cold-start": lambda out: cold_start.markdown(cold_start.measure()),
+    "friction": lambda out: friction_cost.markdown(friction_cost.friction_step_rates()),
 }
 
 
