@@ -106,8 +106,8 @@ def test_every_path_a_page_names_exists(page):
     missing = []
     for m in ROOT_PATH.finditer(text):
         path = m.group(1).rstrip(".,:;")
-        if "<" in path or "NAME" in path:
-            continue
+        if "<" in path or "NAME" in path or path.startswith("docs/_build"):
+            continue  # a placeholder, or the site's build output (made by the command the page shows)
         if not (list(ROOT.glob(path)) if "*" in path else (ROOT / path).exists()):
             missing.append(path)
     for target in LINK.findall(text):
