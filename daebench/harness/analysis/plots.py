@@ -4,7 +4,6 @@ of θ, energy residual and constraint residuals, modal participation W_i(t)."""
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 from typing import Any, Mapping, Sequence
