@@ -158,6 +158,20 @@ def test_rocking_block_housner_ratio_under_hht():
     assert 1.7 < math.log2(errs[0] / errs[1]) < 2.3, errs
 
 
+def test_rocking_block_impacts_on_the_degenerate_corner_lcp_are_housners():
+    """newmark at h = 5e-4 s meets, at its second impact, a Newton–Coulomb LCP whose two
+    corners share one tangent row and whose data are round-off zeros: finite-precision
+    pivoting ended there at a point that was not a solution (the new corner still
+    approaching, kinetic energy made). The end point is checked and the ties broken, so
+    every impact is Housner's: |ω⁺|/|ω⁻| = 1 − 1.5 sin²α, the old corner lifting."""
+    res = run("rocking-block", integrator="newmark", h=5e-4, t_end=2.0)
+    assert res.status == "completed", res.message
+    imps = [i for i in res.impacts if i.t > 0]
+    assert len(imps) >= 3 and [i.contact for i in imps[:3]] == [1, 0, 1]
+    ratio = np.array([abs(i.v_plus[2]) / abs(i.v_minus[2]) for i in imps])
+    assert np.abs(ratio - housner_ratio(0.2, 1.0)).max() < 1e-12, ratio
+
+
 # -- Painlevé's paradox ---------------------------------------------------------------------------------
 def test_painleve_slip_ends_the_run_with_its_verdict():
     """A rod resting on its lower end at 30°, sliding (U_T = +1 m/s) with μ = 2 > 4/3: the

@@ -34,6 +34,28 @@ def test_newton_lcp_gives_a_separating_contact_no_impulse():
     np.testing.assert_allclose(res.v_plus, [1.0, 1.0], atol=1e-14)
 
 
+@pytest.mark.parametrize("b, h", [(0.1, 0.3), (0.2, 0.5), (0.25, 0.25)])
+def test_rocking_block_corner_impact_with_friction_is_housners(b, h):
+    """A 2b × 2h block rocking on its corner 1 hits the floor with corner 0 (μ = 1, e = 0): both
+    corners' tangent rows are the same row (a degenerate LCP). The law's answer is Housner's: corner 0 sticks,
+    corner 1 lifts off without an impulse, ω⁺/ω⁻ = 1 − (3/2) sin²α, sin α = b/R, R² = b² + h²."""
+    m = 1.0
+    M = np.diag([m, m, m * (b * b + h * h) / 3.0])
+    GN = np.array([[0.0, 1.0, -b], [0.0, 1.0, b]])     # ∂(corner height)/∂(x, y, θ) at θ = 0
+    GT = np.array([[1.0, 0.0, h], [1.0, 0.0, h]])      # ∂(corner abscissa)/∂(x, y, θ): one row twice
+    w = 0.61
+    v = np.array([-w * h, -w * b, w])                  # turning about corner 1 (+b, −h): at rest
+    assert np.allclose(GN[1] @ v, 0.0) and np.allclose(GT @ v, 0.0) and GN[0] @ v < 0
+    res = frictional_impact(M, GN, GT, np.array([1.0, 1.0]), v, np.array([0.0, 0.0]))
+    assert res.ok
+    assert res.vn_plus.min() >= -1e-12 and res.impulse_n.min() >= 0.0
+    assert res.impulse_n[1] == pytest.approx(0.0, abs=1e-12)
+    assert abs(res.impulse_t[0]) <= res.impulse_n[0] * (1 + 1e-12) and abs(res.vt_plus[0]) < 1e-12
+    sin2 = b * b / (b * b + h * h)
+    assert res.v_plus[2] / w == pytest.approx(1.0 - 1.5 * sin2, rel=1e-12)
+    assert res.energy_loss > 0.0
+
+
 def test_resting_lcp_two_supports_closed_form():
     """A box (m = 2 kg, J = 0.5 kg m²) on supports at x = ∓w/2 (w = 1 m) under gravity and a
     torque τ about its centre: λ₁,₂ = m g/2 ± τ/w while both are loaded; past τ = m g w/2

@@ -133,8 +133,9 @@ def frictional_impact(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndar
         z, w = np.zeros(m), np.zeros(m)
         status = int(solve_lcp_lemke(np.ascontiguousarray(A), np.ascontiguousarray(b), m, z, w, lemke_work(m)))
         if status < 0 and m <= ENUMERATE_MAX:
-            # Lemke's pivoting can end on a ray in a degenerate LCP that has a solution (zero
-            # rows of b, a grazing contact): the complementary bases, all of them, decide
+            # Lemke's pivoting can end on a ray, or at a point that is not a solution, in a
+            # degenerate LCP that has one (zero rows of b, a grazing contact, one tangent row
+            # shared by two contacts): the complementary bases, all of them, decide
             found = enumerate_lcp(A, b)
             if found is not None:
                 z, status = found, 0

@@ -24,7 +24,10 @@ with the covering vector of ones solves every such LCP that has a solution and e
 secondary ray otherwise (Cottle, Pang & Stone §4.4; Stewart & Trinkle 1996 and Anitescu &
 Potra 1997 show the time-stepping friction LCP always has one). A ray end is returned as
 LCP_RAY: the caller names it (an inconsistent or indeterminate frictional contact,
-Painlevé's paradox), never loops.
+Painlevé's paradox), never loops. Its end point is checked: on degenerate data (identical
+tangent rows, zero entries of b) finite-precision pivoting can end with z0 out of the basis
+at a point that is not a solution, returned as LCP_DEGENERATE for the caller to break the
+ties, never as a solution.
 
 References
 ----------
@@ -54,7 +57,8 @@ from daebench.core.linalg import lu_factor, lu_solve
 
 LCP_TOL = 1e-12            # sign tolerance relative to the size of b (w) and of z
 LCP_MAX_PIVOTS = 200       # beyond this the matrix is not a P-matrix (dependent contacts)
-LCP_SINGULAR, LCP_NO_CONVERGENCE, LCP_RAY = -1, -2, -3
+LCP_SINGULAR, LCP_NO_CONVERGENCE, LCP_RAY, LCP_DEGENERATE = -1, -2, -3, -4
+LEMKE_CHECK_TOL = 1e-9     # Lemke's end point is a solution to this, relative to |b| and |w|
 LEMKE_MAX_PIVOTS = 1000    # per LCP; far above the few tens a contact set of daebench needs
 
 
@@ -237,11 +241,27 @@ def solve_lcp_lemke(A, b, m, z, w, lw):
                 for j in range(m):
                     s += A[i, j] * z[j]
                 w[i] = s
-            return pivots
+            return pivots if _complementary(b, z, w, m) else LCP_DEGENERATE
     return LCP_NO_CONVERGENCE
 
 
+@njit(cache=True)
+def _complementary(b, z, w, m):
+    """Whether (z, w = A z + b) solves the LCP to LEMKE_CHECK_TOL of the problem's size: on
+    degenerate data (identical tangent rows of contacts on one line, zero rows of b) the
+    pivoting can end with z0 out of the basis at a point that is not a solution."""
+    scale = 0.0
+    for i in range(m):
+        scale = max(scale, abs(b[i]), abs(w[i]))
+    tol = LEMKE_CHECK_TOL * max(scale, 1e-300)
+    for i in range(m):
+        if w[i] < -tol or min(z[i], w[i]) > tol:
+            return False
+    return True
+
+
 LCP_FAILURES = {LCP_SINGULAR: "a basis block of the LCP matrix is singular (dependent contacts?)",
+                LCP_DEGENERATE: "Lemke's pivoting ended at a point that is not a solution (degenerate contact data)",
                 LCP_NO_CONVERGENCE: f"no solution after {LCP_MAX_PIVOTS} pivots (the matrix is not a P-matrix?)"}
 
 

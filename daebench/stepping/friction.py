@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from daebench.core import kernels
-from daebench.core.lcp import LCP_RAY, LemkeWork, lemke_work, solve_lcp_lemke
+from daebench.core.lcp import LCP_DEGENERATE, LCP_RAY, LemkeWork, lemke_work, solve_lcp_lemke
 
 TIE_BREAK = 1e-10   # relative perturbation of b that breaks Lemke's degenerate ties (impulses(), a retry)
 from daebench.core.linalg import lu_solve
@@ -177,9 +177,9 @@ def impulses(model, fw, G, active, LU, piv, n, nc, q1, v1, v0, vfree, e, P):
         # Lemke need not pivot through the identical tangent rows of contacts on one line
         return 0
     st = solve_lcp_lemke(A, b, m, fw.z, fw.w, fw.lemke)
-    if st == LCP_RAY:
+    if st == LCP_RAY or st == LCP_DEGENERATE:
         # degenerate ties (contacts on one line have identical tangent rows) can end Lemke on a
-        # ray although a solution exists: break them by a perturbation of b of order TIE_BREAK
+        # ray, or at a point that is not a solution, although a solution exists: break them by a perturbation of b of order TIE_BREAK
         # relative (the lexicographic rule's intent), then solve again
         scale = 0.0
         for a in range(m):

@@ -4,7 +4,6 @@ of θ, energy residual and constraint residuals, modal participation W_i(t)."""
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -188,7 +187,7 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
     n = 1 if isinstance(y, str) else len(y)
     model = model_of(df)
     fig, axes, ys_cols, xs, keys = _log_panels(df, x, y, group, 7.0 if n == 1 else 4.6 * n, 5.0)
-    for j, (ax, yc) in enumerate(zip(axes[0], ys_cols)):
+    for ax, yc in zip(axes[0], ys_cols):
         ys = pd.to_numeric(df[yc], errors="coerce").to_numpy(float)
         for i, k in enumerate(dict.fromkeys(keys)):
             sel = (keys == k).to_numpy() & np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
@@ -208,13 +207,18 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
         ax.set_ylabel(label_of(yc, model))
         ax.grid(True, which="both", alpha=0.3)
         tidy_log_ticks(ax)
-        if j == 0:
-            ax.legend(fontsize=7)
     if n == 1:
+        axes[0][0].legend(fontsize=7)
         axes[0][0].set_title(title or "work–precision")
+        fig.tight_layout(rect=(0, 0.03, 1, 1))
     else:
+        # one legend below the panels, where it hides no point of any of them
+        handles, labels = axes[0][0].get_legend_handles_labels()
+        rows = -(-len(labels) // 4)
+        fig.legend(handles, labels, loc="lower center", ncol=min(4, max(1, len(labels))), fontsize=7,
+                   bbox_to_anchor=(0.5, 0.3 / fig.get_figheight()))    # above the provenance footer
         fig.suptitle(title or "work–precision")
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
+        fig.tight_layout(rect=(0, (0.45 + 0.17 * rows) / fig.get_figheight(), 1, 1))
     return fig, (save(fig, stem, prov) if stem is not None else [])
 
 
