@@ -33,7 +33,7 @@ def score(case: str = typer.Argument(..., help="scene name or path to a .toml fi
           reference: str = typer.Option("compute", "--reference",
                                         help="without an exact solution: compute (when missing) | require"),
           out_dir: Optional[str] = typer.Option(None, "--out",
-                                                help="folder for the scored row (default results/score/<case>-<hash>)"),
+                                                help="folder for the scored row (default `results/score/<case>-<hash>`)"),
           as_json: bool = typer.Option(False, "--json", help="print one JSON record, with a sweep row's keys")) -> None:
     """Score another code's trajectory of a case as a daebench run is scored.
 
@@ -63,8 +63,8 @@ def score(case: str = typer.Argument(..., help="scene name or path to a .toml fi
 def export(case: str = typer.Argument(..., help="scene name or path to a .toml file"),
            set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
            out_dir: Optional[str] = typer.Option(None, "--out",
-                                                 help="folder for <case>.json and <case>.md "
-                                                      "(default results/export/<case>-<hash>)"),
+                                                 help="folder for `<case>.json` and `<case>.md` "
+                                                      "(default `results/export/<case>-<hash>`)"),
            as_json: bool = typer.Option(False, "--json", help="print the JSON sheet (stdout holds nothing else)")
            ) -> None:
     """Write what another code needs to set a case up, as JSON and a Markdown sheet.

@@ -156,7 +156,7 @@ def page(scene: str = typer.Argument("beam-impact", help="a case with contacts (
     Sweeps hht, moreau (projection off/on), nsgenalpha at --steps and ida at --tols against
     the IDA reference; writes one work–precision figure per error measure and a figure of
     penetration and energy over time (one run each at --h). Progress goes to stderr; the
-    sweep tables are results/bench/<scene>-capture-e…-{fixed,ida}: run the page again with
+    sweep tables are `results/bench/<scene>-capture-e…-{fixed,ida}`: run the page again with
     --resume (after an interruption) or --overwrite (to replace them)."""
     from daebench import api
 

@@ -115,7 +115,7 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
                                                "(no reference: runs are scored only against a model's exact solution)"),
             run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run [s]"),
             out_dir: Optional[str] = typer.Option(None, "--out",
-                                                  help="output folder (default results/compare/<case>-<hash>)"),
+                                                  help="output folder (default `results/compare/<case>-<hash>`)"),
             json_out: bool = typer.Option(False, "--json", help="print the table as JSON records only"),
             report_page: bool = typer.Option(False, "--report",
                                              help="also write report.html (one self-contained page) in the folder"),
@@ -244,7 +244,7 @@ def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-sepa
     """Run the protocol of every case within a budget; print profiles and recommendations.
 
     Prints the performance profiles and a recommendation per case; writes
-    results/survey/<name>/ (table, reach = cost to reach each target, profiles,
+    `results/survey/<name>/` (table, reach = cost to reach each target, profiles,
     recommendations)."""
     from daebench import api
 
@@ -269,7 +269,7 @@ def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-sepa
         raise typer.Exit(1)
 
 
-def report(name: str = typer.Argument(..., help="a survey name (results/survey/<name>/)"),
+def report(name: str = typer.Argument(..., help="a survey name (`results/survey/<name>/`)"),
            out_path: Optional[str] = typer.Option(None, "--out", help="the HTML file (default: in the survey)"),
            compact: bool = typer.Option(False, "--compact",
                                         help="a small page: no per-case work–precision figures, the profile "
@@ -327,7 +327,7 @@ def stability(case: str = typer.Argument(..., help="scene name or path to a .tom
               run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run, s"),
               mark_h: float = typer.Option(0.0, "--mark-h", help="draw this step as a line, s (0: none)"),
               out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/stability)"),
-              name: Optional[str] = typer.Option(None, "--name", help="file stem (default <case>-stability)")) -> None:
+              name: Optional[str] = typer.Option(None, "--name", help="file stem (default `<case>-stability`)")) -> None:
     """Measure the largest stable fixed step per integrator setting and N beside its prediction.
 
     Bisection on whole runs (completed, energy balance within the divergence threshold),
