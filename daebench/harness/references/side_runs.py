@@ -9,8 +9,9 @@ three times); on two cores the whole takes about the time of the two longer runs
 of the sum of the three. The runs are the same function calls on the same inputs as in
 one process, so their histories are the same to the last digit.
 
-Where ``fork`` does not exist (Windows, or ``parallel=False``) the check runs are made one
-after the other in the calling process when their results are asked for. A worker ends
+Where ``fork`` does not exist (Windows), in a daemonic process (a sweep's worker may not
+have children) or with ``parallel=False``, the check runs are made one after the other in
+the calling process when their results are asked for. A worker ends
 with its caller (:func:`daebench.harness.running.child_process.die_with_parent`); a worker that dies
 without an answer is reported as a ``RuntimeError`` naming the run and its exit code; an
 exception a run raises is raised again in the caller.
@@ -68,7 +69,10 @@ class SideRuns:
     def __init__(self, jobs: dict[str, Callable[[], RunSummary]], parallel: bool = True) -> None:
         self.jobs = dict(jobs)
         self.procs: dict[str, tuple[Any, Any]] = {}
-        self.parallel = bool(parallel and "fork" in mp.get_all_start_methods())
+        # a daemonic process (a sweep's worker) may not have children: there the check runs
+        # are made one after the other, as where fork does not exist
+        self.parallel = bool(parallel and "fork" in mp.get_all_start_methods()
+                             and not mp.current_process().daemon)
         self.started = False
 
     def start(self, *_: Any) -> None:
