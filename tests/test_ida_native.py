@@ -33,6 +33,22 @@ def _steps(scene_name: str, backend: str, n_steps: int, **settings) -> tuple[np.
     return np.array(rows), integ.counters_snapshot()
 
 
+def plant_chain_force(monkeypatch):
+    """The chain model's applied force raises beyond 5 ms (a Python model's error inside
+    IDA's callback); returns the real one."""
+    from daebench.models.chain import Chain
+
+    real = Chain.applied_force
+
+    def planted(self, t, q, v):
+        if t > 0.005:
+            raise ValueError("planted: the chain's force is undefined beyond 5 ms")
+        return real(self, t, q, v)
+
+    monkeypatch.setattr(Chain, "applied_force", planted)
+    return real
+
+
 @pytest.mark.parametrize("jacobian", ["analytic", "fd"])
 def test_one_step_path_equals_sksundae_bitwise(jacobian):
     """Cartesian pendulum (index 3, GGL form): 60 single IDA steps, every number equal,
@@ -90,14 +106,7 @@ def test_a_python_models_exception_ends_the_run_with_its_message(monkeypatch, ca
     from daebench.harness.running.runner import run_scene
     from daebench.models.chain import Chain
 
-    real = Chain.applied_force
-
-    def planted(self, t, q, v):
-        if t > 0.005:
-            raise ValueError("planted: the chain's force is undefined beyond 5 ms")
-        return real(self, t, q, v)
-
-    monkeypatch.setattr(Chain, "applied_force", planted)
+    real = plant_chain_force(monkeypatch)
     scene = api.load_scene("chain-impact", ["t_end=0.01"])
     rec, res = run_scene(scene, "ida", {}, write=False)
     assert res.status == "failed"
@@ -119,16 +128,8 @@ def test_a_python_models_exception_inside_idas_callback_is_the_sweep_rows_error(
     from daebench.harness.sweeps.options import Timing
     from daebench.harness.sweeps.plan import plan_sweep
     from daebench.harness.sweeps.row import execute
-    from daebench.models.chain import Chain
 
-    real = Chain.applied_force
-
-    def planted(self, t, q, v):
-        if t > 0.005:
-            raise ValueError("planted: the chain's force is undefined beyond 5 ms")
-        return real(self, t, q, v)
-
-    monkeypatch.setattr(Chain, "applied_force", planted)
+    plant_chain_force(monkeypatch)
     scene = api.load_scene("chain-impact", ["t_end=0.01"])
     (spec,) = plan_sweep(scene, ["ida"], tols=[1e-6])
     row = execute(spec, scene, "none", Timing(repeats=1, warmup=False))

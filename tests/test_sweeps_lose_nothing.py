@@ -178,8 +178,11 @@ SLOW_SWEEP = ["bench", "pendulum", "-i", "hht", "--steps", "1e-5", "--grid", "al
 
 def daebench(*args: str, results: Path) -> subprocess.Popen:
     env = dict(os.environ, DAEBENCH_RESULTS=str(results), COLUMNS="100")
+    # SIGINT at its default in the child: a shell's background job (the suite run with `&`)
+    # hands its children SIGINT ignored, and Python then never sees the Ctrl-C these tests send
     return subprocess.Popen([sys.executable, "-m", "daebench.cli.app", *args], env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def stored_rows(results: Path, name: str) -> int:
