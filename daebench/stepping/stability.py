@@ -39,6 +39,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import scipy.linalg as sl
@@ -165,30 +166,28 @@ def log_growth(method: AbmPece | NewmarkMember, steps: float, omega: float | Non
 def strict_interval(method: AbmPece | NewmarkMember) -> float:
     """sup{Ω : ρ(ω') ≤ 1 for all ω' ≤ Ω}: the first crossing on :data:`OMEGA_GRID`, refined by
     bisection between its neighbours (∞ if ρ ≤ 1 up to 1e7; central differences: 2)."""
-    bad = np.flatnonzero(_log_radius(method) > math.log1p(STRICT_SLACK))
-    if not bad.size:
-        return math.inf
-    i = int(bad[0])
-    lo, hi = (float(OMEGA_GRID[i - 1]) if i else 0.0), float(OMEGA_GRID[i])
-    for _ in range(48):
-        mid = 0.5 * (lo + hi)
-        if method.radius(mid) > 1.0 + STRICT_SLACK:
-            hi = mid
-        else:
-            lo = mid
-    return lo
+    return _first_crossing(_log_radius(method) > math.log1p(STRICT_SLACK),
+                           lambda w: method.radius(w) > 1.0 + STRICT_SLACK, 48)
 
 
 def run_interval(method: AbmPece | NewmarkMember, steps: float, log_budget: float) -> float:
     """Ω*(n, G) = sup{Ω : growth over n steps ≤ G for all Ω' ≤ Ω} (∞ if never exceeded up to 1e7)."""
-    bad = np.flatnonzero(log_growth(method, steps) > log_budget)
+    return _first_crossing(log_growth(method, steps) > log_budget,
+                           lambda w: log_growth(method, steps, w)[0] > log_budget, 40)
+
+
+def _first_crossing(bad_on_grid: np.ndarray, bad_at: Callable[[float], bool], bisections: int) -> float:
+    """The Ω where a condition first holds: the first point of :data:`OMEGA_GRID` where
+    ``bad_on_grid`` is true, refined by bisecting ``bad_at`` between it and the point below
+    (∞ when it holds nowhere on the grid)."""
+    bad = np.flatnonzero(bad_on_grid)
     if not bad.size:
         return math.inf
     i = int(bad[0])
     lo, hi = (float(OMEGA_GRID[i - 1]) if i else 0.0), float(OMEGA_GRID[i])
-    for _ in range(40):
+    for _ in range(bisections):
         mid = 0.5 * (lo + hi)
-        if log_growth(method, steps, mid)[0] > log_budget:
+        if bad_at(mid):
             hi = mid
         else:
             lo = mid
