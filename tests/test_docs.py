@@ -179,7 +179,7 @@ def test_ci_runs_exactly_the_readmes_test_command():
     assert command == 'pytest -m "not slow"' and ci[-1].strip() == command
 
 
-@pytest.mark.parametrize("path, cmd", visible_commands(), ids=lambda x: " ".join(x) if isinstance(x, tuple) else "")
+@pytest.mark.parametrize("path, cmd", list(visible_commands()), ids=lambda x: " ".join(x) if isinstance(x, tuple) else "")
 def test_every_command_summary_is_one_sentence_on_one_line(path, cmd):
     summary = (cmd.help or "").strip().split("\n\n")[0]
     assert summary and "\n" not in summary and summary.endswith("."), repr(summary)
