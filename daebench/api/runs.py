@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Any, Iterable
 
 from daebench.api.catalogue import SceneLike, load_scene
-from daebench.core.params import Param
 from daebench.harness.references import reference as references
 from daebench.harness.references import shipped
 from daebench.harness.references.reference import Reference
@@ -55,9 +54,7 @@ def reference(scene: SceneLike, *, overrides: Iterable[str] | dict[str, Any] | N
     set's published solution (``notes``). ``ship`` (maintainers): copy it into the package
     (:mod:`daebench.harness.references.shipped`; ``shipped`` then names the file)."""
     sc = load_scene(scene, overrides)
-    for name, x in (("rtol", rtol), ("atol", atol)):
-        if x is not None:
-            Param(name, float, 0.0, f"IDA {name} of the reference", low=1e-16, high=1e-2).validate(x, "reference")
+    references.reference_tolerances(rtol=rtol, atol=atol)   # refused here, before a cached one is read
     kw = dict(rtol=rtol, atol=atol, progress=run_progress_factory(progress))
     ref = references.compute_reference(sc, **kw) if force else references.load_reference(sc, mode="compute", **kw)
     if sc.model in ivptest.REFERENCES and abs(sc.t_end - ivptest.REFERENCES[sc.model].t_end) < 1e-12:

@@ -40,6 +40,7 @@ from daebench.harness.files import DamagedFile, atomic_write, read_json, results
 from daebench.harness.references import accuracy, capturing, modelprobe, side_runs
 from daebench.harness.running import provenance
 from daebench.harness.running.runner import make_integrator, run_scene
+from daebench.integrators.base import get_integrator
 from daebench.harness.scoring import metrics
 from daebench.harness.scoring.pipeline import declared
 from daebench.integrators.odeint import IndexOneODE
@@ -426,16 +427,24 @@ def _meets(scene: Scene, ref: Reference, mode: str, kwargs: dict[str, Any]) -> R
                            f"requested {float(want):g}; recompute it with {_fix(scene)} --rtol {float(want):g}")
 
 
+def _ida_setting(name: str) -> Any:
+    """The reference solver's declared setting ``name``: its range is the one bound of a
+    reference's tolerance (a value outside it is refused, never raised silently)."""
+    return next(s for s in get_integrator(REF_INTEGRATOR).settings_spec if s.name == name)
+
+
 def reference_tolerances(tightest_rtol: float | None = None, rtol: float | None = None,
                          atol: float | None = None) -> tuple[float, float]:
-    """rtol/atol of a reference: the defaults, tightened to REF_MARGIN below the
-    tightest scored rtol, never below IDA's floor of 1e-14."""
-    r = REF_RTOL if rtol is None else float(rtol)
-    if tightest_rtol is not None:
-        r = min(r, float(tightest_rtol) / REF_MARGIN)
-    r = max(r, 1e-14)
-    a = (REF_ATOL * r / REF_RTOL) if atol is None else float(atol)
-    return r, max(a, 1e-16)
+    """rtol/atol of a reference: the given ones, checked against the reference solver's
+    declared ranges (:class:`ParamError` outside them); else the defaults, tightened to
+    REF_MARGIN below the tightest scored rtol but not below the solver's lowest rtol."""
+    if rtol is not None:
+        r = float(_ida_setting("rtol").validate(rtol, "reference"))
+    else:
+        r = REF_RTOL if tightest_rtol is None else min(REF_RTOL, float(tightest_rtol) / REF_MARGIN)
+        r = max(r, float(_ida_setting("rtol").low))
+    a = (REF_ATOL * r / REF_RTOL) if atol is None else float(_ida_setting("atol").validate(atol, "reference"))
+    return r, max(a, float(_ida_setting("atol").low))
 
 
 def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: float | None = None,
