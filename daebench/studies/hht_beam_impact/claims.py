@@ -18,6 +18,16 @@ from daebench.studies.hht_beam_impact.table import BAUMGARTE, HHT_ALPHAS, PUBLIS
 from daebench.studies.hht_beam_impact.figures import fig_cost, fig_difference, fig_series
 
 
+#: a spread of θ across settings below this is round-off carried by the run, not a
+#: mechanism acting (θ ranges over ~100°, so 1e-8° is 1e-10 of it)
+ROUNDOFF_THETA_DEG = 1e-8
+#: a velocity-constraint residual below this is round-off of the imposed velocity jump
+#: (the tip moves at ~1 m/s), so no stabilization has a drift to act on
+ROUNDOFF_CDOT = 1e-9
+NO_DRIFT = ("q = (θ, B) is minimal and the driver imposes the contact's velocity jump for every "
+            "integrator, so Baumgarte's (δ, ε) have no constraint drift to act on")
+
+
 # ==== claim helpers =================================================================
 def _pick(df: pd.DataFrame, **kw: Any) -> pd.DataFrame:
     sel = np.ones(len(df), bool)
@@ -107,10 +117,13 @@ def claim1(df, hists, p, stem, prov):
         bb = [hists.get(int(r["run"])) for _, r in done[done.integrator == "baumgarte"].iterrows()]
         hh, bb = [h for h in hh if h is not None], [h for h in bb if h is not None]
         sa, sb = _spread(hh), _spread(bb)
-        # judged only when every setting of both families completed
-        ok.append(sa < 0.2 * sb if len(hh) == len(HHT_ALPHAS) and len(bb) == len(BAUMGARTE) else None)
+        # judged only when every setting of both families completed, and (δ, ε) can act at all
+        inert = math.isfinite(sb) and sb < ROUNDOFF_THETA_DEG
+        ok.append(sa < 0.2 * sb if len(hh) == len(HHT_ALPHAS) and len(bb) == len(BAUMGARTE) and not inert
+                  else None)
         parts.append(f"e={e:g}: max |Δθ| across α = {_num(sa, '.3g', '°')}, across (δ,ε) = {_num(sb, '.3g', '°')}"
-                     f"{_status_note(rows)}")
+                     f"{_status_note(rows)}"
+                     + (f" — (δ,ε) change θ only at round-off (< {ROUNDOFF_THETA_DEG:g}°): {NO_DRIFT}" if inert else ""))
         if tag == "rebound":
             apex, imp2 = {}, {}
             for _, r in rows.iterrows():
@@ -168,17 +181,26 @@ def claim3(df, hists, p, stem, prov):
         jump[r["setting"]] = _resid_at(h, min(t1 + 0.02, h["t"].iloc[-1])) - _resid_at(h, t1 - 1e-3)
     a0 = drain.get("HHT α=0", math.nan)
     an = [drain.get(k, math.nan) for k in ("HHT α=-0.15", "HHT α=-1/3")]
-    ok_a = all(math.isfinite(x) for x in an + [a0]) and all(x < 0 and abs(x) > abs(a0) for x in an)
+    ok_a = (all(x < 0 and abs(x) > abs(a0) for x in an)
+            if all(math.isfinite(x) for x in an + [a0]) else None)
     gains = [jump.get(k, math.nan) for k in ("Baumgarte (0,0)", "Baumgarte (10,50)")]
-    ok_b = all(math.isfinite(g) and g > 0 for g in gains)
-    testable = all(math.isfinite(x) for x in an + [a0] + gains)
+    hht_jump = [v for k, v in jump.items() if k.startswith("HHT") and math.isfinite(v)]
+    # Baumgarte gains at the impact where HHT, over the same window, gains less than half as much
+    ok_b = (all(g > 0 and max(hht_jump) < 0.5 * g for g in gains)
+            if all(math.isfinite(g) for g in gains) and hht_jump else None)
+    baum = [v for k, v in jump.items() if k.startswith("Baum") and math.isfinite(v)]
+    same = (f"; the same for every (δ,ε) to {max(baum) - min(baum):.2g} J, so the change is the ABM4 step's, "
+            f"not the stabilization's" if len(baum) > 1 and max(baum) - min(baum) <= 1e-3 * max(map(abs, baum))
+            else "")
     figs = fig_series(_hmap(rows, hists), "energy_residual", stem, prov,
                        f"claim 3: energy-balance residual, e = {p.e_rebound:g}, N = {p.n_main}")
-    txt = ("energy residual before the 1st impact: " + ", ".join(f"{k} {v:.3g} J" for k, v in drain.items()
-                                                                if k.startswith("HHT"))
-           + "; change across the 1st impact (−1 ms … +20 ms): "
-           + ", ".join(f"{k} {v:+.3g} J" for k, v in jump.items() if k.startswith("Baum")))
-    return _verdict([(txt, (ok_a and ok_b) if testable else None)]), figs
+    window = "change across the 1st impact (−1 ms … +20 ms): "
+    txt_a = ("energy residual before the 1st impact: " + ", ".join(f"{k} {v:.3g} J" for k, v in drain.items()
+                                                                  if k.startswith("HHT")))
+    txt_b = (window + ", ".join(f"{k} {v:+.3g} J" for k, v in jump.items() if k.startswith("Baum"))
+             + "; HHT over the same window: " + ", ".join(f"{k} {v:+.3g} J" for k, v in jump.items()
+                                                          if k.startswith("HHT")) + same)
+    return _verdict([(txt_a, ok_a), (txt_b, ok_b)]), figs
 
 
 def claim4(df, hists, p, stem, prov):
@@ -202,12 +224,16 @@ def claim4(df, hists, p, stem, prov):
             parts.append(("the largest N has no history or no impact", None))
     else:
         parts.append((f"only N = {', '.join(map(str, p.Ns))} run", None))
-    n9 = _pick(df, set="table", N=9)
-    if len(n9):
-        b = n9[n9.integrator == "baumgarte"]["status"].tolist()
-        hh = n9[n9.integrator == "hht"]["status"].tolist()
-        parts.append((f"N = 9: Baumgarte {'/'.join(b)}, HHT {'/'.join(hh)}",
-                      all(s == "diverged" for s in b) and all(s == "completed" for s in hh)))
+    tab = _pick(df, set="table")
+    if len(_pick(df, set="table", N=9)):
+        # the claim: Baumgarte diverges at N = 9 (and so not below it), HHT goes on at every N
+        by_n = {int(N): g for N, g in tab.groupby("N")}
+        b = {N: g[g.integrator == "baumgarte"]["status"].tolist() for N, g in by_n.items()}
+        hh = {N: g[g.integrator == "hht"]["status"].tolist() for N, g in by_n.items()}
+        ok = (all(s == "diverged" for s in b[9]) and all(s == "completed" for N in b if N < 9 for s in b[N])
+              and all(s == "completed" for ss in hh.values() for s in ss))
+        parts.append(("Baumgarte " + ", ".join(f"N = {N}: {'/'.join(b[N])}" for N in sorted(b))
+                      + "; HHT " + ", ".join(f"N = {N}: {'/'.join(hh[N])}" for N in sorted(hh)), ok))
     else:
         parts.append(("N = 9 not run", None))
     return _verdict(parts), figs
@@ -263,12 +289,17 @@ def claim6(df, hists, p, stem, prov):
                         f"claim 6: |C̈| while the contact is closed, N = {N}", logy=True, ylabel="|C̈| [m/s²]")
     h = val.get("HHT α=-0.15", (math.nan,) * 3)
     b1, b2 = val.get("Baumgarte (1000,5000)", (math.nan,) * 3), val.get("Baumgarte (10,50)", (math.nan,) * 3)
-    ok = None
-    if all(math.isfinite(x) for x in (h[0], h[1], b1[0], b2[0])):
-        ok = h[0] < 1e-8 and h[1] > 1e3 * h[0] and b1[0] > 1e3 * h[0] and b2[0] > 1e3 * h[0]
-    return _verdict([(f"HHT α=−0.15: max|Ċ| {_num(h[0], '.2g', ' m/s')}, max|C̈| {_num(h[1], '.2g', ' m/s²')}; "
-                      f"Baumgarte (1000,5000): max|Ċ| {_num(b1[0], '.2g', ' m/s')}; (10,50): max|Ċ| "
-                      f"{_num(b2[0], '.2g', ' m/s')} (published: 1e-14, 1e4, 1e-1, 1e-4)", ok)]), figs
+    ok_h = (h[0] < 1e-8 and h[1] > 1e3 * h[0]) if all(math.isfinite(x) for x in h[:2]) else None
+    ok_b = None
+    if all(math.isfinite(x) for x in (h[0], b1[0], b2[0])):
+        # with no drift to stabilize (both at round-off) the Baumgarte half cannot be tested
+        ok_b = None if max(b1[0], b2[0]) < ROUNDOFF_CDOT else (b1[0] > 1e3 * h[0] and b2[0] > 1e3 * h[0])
+    inert = ok_b is None and all(math.isfinite(x) for x in (b1[0], b2[0]))
+    return _verdict([(f"HHT α=−0.15: max|Ċ| {_num(h[0], '.2g', ' m/s')}, max|C̈| {_num(h[1], '.2g', ' m/s²')} "
+                      f"(published 1e-14, 1e4)", ok_h),
+                     (f"Baumgarte (1000,5000): max|Ċ| {_num(b1[0], '.2g', ' m/s')}; (10,50): max|Ċ| "
+                      f"{_num(b2[0], '.2g', ' m/s')} (published 1e-1, 1e-4)"
+                      + (f" — at round-off (< {ROUNDOFF_CDOT:g} m/s): {NO_DRIFT}" if inert else ""), ok_b)]), figs
 
 
 def claim7(df, hists, p, stem, prov):
@@ -294,16 +325,46 @@ def claim7(df, hists, p, stem, prov):
     parts: list[tuple[str, bool | None]] = [
         (", ".join(f"N={N}: HHT/Baumgarte {what} = {r:.3g}" for N, r in ratios), all(r > 1 for _, r in ratios))
         if ratios else ("no completed HHT/Baumgarte pair", None)]
-    Ns = sorted(set(c["N"]))
-    if len(Ns) > 1:
-        g = c.groupby("N")["cost"].median()
-        slope = float(np.polyfit(np.log(g.index.to_numpy(float)), np.log(g.to_numpy(float)), 1)[0])
-        pub = float(np.polyfit(np.log(PUBLISHED_TABLE1.index.to_numpy(float)),
-                               np.log(PUBLISHED_TABLE1.median(axis=1).to_numpy(float)), 1)[0])
-        parts.append((f"median {what} ∝ N^{slope:.2g} (published wall time N^{pub:.2g})", slope > 1.0))
+    pub = _growth(PUBLISHED_TABLE1.index.to_numpy(float), PUBLISHED_TABLE1.median(axis=1).to_numpy(float))[0]
+    fits = []
+    for family in ("HHT", "Baum"):   # one fit per method: a median across methods mixes them where one diverged
+        m = c[c.setting.str.startswith(family)]
+        g = m.groupby("N")["cost"].median()
+        if len(g) > 1:
+            fits.append((family, g.index.to_numpy(int), *_growth(g.index.to_numpy(float), g.to_numpy(float))))
+    if fits:
+        ops = _operations(done)
+        parts.append(("; ".join(f"{'HHT' if f == 'HHT' else 'Baumgarte'} median {what} ∝ N^{k:.2g} "
+                                f"(fit over N = {Ns.min()}…{Ns.max()}, {len(Ns)} points, log residual "
+                                f"{spread:.2g})" for f, Ns, k, spread in fits)
+                      + f" (published wall time N^{pub:.2g}); {ops}", all(k > 1.0 for _, _, k, _ in fits)))
     else:
         parts.append(("one N only, so no growth with N", None))
     return _verdict(parts), figs
+
+
+def _growth(n: np.ndarray, cost: np.ndarray) -> tuple[float, float]:
+    """Exponent k of cost ∝ n^k (least squares in log–log) and the largest |log residual|."""
+    k, c0 = np.polyfit(np.log(n), np.log(cost), 1)
+    return float(k), float(np.max(np.abs(np.log(cost) - (k * np.log(n) + c0))))
+
+
+def _operations(done: pd.DataFrame) -> str:
+    """Newton iterations and LU factorizations per step of each method at its smallest and
+    largest N: at a fixed step, work per step that does not grow with N says the measured
+    time growth is cost per operation (call overhead at these sizes), not more operations."""
+    out = []
+    for family, words in (("HHT", "HHT"), ("Baum", "Baumgarte")):
+        m = done[done.setting.astype(str).str.startswith(family)]
+        if not len(m) or "steps" not in m or "newton_iterations" not in m:
+            continue
+        per = m.assign(nw=pd.to_numeric(m["newton_iterations"], errors="coerce") / m["steps"],
+                       lu=pd.to_numeric(m.get("lu_factorizations"), errors="coerce") / m["steps"])
+        g = per.groupby("N")[["nw", "lu"]].median()
+        lo, hi = g.index.min(), g.index.max()
+        out.append(f"{words} Newton iterations per step {g.loc[lo, 'nw']:.3g} at N = {lo}, {g.loc[hi, 'nw']:.3g} "
+                   f"at N = {hi}; LU factorizations per step {g.loc[lo, 'lu']:.3g}, {g.loc[hi, 'lu']:.3g}")
+    return "; ".join(out) if out else "no operation counts recorded"
 
 
 CLAIMS = (claim1, claim2, claim3, claim4, claim5, claim6, claim7)
