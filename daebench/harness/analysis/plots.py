@@ -82,11 +82,13 @@ def save(fig: Any, stem: str | Path, prov: dict[str, Any] | None = None) -> list
     """Add the provenance footer, write <stem>.png and <stem>.svg, close the figure."""
     stem = Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
-    provenance.add_figure_footer(fig, prov or provenance.collect())
+    prov = prov or provenance.collect()
+    provenance.add_figure_footer(fig, prov)
+    meta = provenance.figure_metadata(fig, prov)
     out = []
     for ext in ("png", "svg"):
         p = stem.with_suffix(f".{ext}")
-        fig.savefig(p, dpi=130)
+        fig.savefig(p, dpi=130, metadata=meta[ext])
         out.append(p)
     plt.close(fig)
     return out

@@ -82,6 +82,29 @@ def add_figure_footer(fig: Any, prov: dict[str, Any]) -> None:
     fig.text(0.005, 0.003, footer_text(prov), fontsize=5.5, color="0.4", ha="left", va="bottom", wrap=True)
 
 
+#: the PNG text key (and the SVG description's prefix) holding a figure's provenance as JSON
+FIGURE_KEY = "daebench-provenance"
+
+
+def figure_metadata(fig: Any, prov: dict[str, Any]) -> dict[str, dict[str, str]]:
+    """File metadata of a figure, per format: its provenance and its titles (what it
+    shows: case, N) as JSON, so that a page showing the figure can be checked against
+    it (:func:`read_figure_provenance`)."""
+    titles = [t for t in ([fig._suptitle.get_text()] if fig._suptitle is not None else [])
+              + [ax.get_title() for ax in fig.axes] if t]
+    text = json.dumps({**prov, "titles": titles}, default=str)
+    return {"png": {FIGURE_KEY: text}, "svg": {"Description": f"{FIGURE_KEY} {text}"}}
+
+
+def read_figure_provenance(png: str | os.PathLike) -> dict[str, Any] | None:
+    """The provenance a PNG written by daebench carries (None if it carries none)."""
+    from PIL import Image   # lazy: only figure checks read PNGs (Pillow comes with matplotlib)
+
+    with Image.open(png) as im:
+        text = im.info.get(FIGURE_KEY)
+    return json.loads(text) if isinstance(text, str) else None
+
+
 def write_sidecar(path: str | os.PathLike, prov: dict[str, Any], **extra: Any) -> Path:
     """Write ``prov`` (plus ``extra`` fields) as JSON next to an output file."""
     p = Path(path)
