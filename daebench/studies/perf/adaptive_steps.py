@@ -13,6 +13,7 @@ from daebench.core.interrupt import RunTimeout
 from daebench.harness.running.deadline import deadline
 from daebench.harness.references.reference import load_reference
 from daebench.harness.running.runner import run_scene
+from daebench.harness.sweeps.plan import TOL_ATOL_RATIO
 from daebench.models.scenes import load_scene
 from daebench.studies.perf import probes
 from daebench.studies.perf.settings import THETA_TARGET_RAD, PerfSettings
@@ -29,7 +30,7 @@ def adaptive(s: PerfSettings, paper_steps: int | None) -> dict[str, Any]:
     rows = []
     for integ in ("ida", "hht"):
         for tol in s.adaptive_tols:
-            opts = {"rtol": tol, "atol": tol * 1e-2}
+            opts = {"rtol": tol, "atol": tol * TOL_ATOL_RATIO}
             if integ == "hht":
                 opts.update(adaptive=True, alpha=-0.15)
             try:
