@@ -35,3 +35,27 @@ def test_legend_names_the_step_sizes():
     assert "moreau (h 0.002…0.0005 s)" in labels and "ida" in labels
     assert ax.get_ylabel() == "θ max error over the trusted span [rad]"
     assert ax.get_xlabel() == "wall time [s]"
+
+
+def _wp_rows() -> pd.DataFrame:
+    # three steps of one method whose CPU times span less than a decade (0.24–0.62 s)
+    return pd.DataFrame({"label": ["hht"] * 3, "integrator": ["hht"] * 3, "h": [1e-4, 5e-5, 2.5e-5],
+                         "cpu_s": [0.24, 0.37, 0.62], "err_theta_max": [2.0, 1.5, 1.1]})
+
+
+def test_a_short_cost_range_still_has_labelled_ticks():
+    fig, _ = work_precision(_wp_rows(), y="err_theta_max")
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    shown = [t for t in ax.get_xticklabels(minor=False) + ax.get_xticklabels(minor=True)
+             if t.get_text() and ax.get_xlim()[0] <= t.get_position()[0] <= ax.get_xlim()[1]]
+    assert len(shown) >= 2, [t.get_text() for t in shown]
+    lo, hi = ax.get_xlim()
+    assert lo <= 0.24 and hi >= 0.62
+
+
+def test_each_point_is_named_by_its_step_and_cost_is_cpu_time():
+    fig, _ = work_precision(_wp_rows(), y="err_theta_max")
+    texts = {t.get_text() for t in fig.axes[0].texts}
+    assert {"0.0001", "5e-05", "2.5e-05"} <= texts
+    assert "CPU" in fig.axes[0].get_xlabel()

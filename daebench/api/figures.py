@@ -30,7 +30,7 @@ def _ys(y: str | Sequence[str]) -> list[str]:
     return [c.strip() for c in y.split(",") if c.strip()] if isinstance(y, str) else list(y)
 
 
-def plot_work_precision(table: str | Path, x: str = "wall_s", y: str | Sequence[str] = "err_theta_max_trusted",
+def plot_work_precision(table: str | Path, x: str = "cpu_s", y: str | Sequence[str] = "err_theta_max_trusted",
                         group: str = "label", out: str | Path | None = None) -> list[Path]:
     """Work–precision diagram (log–log, Pareto front marked) of a sweep table, one panel per
     ``y`` column, as PNG and SVG (default: next to the table); the files.

@@ -20,7 +20,7 @@ def register(app: typer.Typer) -> None:
 
 
 def plot_wp(table: str = typer.Argument(..., help="a sweep table (.parquet or .csv)"),
-            x: str = typer.Option("wall_s", "--x", help="cost column (wall_s, cpu_s, steps, ...)"),
+            x: str = typer.Option("cpu_s", "--x", help="cost column (cpu_s, wall_s, steps, ...)"),
             y: str = typer.Option("err_theta_max_trusted", "--y",
                                   help="error column(s), comma-separated for one panel each: err_theta_max_trusted "
                                        "(over the reference's trusted span [0, trust_t]), err_theta_max (whole "

@@ -121,6 +121,33 @@ def tidy_log_ticks(ax: Any) -> None:
             axis.set_minor_formatter(ticker.FuncFormatter(minor))
 
 
+def readable_log_limits(ax: Any) -> None:
+    """Widen each log axis to the nearest 1-2-5 marks around its data, so that a range
+    shorter than a decade (a CPU axis over 0.24–0.62 s) still carries at least two
+    labelled ticks (:func:`tidy_log_ticks` labels 2× and 5× a power of ten)."""
+    marks = np.array([1.0, 2.0, 5.0, 10.0])
+    for axis, get, set_ in ((ax.xaxis, ax.get_xlim, ax.set_xlim), (ax.yaxis, ax.get_ylim, ax.set_ylim)):
+        if axis.get_scale() != "log":
+            continue
+        lo, hi = get()
+        if not (lo > 0 and hi > lo and np.isfinite(lo) and np.isfinite(hi)):
+            continue
+        dlo, dhi = 10.0 ** np.floor(np.log10(lo)), 10.0 ** np.floor(np.log10(hi))
+        new_lo = dlo * marks[marks * dlo <= lo * (1 + 1e-12)].max()
+        new_hi = dhi * marks[marks * dhi >= hi * (1 - 1e-12)].min()
+        set_(new_lo, new_hi)
+
+
+def _setting_text(df: pd.DataFrame, i: int) -> str:
+    """A run's step ('1e-4') or, without one, its tolerance ('tol 1e-6'), for a point label."""
+    for col, fmt in (("h", "{:.3g}"), ("tol", "tol {:.0e}"), ("rtol", "tol {:.0e}")):
+        if col in df.columns:
+            v = pd.to_numeric(df[col], errors="coerce").iloc[i]
+            if np.isfinite(v) and v > 0:
+                return fmt.format(v)
+    return ""
+
+
 def _log_panels(df: pd.DataFrame, x: str, y: str | Sequence[str], group: str, width: float, height: float
                 ) -> tuple[Any, Any, list[str], np.ndarray, pd.Series]:
     """The shared start of the log–log sweep figures: the y columns (checked), one panel
@@ -179,7 +206,7 @@ def _steps_note(df: pd.DataFrame, rows: np.ndarray) -> str:
     return f" (h {h[-1]:.3g} s)" if h.size == 1 else f" (h {h[-1]:.3g}…{h[0]:.3g} s)"
 
 
-def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] = (),
+def work_precision(df: pd.DataFrame, x: str = "cpu_s", y: str | Sequence[str] = (),
                    group: str = "label", stem: str | Path | None = None, prov: dict[str, Any] | None = None,
                    title: str = "") -> tuple[Any, list[Path]]:
     """Error (y) against cost (x), log–log, one line per ``group``, the Pareto front
@@ -198,6 +225,9 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
             if sel.any():
                 order = np.argsort(xs[sel])
                 ax.loglog(xs[sel][order], ys[sel][order], "o-", ms=4, color=f"C{i % 10}", label=lab)
+                for j in np.flatnonzero(sel):     # each point named by its step or tolerance
+                    ax.annotate(_setting_text(df, int(j)), (xs[j], ys[j]), xytext=(3, 3),
+                                textcoords="offset points", fontsize=5.5, color=f"C{i % 10}")
             else:
                 ax.plot([], [], "x", color=f"C{i % 10}", label=lab)
         front = pareto_front(xs, ys)
@@ -208,6 +238,7 @@ def work_precision(df: pd.DataFrame, x: str = "wall_s", y: str | Sequence[str] =
         ax.set_xlabel(label_of(x))
         ax.set_ylabel(label_of(yc, model))
         ax.grid(True, which="both", alpha=0.3)
+        readable_log_limits(ax)
         tidy_log_ticks(ax)
     if n == 1:
         axes[0][0].legend(fontsize=7)
