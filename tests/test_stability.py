@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 from daebench.integrators.family import chung_hulbert, hht_coefficients
 from daebench.models.scenes import load_scene
 from daebench.workflows.stability import (AbmPece, Bisection, NewmarkMember, divergence_time, linearize, log_growth,
-                                          predict, run_interval, stability_map, strict_interval)
+                                          predict, run_interval, stability_map, strict_interval, trial_length)
 
 
 def member(c) -> NewmarkMember:
@@ -102,6 +102,8 @@ def test_baumgarte_boundary_agrees_with_the_prediction_reduced():
                                                                                         tol=0.02))
     _check_agreement(df)
     assert (df["unstable_status"] == "diverged").all()
+    # a whole run (1 s) is never predicted more stable than its 80-period trial
+    assert (df["t_run"] == 1.0).all() and (df["h_pred_run"] <= df["h_pred"] * (1 + 1e-9)).all()
 
 
 @pytest.mark.slow
@@ -183,3 +185,19 @@ def test_hub_variant_reproduces_the_published_baumgarte_pattern_at_3e_5():
     published h = 1e-4 s N = 5 diverges already (0.59 s)."""
     assert [_baumgarte_run(n, 3e-5).status for n in (3, 5, 7, 9)] == ["completed"] * 3 + ["diverged"]
     assert _baumgarte_run(5, 1e-4).status == "diverged"
+
+
+def test_whole_run_prediction_explains_the_calibrated_n9_divergence():
+    """The calibrated variant's step, 2.5e-5 s: the 80-period trial predicts Baumgarte stable
+    up to 5.3e-5 s at N = 9, the 1 s run only up to 2.0e-5 s — and the run diverges at the
+    time linear theory gives (0.366 s; measured 0.367 s); at N = 7 the whole run's limit,
+    3.8e-5 s, is above the step, and the run completes."""
+    sc9 = load_scene("beam-impact-hub", {"discretization.n": 9})
+    lin9 = linearize(sc9)
+    trial = trial_length(sc9, lin9, 80.0)
+    assert predict(AbmPece(), lin9, trial)["h_pred"] > 2.5e-5 > predict(AbmPece(), lin9, sc9.t_end)["h_pred"]
+    res = _baumgarte_run(9, 2.5e-5)
+    t_pred = divergence_time(AbmPece(), lin9, 2.5e-5)
+    assert res.status == "diverged" and t_pred <= res.t_final <= t_pred + 2e-3
+    lin7 = linearize(load_scene("beam-impact-hub", {"discretization.n": 7}))
+    assert predict(AbmPece(), lin7, 1.0)["h_pred"] > 2.5e-5

@@ -202,7 +202,12 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
     -------
     DataFrame with columns integrator, settings, label, N, omega_max [rad/s], method,
     interval_strict, interval [hω], h_pred, h_stable, h_unstable [s], unstable_status,
-    runs, t_trial [s], agrees (h_pred within one bisection step of the measured bracket).
+    runs, t_trial [s], agrees (h_pred within one bisection step of the measured bracket),
+    and t_run, h_pred_run [s]: the scene's whole horizon and linear theory's largest stable
+    step for a run that long — on beam-impact-hub at N = 9, Baumgarte's 5.3e-5 s for an
+    80-period trial becomes 2.0e-5 s for the 1 s run (its run at 2.5e-5 s is predicted to
+    diverge at 0.366 s; it does at 0.367 s). The trial measures the method's boundary; the
+    run's prediction is what a user's step must stay below.
     """
     n_key, t_end, periods, h_min, h_max, tol, jobs, run_cap = (
         search.n_key, search.t_end, search.periods, search.h_min, search.h_max, search.tol, search.jobs, search.run_cap)
@@ -223,12 +228,15 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
         strict = strict_interval(meth) if meth is not None else math.nan
         for n, sc, lin, te in scenes:
             pred = predict(meth, lin, te) if meth is not None else {"h_pred": math.nan, "interval": math.nan}
+            # the run a user makes is the scene's whole horizon, not the trial: its own prediction
+            run = predict(meth, lin, sc.t_end)["h_pred"] if meth is not None else math.nan
             top = min(h_max, te / MIN_STEPS)       # never fewer than MIN_STEPS steps in a trial
             tasks.append(Task(sc, name, tuple(settings.items()), label, n, min(h_min, 0.5 * top), top, tol, te,
                               run_cap))
             meta.append({"integrator": name, "settings": dict(settings), "label": label, "N": n,
                          "omega_max": float(lin.omega.max(initial=0.0)), "method": getattr(meth, "name", "n/a"),
-                         "interval_strict": strict, "interval": pred["interval"], "h_pred": pred["h_pred"]})
+                         "interval_strict": strict, "interval": pred["interval"], "h_pred": pred["h_pred"],
+                         "t_run": sc.t_end, "h_pred_run": run})
     if jobs > 1 and len(tasks) > 1:
         ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
         with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
@@ -337,7 +345,8 @@ def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str
     extra = ", ".join(f"{k}={v}" for k, v in scene.changes().items())
     title = (f"{scene.name}{' (' + extra + ')' if extra else ''}: largest stable step, trials of {length}, "
              f"bisection to {search.tol:.0%}")
-    files = stability_report.write(df, out, stem, title, search.h_max, search.mark_h)
+    files = stability_report.write(df, out, stem, title, search.h_max, search.mark_h,
+                                   scenes=((scene.name, scene.hash),))
     summary = (f"{int(df['agrees'].sum())}/{len(df)} rows agree with the prediction within one bisection step; "
                f"{int(df['runs'].sum())} runs in {time.perf_counter() - wall0:.1f} s")
     return StabilityResult(df, files, stability_report.markdown(df, search.h_max), heading, summary)

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from daebench.harness.files import atomic_write, under_root, write_error
+from daebench.harness.running import provenance
 
 
 def _h(x: float) -> str:
@@ -23,8 +24,8 @@ def markdown(df: pd.DataFrame, h_max: float) -> str:
     """One row per (setting, N): the measured bracket beside the prediction."""
     lines = ["| integrator, settings | N | ω_max [rad/s] | trial [s] | method | strict interval hω "
              "| run interval hω* | predicted h_max [s] | measured h_max [s]: stable – unstable | first unstable run "
-             "| agrees |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| agrees | predicted h_max for the whole run [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in df.itertuples():
         if math.isfinite(r.h_stable) and math.isfinite(r.h_unstable):
             meas = f"{r.h_stable:.4g} – {r.h_unstable:.4g}"
@@ -35,14 +36,16 @@ def markdown(df: pd.DataFrame, h_max: float) -> str:
         lines.append(f"| {r.label} | {'' if r.N is None or (isinstance(r.N, float) and math.isnan(r.N)) else int(r.N)} "
                      f"| {r.omega_max:.5g} | {r.t_trial:.3g} | {r.method} | {_omega(r.interval_strict)} "
                      f"| {_omega(r.interval)} "
-                     f"| {_h(r.h_pred)} | {meas} | {r.unstable_status or '—'} | {'yes' if r.agrees else 'NO'} |")
+                     f"| {_h(r.h_pred)} | {meas} | {r.unstable_status or '—'} | {'yes' if r.agrees else 'NO'} "
+                     f"| {_h(getattr(r, 'h_pred_run', math.nan))} ({getattr(r, 't_run', math.nan):g} s) |")
     return "\n".join(lines)
 
 
 def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float | None = None,
-           fmt: str | None = None) -> Path:
-    """h_max against N, one colour per integrator setting: measured (markers; ▲ = no
-    instability up to the bisection bound) and predicted (dashed lines), log axis."""
+           fmt: str | None = None, scenes: tuple[tuple[str, str], ...] = ()) -> Path:
+    """h_max against N, one colour and marker per integrator setting, every marker at its
+    own N: measured (filled; hollow = no instability up to the bisection bound), predicted
+    for the trial (dashed) and for the scene's whole run (dotted), log axis."""
     import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
 
     matplotlib.use("Agg")
@@ -52,27 +55,30 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
     fig, ax = plt.subplots(figsize=(10.0, 5.0))
     labels = list(dict.fromkeys(df["label"]))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    markers = "osD^v<>pP*Xh"
     handles = []
     for i, lab in enumerate(labels):
         d = df[df["label"] == lab]
-        n = d["N"].to_numpy(float) + 0.06 * (i - 0.5 * (len(labels) - 1))  # side by side, not on top
-        c = colours[i % len(colours)]
+        n = d["N"].to_numpy(float)               # at its own N: settings differ by colour and marker
+        c, mk = colours[i % len(colours)], markers[i % len(markers)]
         lo, hi = d["h_stable"].to_numpy(float), d["h_unstable"].to_numpy(float)
         both = np.isfinite(lo) & np.isfinite(hi)
         if both.any():
-            ax.errorbar(n[both], lo[both], yerr=[np.zeros(both.sum()), (hi - lo)[both]], fmt="o", color=c, ms=5,
+            ax.errorbar(n[both], lo[both], yerr=[np.zeros(both.sum()), (hi - lo)[both]], fmt=mk, color=c, ms=5,
                         capsize=2)
         up = np.isfinite(lo) & ~np.isfinite(hi)
         if up.any():
-            ax.plot(n[up], lo[up], "^", color=c, ms=7)
-        pred = d["h_pred"].to_numpy(float)
-        fin = np.isfinite(pred)
-        if fin.any():
-            ax.plot(n[fin], pred[fin], "--", color=c, lw=1.2)
-        handles.append(Line2D([], [], color=c, marker="o", ls="", label=lab))
-    handles += [Line2D([], [], color="k", marker="o", ls="", label="measured (bar: last bracket)"),
-                Line2D([], [], color="k", marker="^", ls="", label="no instability up to the upper bound"),
-                Line2D([], [], color="k", ls="--", label="predicted (∞: not drawn)")]
+            ax.plot(n[up], lo[up], mk, color=c, ms=7, mfc="none")
+        for col, ls in (("h_pred", "--"), ("h_pred_run", ":")):
+            pred = d[col].to_numpy(float) if col in d else np.full(len(d), np.nan)
+            fin = np.isfinite(pred)
+            if fin.any():
+                ax.plot(n[fin], pred[fin], ls, color=c, lw=1.2)
+        handles.append(Line2D([], [], color=c, marker=mk, ls="", label=lab))
+    handles += [Line2D([], [], color="k", marker="o", ls="", label="measured on the trial (bar: last bracket)"),
+                Line2D([], [], color="k", marker="o", mfc="none", ls="", label="no instability up to the upper bound"),
+                Line2D([], [], color="k", ls="--", label="predicted for the trial (∞: not drawn)"),
+                Line2D([], [], color="k", ls=":", label="predicted for the whole run")]
     if mark_h:
         ax.axhline(mark_h, color="0.3", ls=":", lw=1.0)
         handles.append(Line2D([], [], color="0.3", ls=":", label=f"h = {mark_h:g} s"))
@@ -82,15 +88,19 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
-    fig.tight_layout()
+    ax.set_xticks(sorted(set(df["N"].dropna().astype(int))))
+    fig.tight_layout(rect=(0, 0.03, 1, 1))   # room for the provenance footer
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=150, format=fmt)
+    prov = provenance.collect(scenes)
+    provenance.add_figure_footer(fig, prov)
+    meta = provenance.figure_metadata(fig, prov)
+    fig.savefig(path, dpi=150, format=fmt, metadata=meta.get(fmt or "png"))
     plt.close(fig)
     return path
 
 
 def write(df: pd.DataFrame, out_dir: Path, stem: str, title: str, h_max: float,
-          mark_h: float | None = None) -> list[Path]:
+          mark_h: float | None = None, scenes: tuple[tuple[str, str], ...] = ()) -> list[Path]:
     """<stem>.parquet, .csv, .md and .png in ``out_dir`` (each path checked to stay in it,
     each file written atomically; a failure says what was kept)."""
     flat = df.assign(settings=df["settings"].astype(str))
@@ -104,5 +114,5 @@ def write(df: pd.DataFrame, out_dir: Path, stem: str, title: str, h_max: float,
     atomic_write(files[1], lambda p: flat.to_csv(p, index=False, float_format="%.6g"), "the stability table", kept)
     atomic_write(files[2], lambda p: p.write_text(f"# {title}\n\n{markdown(df, h_max)}\n"), "the stability table",
                  kept)
-    atomic_write(files[3], lambda p: figure(df, p, title, h_max, mark_h, fmt="png"), "the stability figure", kept)
+    atomic_write(files[3], lambda p: figure(df, p, title, h_max, mark_h, fmt="png", scenes=scenes), "the stability figure", kept)
     return files
