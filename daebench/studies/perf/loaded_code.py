@@ -13,6 +13,7 @@ test can bound (tests/test_compile_budget.py) where a compile time could not be.
 
 from __future__ import annotations
 
+import re
 import struct
 import sys
 from collections import defaultdict
@@ -26,6 +27,7 @@ from daebench.models.scenes import load_scene
 
 PREFIXES = ("daebench", "_daebench_")
 _ELF = b"\x7fELF"
+_GENERATED = re.compile(r"^(_daebench_\w+?)_[0-9a-f]{16}$")   # a generated kernel module: its digest
 
 
 @dataclass(frozen=True)
@@ -63,14 +65,15 @@ def _cached_code(disp: CPUDispatcher, sig: tuple) -> int:
 
 def dispatchers(prefixes: tuple[str, ...] = PREFIXES) -> dict[str, CPUDispatcher]:
     """Every compiled function defined at the top of a loaded module whose name starts with
-    one of ``prefixes``, by module.qualname."""
+    one of ``prefixes``, by module.qualname (a generated module's name without its code
+    digest: ``_daebench_handle_hubbeamdata.mass_force``, the same name after an edit)."""
     out: dict[str, CPUDispatcher] = {}
     for modname, mod in list(sys.modules.items()):
         if not modname.startswith(prefixes):
             continue
         for value in list(vars(mod).values()):
             if isinstance(value, CPUDispatcher) and value.py_func.__module__ == modname:
-                out[f"{modname}.{value.py_func.__qualname__}"] = value
+                out[_GENERATED.sub(r"\1", modname) + "." + value.py_func.__qualname__] = value
     return out
 
 
