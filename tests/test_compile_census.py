@@ -1,7 +1,14 @@
 """The compile census (daebench.studies.perf.compile_census): nested compiles are attributed to
-their own function, and the own times add up to the outer compile's span."""
+their own function, and the own times add up to the outer compile's span; the census of what a
+process holds (daebench.studies.perf.loaded_code) reads the same machine code from the kernel
+cache as numba emitted when it compiled."""
 
 from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
 
 import numba
 import numpy as np
@@ -53,3 +60,41 @@ def test_markdown_groups_by_module():
     assert c.by_module() == [("a.b", 2, 2.5), ("a.c", 1, 0.5)]
     text = markdown(c)
     assert "compiling ≈ 8.0 s" in text and "| a.b | 2 | 2.50 |" in text
+
+
+_PROBE = '''
+import json, sys
+import numpy as np
+from numba import njit
+import daebench  # noqa: F401 — installs daebench's cache locators, as in every daebench process
+from daebench.studies.perf.loaded_code import loaded
+
+
+@njit(cache=True)
+def probe(x):
+    return np.sin(x) * 2.0 + np.cos(x)
+
+
+probe(0.5)
+probe(np.arange(3.0))
+print(json.dumps([r.__dict__ for r in loaded(("__main__",))]))
+'''
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="nothing compiles with NUMBA_DISABLE_JIT")
+def test_loaded_code_reads_the_cache_as_numba_emitted_it(tmp_path):
+    """A process that compiles counts the machine code of the object numba emitted; one that
+    loads the same functions from the kernel cache reads it from the cache entries: the same
+    specializations and the same bytes."""
+    script = tmp_path / "probe_module.py"
+    script.write_text(_PROBE)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    runs = []
+    for _ in range(2):   # compiled, then loaded from the cache
+        p = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=300)
+        assert p.returncode == 0, p.stderr[-2000:]
+        runs.append(sorted((r["signature"], r["code_bytes"]) for r in json.loads(p.stdout.strip().splitlines()[-1])))
+    compiled, cached = runs
+    assert [s for s, _ in compiled] == ["array(float64, 1d, C)", "float64"]
+    assert all(b > 0 for _, b in compiled)
+    assert cached == compiled

@@ -1,5 +1,6 @@
-"""The survey report page in a real headless browser (Chromium from the system's packages;
-.ci/run installs it when missing — this test fails, never skips, without it).
+"""The survey report page in a real headless browser (Chromium from the system's packages:
+found on PATH, or installed by the test session when it may, :mod:`tests._browser` — this
+test fails, never skips, without it).
 
 The page (daebench.workflows.report) is built from a synthetic survey (no runs: known
 tables and one real matplotlib figure), opened with ``?selftest&table=I&col=J``: the page
@@ -13,7 +14,6 @@ from __future__ import annotations
 import html
 import json
 import re
-import shutil
 import subprocess
 from dataclasses import replace
 from pathlib import Path
@@ -24,16 +24,11 @@ import pandas as pd
 from daebench.harness.analysis import profiles
 from daebench.workflows import report, survey
 from daebench.workflows.survey import CaseResult, SurveyResult
-
-BROWSERS = ("chromium", "chromium-browser", "google-chrome")
+from tests import _browser as browser
 
 
 def _browser() -> str:
-    for b in BROWSERS:
-        path = shutil.which(b)
-        if path:
-            return path
-    raise AssertionError("no Chromium on PATH: install it (Debian: apt-get install -y chromium; .ci/run does)")
+    return browser.ensure()
 
 
 #: what a run that raised leaves in its row (the page shows it in the tables, never in a verdict)

@@ -25,7 +25,9 @@ def perf(quick: bool = typer.Option(False, "--quick", help="tiny sizes (smoke te
                                                help="one measurement alone: model-floor (the floor under steps/s), "
                                                     "structure (rod-wall banded scaling), new-model (a new model's "
                                                     "compile cost), cold-start (first commands on an empty cache), "
-                                                    "friction (stick/slip per step against μ = 0)"),
+                                                    "friction (stick/slip per step against μ = 0), compile (what the main "
+                                                    "job compiles, per function, from an empty cache), pendulum-peer "
+                                                    "(hht and genalpha per step against Exudyn)"),
          out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/perf)")) -> None:
     """Measure the speed figures in one run and write them to results/perf/.
 

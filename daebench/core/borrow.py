@@ -36,7 +36,7 @@ from typing import Any
 
 from numba import njit, types
 from numba.core import cgutils
-from numba.extending import intrinsic, overload
+from numba.extending import lower_builtin, type_callable
 
 
 def _has_array(ty: types.Type) -> bool:
@@ -69,17 +69,20 @@ def borrow(value: Any) -> Any:
     return value
 
 
-@intrinsic
-def _borrow(typingctx, value):
-    def codegen(context, builder, signature, args):
-        return _borrowed(context, builder, signature.args[0], args[0])
+# typed and lowered at the call site (no function of its own to compile: an overload's
+# implementation is compiled as a function for every argument type, and for the loop's
+# whole argument tuple that was seconds of LLVM time per loop)
+@type_callable(borrow)
+def _type_borrow(context):
+    def typer(value):
+        return value
 
-    return value(value), codegen
+    return typer
 
 
-@overload(borrow, inline="always")
-def _borrow_compiled(value):
-    return lambda value: _borrow(value)
+@lower_builtin(borrow, types.Any)
+def _lower_borrow(context, builder, sig, args):
+    return _borrowed(context, builder, sig.args[0], args[0])
 
 
 def uncounted(fn: Any = None, **options: Any) -> Any:

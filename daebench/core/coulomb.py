@@ -21,7 +21,10 @@ frictional phase runs through the same compiled functions as a frictionless one:
   compiled loop for the steps it takes on its own (so that a slipping phase runs many
   steps per call like a frictionless one).
 
-A frictionless phase carries :data:`NONE` (empty arrays): nothing here runs for it.
+A frictionless phase carries :data:`NONE`, of its own class :class:`Frictionless` (the
+same fields, empty): compiled code reaches the friction data through :func:`present`, None
+for it, so that numba drops the friction branches when it compiles a frictionless phase —
+nothing here is compiled, or run, for it.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 from daebench.core import kernels
 from daebench.core.borrow import uncounted
@@ -87,8 +91,27 @@ def _f(*shape: int) -> np.ndarray:
     return np.zeros(shape)
 
 
+#: the class of :data:`NONE`: FrictionData's fields, a type of its own in compiled code
+Frictionless = NamedTuple("Frictionless", [(f, np.ndarray) for f in FrictionData._fields])
+
+
+def present(fr):
+    """``fr``, or None for a frictionless phase's :data:`NONE`. In compiled code the answer
+    follows from the type: a function given ``present(ph.friction)`` that tests ``fr is
+    None`` has its friction branch removed before typing (numba's branch pruning on None
+    arguments), when compiled for a frictionless phase."""
+    return None if isinstance(fr, Frictionless) else fr
+
+
+@overload(present, inline="always")
+def _present_compiled(fr):
+    if fr.instance_class is Frictionless:
+        return lambda fr: None
+    return lambda fr: fr
+
+
 #: the friction data of a frictionless phase
-NONE = FrictionData(_i(0), _f(0, 0), _i(1), _i(0), _f(0), _i(0), _i(0), _f(0), _f(0), _f(BOOK_SLOTS), _f(0),
+NONE = Frictionless(_i(0), _f(0, 0), _i(1), _i(0), _f(0), _i(0), _i(0), _f(0), _f(0), _f(BOOK_SLOTS), _f(0),
                     _f(0, 0), _i(0), _f(0), _f(0, 0), _f(0), _f(0), _f(0, 0), _f(0), _f(0), _f(0, 0), _f(0), _f(0),
                     _f(0), _f(0), _f(0), _f(0))
 

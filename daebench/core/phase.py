@@ -57,13 +57,13 @@ class PhaseData(NamedTuple):
     model: tuple            # the model's kernel data (a registered NamedTuple)
     nb: int                 # bilateral constraints (rows 0 … nb − 1)
     active: np.ndarray      # int64: closed contacts, constraint rows nb, nb + 1, …
-    law: np.ndarray         # float64[5]: kind, K, exponent, c, v_ε (friction regularisation velocity)
+    law: np.ndarray | None  # float64[5]: kind, K, exponent, c, v_ε (friction regularisation velocity); None: no continuous law
     engaged: np.ndarray     # float64 per contact: 1 = its continuous force acts in this phase
     chi: np.ndarray         # float64 per contact: hysteresis factor of the current episode
     gq: np.ndarray          # float64[n] scratch: one gap-Jacobian row
     work: np.ndarray        # float64[5n] scratch: contact-force differences, tangent rows
     friction: tuple         # coulomb.FrictionData: stick rows and slipping contacts (coulomb.NONE: none)
-    lumped: np.ndarray      # float64[n]: a lumped model's constant diagonal mass (its kernel's M may have no rows); [0]: none
+    lumped: np.ndarray | None  # float64[n]: a lumped model's constant diagonal mass (its kernel's M may have no rows); None: none
 
 
 # -- contact laws ------------------------------------------------------------------------
@@ -141,7 +141,16 @@ def mass_force(ph, t, q, v, M, Q):
     """M(q) and the phase's force Q (model force + engaged contact forces g_qᵀF_N + t_qᵀF_T
     + the slip friction of closed contacts, :func:`add_slip_force`)."""
     _mass_force(ph, t, q, v, M, Q)
-    if ph.friction.slip.shape[0]:
+    _add_slip(coulomb.present(ph.friction), ph, t, q, v, M, Q)
+
+
+@uncounted
+def _add_slip(fr, ph, t, q, v, M, Q):
+    """:func:`add_slip_force` when the phase has slipping contacts (``fr`` None: never; the
+    branch is not compiled for a frictionless phase, :func:`daebench.core.coulomb.present`)."""
+    if fr is None:
+        return
+    if fr.slip.shape[0]:
         add_slip_force(ph, t, q, v, M, Q)
 
 
@@ -149,15 +158,23 @@ def mass_force(ph, t, q, v, M, Q):
 def _mass_force(ph, t, q, v, M, Q):
     """M(q) and the phase's force without the slip friction of closed contacts."""
     kernels.mass_force(ph.model, t, q, v, M, Q)
-    if ph.law[0] != LAW_NONE:
-        n = q.shape[0]
-        gq, tq = ph.gq, ph.work[3 * n:4 * n]
-        for i in range(ph.engaged.shape[0]):
-            if ph.engaged[i] != 0.0:
-                g, F, FT = _contact_force(ph, i, q, v, gq, tq)
-                if g < 0.0:
-                    for j in range(n):
-                        Q[j] += gq[j] * F + tq[j] * FT
+    _add_contact_forces(ph.law, ph, q, v, Q)
+
+
+@uncounted
+def _add_contact_forces(law, ph, q, v, Q):
+    """Q += g_qᵀF_N + t_qᵀF_T of the engaged, penetrating contacts (``law`` None: no
+    continuous law, nothing compiled)."""
+    if law is None:
+        return
+    n = q.shape[0]
+    gq, tq = ph.gq, ph.work[3 * n:4 * n]
+    for i in range(ph.engaged.shape[0]):
+        if ph.engaged[i] != 0.0:
+            g, F, FT = _contact_force(ph, i, q, v, gq, tq)
+            if g < 0.0:
+                for j in range(n):
+                    Q[j] += gq[j] * F + tq[j] * FT
 
 
 # -- Coulomb friction at closed contacts (daebench.core.coulomb, daebench.driver.stickslip) --------------
@@ -227,7 +244,13 @@ def _subtract_slip(ph, n, Q):
 @uncounted
 def slip_power(ph, t, q, v):
     """Power of the slip friction forces, −Σ μ λ_N |t_q v| ≤ 0 (0 without slip)."""
-    fr = ph.friction
+    return _slip_power(coulomb.present(ph.friction), ph, t, q, v)
+
+
+@uncounted
+def _slip_power(fr, ph, t, q, v):
+    if fr is None:
+        return 0.0
     if fr.slip.shape[0] == 0:
         return 0.0
     n = q.shape[0]
@@ -254,6 +277,14 @@ def _slip_force(ph, t, q, v, out):
         out[j] = 0.0 if info == 0 else math.nan
     if info == 0:
         _subtract_slip(ph, n, out)
+
+
+@uncounted
+def _add_slip_jacobian(fr, ph, t, q, v, Kq, Kv):
+    if fr is None:
+        return
+    if fr.slip.shape[0]:
+        _slip_force_jacobian(ph, t, q, v, Kq, Kv)
 
 
 @uncounted
@@ -286,22 +317,57 @@ def _slip_force_jacobian(ph, t, q, v, Kq, Kv):
 def book_friction(ph, t0, t1, q, v):
     """Book the slip friction's work over the step t0 → t1 ending at (q, v)
     (:func:`daebench.core.coulomb.book_step`); nothing without slip."""
-    if ph.friction.slip.shape[0]:
-        coulomb.book_step(ph.friction, t0, t1, slip_power(ph, t1, q, v))
+    _book_friction(coulomb.present(ph.friction), ph, t0, t1, q, v)
+
+
+@uncounted
+def _book_friction(fr, ph, t0, t1, q, v):
+    if fr is None:
+        return
+    if fr.slip.shape[0]:
+        coulomb.book_step(fr, t0, t1, slip_power(ph, t1, q, v))
+
+
+@uncounted
+def book_rows(ph, t0, t1, t_out, oi, j, nrow):
+    """Book the slip friction's work at the output rows oi … j − 1 written over the step
+    t0 → t1 (:func:`daebench.core.coulomb.book_rows`); False when it cannot (no room)."""
+    return _book_rows(coulomb.present(ph.friction), t0, t1, t_out, oi, j, nrow)
+
+
+@uncounted
+def _book_rows(fr, t0, t1, t_out, oi, j, nrow):
+    if fr is None:
+        return True
+    if fr.slip.shape[0] == 0:
+        return True
+    return coulomb.book_rows(fr, t0, t1, t_out, oi, j, nrow)
 
 
 @uncounted
 def friction_switches(ph, q, v, lam):
     """Whether a stick/slip switch happened at (q, v), λ the consistent multipliers there
     (:func:`daebench.core.coulomb.switches`)."""
-    return coulomb.switches(ph.model, ph.friction, ph.nb, q, v, lam)
+    return _switches(coulomb.present(ph.friction), ph, q, v, lam)
+
+
+@uncounted
+def _switches(fr, ph, q, v, lam):
+    if fr is None:
+        return False
+    return coulomb.switches(ph.model, fr, ph.nb, q, v, lam)
 
 
 @uncounted
 def friction_power(ph, q, v):
     """Σ F_T,i v_T,i ≤ 0: the power of the regularised friction forces (the friction
     work's rate, booked with the contact dissipation)."""
-    if ph.law[0] == LAW_NONE:
+    return _friction_power(ph.law, ph, q, v)
+
+
+@uncounted
+def _friction_power(law, ph, q, v):
+    if law is None:
         return 0.0
     n = q.shape[0]
     gq, tq = ph.gq, ph.work[3 * n:4 * n]
@@ -320,9 +386,27 @@ def force_jacobian(ph, t, q, v, Kq, Kv):
     """∂Q/∂q, ∂Q/∂v of the phase's force: the model's kernel plus central differences of
     each engaged, penetrating contact force g_iᵀF_N,i + t_iᵀF_T,i."""
     kernels.force_jacobian(ph.model, t, q, v, Kq, Kv)
-    if ph.friction.slip.shape[0]:
-        _slip_force_jacobian(ph, t, q, v, Kq, Kv)
-    if ph.law[0] == LAW_NONE:
+    _add_slip_jacobian(coulomb.present(ph.friction), ph, t, q, v, Kq, Kv)
+    _add_contact_jacobian(ph.law, ph, q, v, Kq, Kv)
+
+
+@uncounted
+def has_law(ph):
+    """Whether the phase has a continuous contact law (its data's ``law`` is None without)."""
+    return _has_law(ph.law)
+
+
+@uncounted
+def _has_law(law):
+    if law is None:
+        return False
+    return True
+
+
+@uncounted
+def _add_contact_jacobian(law, ph, q, v, Kq, Kv):
+    """Central differences of each engaged, penetrating contact force, added to Kq, Kv."""
+    if law is None:
         return
     n = q.shape[0]
     xp, gp, gm = ph.work[:n], ph.work[n:2 * n], ph.work[2 * n:3 * n]
@@ -361,9 +445,7 @@ def constraints(ph, t, q, v, C, Cq, Ct, gam):
     """Rows of the active constraints: bilateral, the stick rows of sticking contacts
     (:func:`daebench.core.coulomb.stick_rows`), then C = −g of each closed contact."""
     kernels.constraints(ph.model, t, q, v, C, Cq, Ct, gam)
-    ns = ph.friction.stick.shape[0]
-    if ns:
-        coulomb.stick_rows(ph.model, ph.friction, ph.nb - ns, q, v, C, Cq, Ct, gam)
+    _stick_rows(coulomb.present(ph.friction), ph, q, v, C, Cq, Ct, gam)
     r = ph.nb
     gq = ph.gq
     for c in ph.active:
@@ -374,6 +456,15 @@ def constraints(ph, t, q, v, C, Cq, Ct, gam):
         Ct[r] = 0.0
         gam[r] = -gamma
         r += 1
+
+
+@uncounted
+def _stick_rows(fr, ph, q, v, C, Cq, Ct, gam):
+    if fr is None:
+        return
+    ns = fr.stick.shape[0]
+    if ns:
+        coulomb.stick_rows(ph.model, fr, ph.nb - ns, q, v, C, Cq, Ct, gam)
 
 
 @uncounted
@@ -484,10 +575,17 @@ def solve_augmented(ph, t, q, v, delta, eps, w, acc, lam):
     δ = ε = 0 gives the consistent acceleration of the phase. Returns the LU info
     (0 = solved). A lumped model's (diagonal M) goes through the Schur complement
     (:func:`_solve_lumped`): O(n·m + m³) instead of the dense O((n + m)³)."""
+    return _solve_augmented(ph.lumped, ph, t, q, v, delta, eps, w, acc, lam)
+
+
+@uncounted
+def _solve_augmented(d, ph, t, q, v, delta, eps, w, acc, lam):
+    """:func:`solve_augmented` through the lumped mass ``d``, or dense (``d`` None: the
+    Schur complement is not compiled)."""
+    if d is not None:
+        return _solve_lumped(ph, d, t, q, v, delta, eps, w, acc, lam)
     n = q.shape[0]
     m = lam.shape[0]
-    if ph.lumped.shape[0] == n:
-        return _solve_lumped(ph, t, q, v, delta, eps, w, acc, lam)
     mass_force(ph, t, q, v, w.M, w.Q)
     A, b = w.A, w.b
     for i in range(n):
@@ -530,14 +628,13 @@ def _rhs_row(delta, eps, k, n, v, C, Cq, Ct, gam):
 
 
 @uncounted
-def _solve_lumped(ph, t, q, v, delta, eps, w, acc, lam):
-    """:func:`solve_augmented` for a diagonal M = diag(d) (``ph.lumped``): the Schur complement
+def _solve_lumped(ph, d, t, q, v, delta, eps, w, acc, lam):
+    """:func:`solve_augmented` for a diagonal M = diag(d) (``ph.lumped``, n > 0): the Schur complement
     (C_q D⁻¹ C_qᵀ) λ = C_q D⁻¹ Q − r, q̈ = D⁻¹ (Q − C_qᵀ λ), over the nonzeros of each
     constraint row (a contact row touches a few nodes). Neither M nor the n × n parts of the
     workspace are touched (the kernel's force alone: a lumped model's M may have no rows)."""
     n = q.shape[0]
     m = lam.shape[0]
-    d = ph.lumped
     mass_force(ph, t, q, v, w.M[:0], w.Q)
     Q = w.Q
     if m:

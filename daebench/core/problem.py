@@ -33,10 +33,11 @@ class EvalCounters:
     jacobian_evals: int = 0
 
 
-def law_parameters(system: MechanicalSystem) -> np.ndarray:
-    """[kind, K, exponent, c, v_ε] of the system's continuous contact law (kind 0: none)."""
+def law_parameters(system: MechanicalSystem) -> np.ndarray | None:
+    """[kind, K, exponent, c, v_ε] of the system's continuous contact law; None without one
+    (the phase's compiled functions then hold no contact-force code)."""
     law = system.contact_law
-    return law.parameters() if law is not None and law.continuous else np.zeros(5)
+    return law.parameters() if law is not None and law.continuous else None
 
 
 class Problem:
@@ -225,11 +226,11 @@ class Problem:
         return self.system.total_energy(q, v)
 
 
-def _lumped(system: MechanicalSystem) -> np.ndarray:
+def _lumped(system: MechanicalSystem) -> np.ndarray | None:
     """The constant diagonal mass a lumped model declares (``lumped_mass``; its mass kernel
-    accepts an M without rows), else an empty array: the phase solves through it."""
+    accepts an M without rows), else None: the phase solves through it."""
     d = getattr(system, "lumped_mass", None)
-    return np.zeros(0) if d is None else np.ascontiguousarray(d, dtype=np.float64)
+    return None if d is None or len(d) != system.n else np.ascontiguousarray(d, dtype=np.float64)
 
 
 def _f(x: np.ndarray) -> np.ndarray:

@@ -99,8 +99,9 @@ def advance_loop(cx, mem, yy, yp, y, ypd, t_cur, ida_t, t_stop, max_steps, w, pr
     k = 0
     code = ADV_MAX
     flag = 0
-    nrow = 0
-    oi = 0
+    nrow = np.int64(0)   # int64, not literals: the callees compile once (Python passes int64 too)
+    oi = np.int64(0)
+    one_step = np.int64(IDA_ONE_STEP)
     t_next = w.t_out_next
     while k < max_steps:
         if t_stop - ida_t <= 1e-13 * scale:
@@ -108,7 +109,7 @@ def advance_loop(cx, mem, yy, yp, y, ypd, t_cur, ida_t, t_stop, max_steps, w, pr
             break
         moved = False
         for _ in range(3):
-            flag = solve(cx, mem, yy, yp, t_stop, t_stop, IDA_ONE_STEP, tret, slot)
+            flag = solve(cx, mem, yy, yp, t_stop, t_stop, one_step, tret, slot)
             if flag < 0:
                 return k, ADV_FAIL, flag, ida_t, nrow, oi
             if tret[0] > t_cur:

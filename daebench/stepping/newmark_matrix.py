@@ -154,7 +154,7 @@ def factor(meth, ws, ph, n, m, nx, t1, h, q, v, a, lt, bh2, cnt):
         phase.mass_jacobian_product(ph, q, a, KM)
     gah = meth.gamma * h
     # only the declared structure's entries (module docstring), or all of them
-    part = ws.sp[0] != 0 and ph.law[0] == phase.LAW_NONE and _rows_fit(ws, n, m)
+    part = ws.sp[0] != 0 and not phase.has_law(ph) and _rows_fit(ws, n, m)
     ij = ws.ij
     P = ij.shape[1]
     if part:

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from daebench.core import coulomb, phase
+from daebench.core import phase
 from daebench.core.borrow import borrow, copy_to
 from daebench.stepping import control, dense, methods, watch
 from daebench.stepping.methods import N_COUNTERS
@@ -57,8 +57,8 @@ def run_phase(meth, ws, ph, ctl, w, t, t_stop, h_next, cur, new, prev, max_steps
     steps = 0
     t_prev = t
     h = h_next
-    nrow = 0
-    oi = 0
+    nrow = np.int64(0)   # not the literal 0: numba would compile record_outputs for Literal[int](0) too
+    oi = np.int64(0)
     t_next = w.t_out_next
     while True:
         h_small = control.h_min(ctl, t)
@@ -96,8 +96,7 @@ def run_phase(meth, ws, ph, ctl, w, t, t_stop, h_next, cur, new, prev, max_steps
             if t_out.shape[0] == 0:
                 break
             j = dense.record_outputs(t_prev, prev, t, cur, t_out, oi, w.t_end, out, nrow)
-            if j < 0 or (ph.friction.slip.shape[0] and not coulomb.book_rows(ph.friction, t_prev, t, t_out, oi, j,
-                                                                             nrow)):
+            if j < 0 or not phase.book_rows(ph, t_prev, t, t_out, oi, j, nrow):
                 break
             nrow += j - oi
             oi = j

@@ -10,8 +10,10 @@ spans, so the own times add up to the total compile time. ``numba:llvm_lock`` sp
 summed as the LLVM share (optimisation and machine-code emission, also repeated for every
 caller that links a callee's module).
 
-``daebench compile-report -- run beam-impact --integrator hht`` prints the table;
-:func:`census` returns it. A second run of the command in the same cache folder gives the
+``daebench compile-report -- run beam-impact --integrator hht`` prints the table (per
+function: specializations, machine-code bytes, own compile time split into typing, lowering
+and LLVM); ``daebench perf --section compile`` that of the main job in small
+(:data:`MAIN_JOB`); :func:`census` returns it. A second run of the command in the same cache folder gives the
 warm CPU time, so the compile share is measured, not assumed.
 """
 
@@ -28,7 +30,11 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 from daebench.harness.running.compile_events import recording
-from daebench.studies.perf import probes
+from daebench.studies.perf import loaded_code, probes
+
+#: ``census([MAIN_JOB])``: the main job in small (:data:`.loaded_code.MAIN_JOB`, each of
+#: `daebench compare beam-impact`'s integrators through an impact) instead of a command
+MAIN_JOB = "main-job"
 
 
 @dataclass
@@ -39,6 +45,10 @@ class Compiled:
     signature: str
     own_s: float       # wall seconds spent on this function alone (nested compiles excluded)
     total_s: float     # its span, nested compiles included
+    typing_s: float = 0.0    # of own_s: type inference
+    lowering_s: float = 0.0  # of own_s: lowering to LLVM IR
+    llvm_s: float = 0.0      # of own_s: LLVM optimisation and machine code
+    code_bytes: int = 0      # machine code of its library (callees linked into it included)
 
 
 @dataclass
@@ -53,6 +63,15 @@ class Census:
     llvm_s: float                       # inside numba:llvm_lock spans
     returncode: int
     functions: list[Compiled] = field(default_factory=list)
+
+    def by_function(self) -> list[tuple[str, int, int, float]]:
+        """(function, specializations, machine-code bytes, own seconds), largest code first."""
+        acc: dict[str, list] = defaultdict(lambda: [0, 0, 0.0])
+        for f in self.functions:
+            acc[f.name][0] += 1
+            acc[f.name][1] += f.code_bytes
+            acc[f.name][2] += f.own_s
+        return sorted(((m, n, b, s) for m, (n, b, s) in acc.items()), key=lambda r: (-r[2], r[0]))
 
     def by_module(self) -> list[tuple[str, int, float]]:
         """(module, functions compiled, own seconds), costliest first."""
@@ -72,7 +91,10 @@ def child(out_path: str, args: list[str]) -> int:
     with recording() as rec:
         sys.argv = ["daebench", *args]
         try:
-            runpy.run_module("daebench.cli.app", run_name="__main__", alter_sys=True)
+            if list(args) == [MAIN_JOB]:
+                loaded_code.main_job()
+            else:
+                runpy.run_module("daebench.cli.app", run_name="__main__", alter_sys=True)
         except SystemExit as exc:  # the command's exit code
             rc = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
         except Exception as exc:  # noqa: BLE001 — the census reports the command's failure, not ours
@@ -120,19 +142,28 @@ def census(args: Sequence[str], opt: str | None = None, timeout: float = 1800.0)
         warm = _run(args, env, timeout)
     fns = [Compiled(**f) for f in cold["functions"]]
     fns.sort(key=lambda f: -f.own_s)
-    return Census("daebench " + " ".join(args), env.get("NUMBA_OPT", "3 (numba default)"), cold["cpu_s"],
+    what = (f"the main job ({loaded_code.MAIN_JOB_CASE} {' '.join(loaded_code.MAIN_JOB_OVERRIDES)}: "
+            + ", ".join(n for n, _ in loaded_code.MAIN_JOB) + ")") if list(args) == [MAIN_JOB] else "daebench " + " ".join(args)
+    return Census(what, env.get("NUMBA_OPT", "3 (numba default)"), cold["cpu_s"],
                   warm["cpu_s"], sum(f.own_s for f in fns), cold["llvm_s"], cold["rc"], fns)
 
 
 def markdown(c: Census, top: int = 15) -> str:
-    """The census as Markdown: totals, the costliest modules and functions."""
+    """The census as Markdown: totals, the largest functions (specializations, machine code)
+    and the costliest compiles (typing, lowering, LLVM)."""
+    code = sum(f.code_bytes for f in c.functions)
     lines = [f"`{c.command}` (NUMBA_OPT {c.opt}; exit {c.returncode})", "",
              f"- CPU from an empty cache {c.cold_cpu_s:.1f} s, warm {c.warm_cpu_s:.1f} s "
              f"(compiling ≈ {c.cold_cpu_s - c.warm_cpu_s:.1f} s)",
-             f"- {len(c.functions)} function compiles, {c.compile_s:.1f} s of wall time inside them, of which "
-             f"LLVM {c.llvm_s:.1f} s (wall times: inflated by other load on the machine)", "",
-             "| module | compiles | own time [s] |", "|---|---|---|"]
+             f"- {len(c.functions)} function compiles, {code / 1e6:.2f} MB of machine code, "
+             f"{c.compile_s:.1f} s of wall time inside them, of which LLVM {c.llvm_s:.1f} s "
+             f"(wall times: inflated by other load on the machine)", "",
+             "| function | specializations | machine code [kB] | own time [s] |", "|---|---|---|---|"]
+    lines += [f"| {m} | {n} | {b / 1e3:.0f} | {s:.2f} |" for m, n, b, s in c.by_function()[:top]]
+    lines += ["", "| module | compiles | own time [s] |", "|---|---|---|"]
     lines += [f"| {m} | {n} | {s:.2f} |" for m, n, s in c.by_module()[:top]]
-    lines += ["", "| function | own [s] | with nested [s] | signature |", "|---|---|---|---|"]
-    lines += [f"| {f.name} | {f.own_s:.2f} | {f.total_s:.2f} | {f.signature[:60]} |" for f in c.functions[:top]]
+    lines += ["", "| function | own [s] | typing | lowering | LLVM | code [kB] | signature |",
+              "|---|---|---|---|---|---|---|"]
+    lines += [f"| {f.name} | {f.own_s:.2f} | {f.typing_s:.2f} | {f.lowering_s:.2f} | {f.llvm_s:.2f} | "
+              f"{f.code_bytes / 1e3:.0f} | {f.signature[:60]} |" for f in c.functions[:top]]
     return "\n".join(lines) + "\n"

@@ -249,3 +249,26 @@ def compiled_plugin(s: PerfSettings) -> dict[str, Any]:
             "plugin_over_hht": plugin / rows["hht"]["us_per_step"],
             "plugin_over_genalpha": plugin / rows["genalpha"]["us_per_step"],
             "python_over_compiled_plugin": rows["verlet (plugin, plain Python)"]["us_per_step"] / plugin}
+
+
+def pendulum_peer_markdown(s: PerfSettings) -> str:
+    """hht and genalpha per step against Exudyn's generalized-α on the pendulum, in this
+    process (:func:`_pendulum_pair`), as Markdown: `daebench perf --section pendulum-peer`."""
+    try:
+        import exudyn  # lazy: exudyn, an optional extra
+    except ImportError:
+        return "exudyn is not installed (pip install 'daebench[exudyn]'): nothing to compare\n"
+    hht = pendulum_vs_exudyn(s)
+    ga = genalpha_vs_exudyn(s, hht["rho_inf"])
+    lines = [f"Pendulum (30°, T = {s.pendulum_T:g} s, h = {s.pendulum_h:g} s, ρ∞ = {hht['rho_inf']:.4f}) against "
+             f"Exudyn {exudyn.__version__}'s generalized-α, CPU time in one process, {s.peer_rounds} rounds "
+             f"(median; per step = slope between T/4 and T)", "",
+             "| ours | µs/step | Exudyn µs/step | ratio per step (range) | whole-run ratio | Newton/step |",
+             "|---|---|---|---|---|---|"]
+    for name, r in (("hht", hht), ("genalpha", ga)):
+        lo, hi = r["ratio_range"]
+        lines.append(f"| {name} | {r['ours_us_per_step']:.2f} | {r['exudyn_us_per_step']:.2f} | "
+                     f"{r['ratio_ours_over_exudyn']:.3f} ({lo:.3f}–{hi:.3f}) | {r['whole_run_ratio']:.3f} | "
+                     f"{r['newton_per_step']:.2f} |")
+    return "\n".join(lines) + "\n"
+
