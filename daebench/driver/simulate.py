@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import time
+import traceback
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -79,6 +80,7 @@ class RunResult:
     phases: int = 0
     states: dict[str, np.ndarray] | None = None  # with record_states: t, q, v, a, lam at the output times
     impact_law: str = ""              # the driver's impact law, e.g. "newton, simultaneous" ("": none applied)
+    traceback: str = ""               # where the exception that ended the run was raised ("" if none did)
 
 
     @property
@@ -126,6 +128,10 @@ class Driver:
 
     # -- public -----------------------------------------------------------------
     def run(self) -> RunResult:
+        with interrupt.signals_counted():
+            return self._run()
+
+    def _run(self) -> RunResult:
         wall0 = time.perf_counter()
         sys_ = self.system
         q, v = sys_.initial_state()
@@ -158,6 +164,7 @@ class Driver:
         status, message = "completed", ""
         state = State(0.0, q, v)
         phases = 0
+        signals = interrupt.signal_count()
         try:
             stalled = 0
             while not _end_reached(state.t, self.t_end):
@@ -176,8 +183,14 @@ class Driver:
             if exc.t is not None:
                 self._t_last = max(self._t_last, float(exc.t))
             message = f"t = {self._t_last:.6g} s: {msg}"
-        except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
-            status, message = "failed", f"t = {self._t_last:.6g} s: {type(exc).__name__}: {exc}"
+        except BaseException as exc:  # noqa: BLE001 - a run is a boundary its code cannot cross
+            if interrupt.from_signal(exc, signals):
+                raise     # Ctrl-C, SIGTERM or the wall-time cap: the caller's business
+            status, message = "failed", f"t = {self._t_last:.6g} s: {interrupt.describe_raised(exc)}"
+            if getattr(self.integ, "failure", None) is None:
+                self.integ.failure = exc  # its traceback, for `run --traceback` and RunOutput.traceback
+        failure = getattr(self.integ, "failure", None)
+        where = "".join(traceback.format_exception(failure)) if failure is not None and status != "completed" else ""
         broken = impact_checks.violations(cs.impacts, self.energy_scale)
         if broken and status == "completed":
             status, message = "failed", impact_checks.verdict(broken)
@@ -187,7 +200,7 @@ class Driver:
                          self.integ.counters_snapshot(), hist, cs.impacts, dict(self.cmax), res,
                          self._last_state, phases,
                          states_arrays(self._states, sys_.n, sys_.n_bilateral) if self.record_states else None,
-                         impact_law_name(cs))
+                         impact_law_name(cs), where)
 
     _t_last = 0.0
     _last_state: State | None = None
