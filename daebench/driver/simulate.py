@@ -151,6 +151,7 @@ class Driver:
         if cs.mu.any():
             self.work["friction"] = 0.0  # slip friction at closed contacts (the t = 0 row too)
         self._contact_work: tuple[float, ...] | None = None
+        self._work_book = impact_checks.ContactWork()   # rule 6 of core.impact_checks
         terms0 = sys_.energy(q, v)
         self.E0 = float(sum(terms0.values()))
         # energy scale of the run: the size of the initial energy terms (a system starting
@@ -192,6 +193,10 @@ class Driver:
         failure = getattr(self.integ, "failure", None)
         where = "".join(traceback.format_exception(failure)) if failure is not None and status != "completed" else ""
         broken = impact_checks.violations(cs.impacts, self.energy_scale)
+        if self.integ.capabilities.contacts:   # rules 5 and 6: a capturing contact makes no energy
+            e = None if law is None or getattr(law, "restitution", None) is None else float(law.restitution)
+            broken += (impact_checks.capturing_violations(cs.impacts, self.energy_scale, e)
+                       + self._work_book.violations(self.energy_scale, e))
         if broken and status == "completed":
             status, message = "failed", impact_checks.verdict(broken)
         hist = frame(self.rows)
@@ -338,6 +343,8 @@ class Driver:
             self.cmax.update(C=float(c[0]), Cdot=float(c[1]), Cddot=float(c[2]))
         cs.impacts.extend(adv.events)
         self._contact_work = adv.contact_work
+        if adv.contact_work is not None:
+            self._work_book.add(adv.new.t, adv.contact_work[1])
         return adv
 
     # -- bookkeeping -------------------------------------------------------------------
