@@ -43,7 +43,8 @@ import pandas as pd
 from daebench.core import coulomb, impact_checks, interrupt
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
-from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name, project, settle
+from daebench.driver.events import (ContactState, apply_event, find_event, impact_law_name,
+                                    project_resting, settle)
 from daebench.driver.history import (Block, block, columns, divergence, frame, penetration, state_row,
                                      states_arrays)
 from daebench.driver.stickslip import PAINLEVE_SLIP
@@ -215,7 +216,7 @@ class Driver:
         cs = self.contacts
         if cs.constraint and not cs.mu.any() and settle(cs, state.t, state.q, state.v):
             # the acceleration-level contact law changed the closed set: start that phase
-            q, v = project(cs.phase(self.system), state.t, state.q, state.v)
+            q, v = project_resting(cs, cs.phase(self.system), state.t, state.q, state.v)
             return State(state.t, q, v)
         problem = self._current = cs.phase(self.system)
         a, lam = problem.acceleration(state.t, state.q, state.v)
