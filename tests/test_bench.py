@@ -83,7 +83,7 @@ def test_raise_diverge_succeed_give_three_rows(registry, pendulum, tmp_path, job
                reference="none", progress=False, name="three")
     assert len(df) == 3
     by = df.set_index("integrator")
-    assert by.loc["boom", "status"] == "error" and "deliberate bug" in by.loc["boom", "message"]
+    assert by.loc["boom", "status"] == "failed" and "deliberate bug" in by.loc["boom", "message"]
     assert by.loc["explode", "status"] == "diverged" and by.loc["explode", "verdict"] == "diverged"
     assert by.loc["hht", "status"] == "completed"
     assert by.loc["hht", "verdict_t"] == pytest.approx(0.2)
@@ -207,7 +207,7 @@ def test_dask_executor_gives_the_rows_of_the_process_pool(registry, pendulum):
         df = sweep(pendulum, ["boom", "explode", "hht"], steps=[1e-2], scheduler=client,
                    reference="none", progress=False, write=False)
     by = df.set_index("integrator")
-    assert by.loc["boom", "status"] == "error" and "deliberate bug" in by.loc["boom", "message"]
+    assert by.loc["boom", "status"] == "failed" and "deliberate bug" in by.loc["boom", "message"]
     assert by.loc["explode", "status"] == "diverged" and by.loc["hht", "steps"] == 20
 
 

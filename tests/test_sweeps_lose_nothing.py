@@ -100,7 +100,7 @@ def test_crashing_plugins_cost_only_their_own_rows(plugins, pendulum, jobs):
         assert by["hht", h].status == "completed" and by["hht", h].steps == steps
         assert by["segv", h].status == "crashed" and "SIGSEGV" in by["segv", h].message
         assert by["exit3", h].status == "crashed" and "exited with code 3" in by["exit3", h].message
-        assert by["ctrlc", h].status == "error" and "KeyboardInterrupt" in by["ctrlc", h].message
+        assert by["ctrlc", h].status == "failed" and "KeyboardInterrupt" in by["ctrlc", h].message
     # every row is on disk, and the command reports the failures with a non-zero exit code
     assert len(pd.read_parquet(plugins / "bench" / "crash.parquet")) == 8
     if jobs == 1:

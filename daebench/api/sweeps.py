@@ -125,15 +125,15 @@ def effects(scene: SceneLike, integrator: str = "hht", settings: dict[str, Any] 
 def stability(scene: SceneLike, methods: Sequence[str] | None = None, n: str = "auto",
               search: _stability.Bisection | None = None, *, overrides: Overrides = None,
               out: str | Path | None = None, name: str | None = None,
-              progress: Callable[[str], None] | None = None) -> _stability.StabilityResult:
+              progress: Callable[[str], None] | None = None, overwrite: bool = False) -> _stability.StabilityResult:
     """The largest stable fixed step per integrator setting and N, measured by bisection
     on whole runs beside the linear prediction
     (:func:`daebench.workflows.stability.run_stability`; ``methods`` default to
     :data:`daebench.workflows.stability.DEFAULT_METHODS`; ``search.mark_h``: a step drawn
-    as a line)."""
+    as a line; ``overwrite``: replace the files of an earlier map of the same name)."""
     sc = load_scene(scene, overrides)
     return _stability.run_stability(sc, methods or _stability.DEFAULT_METHODS, n, search or _stability.Bisection(),
-                                    Path(out) if out is not None else None, name, progress)
+                                    Path(out) if out is not None else None, name, progress, overwrite)
 
 
 def error_columns(scene: SceneLike) -> list[str]:

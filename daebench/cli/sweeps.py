@@ -327,7 +327,9 @@ def stability(case: str = typer.Argument(..., help="scene name or path to a .tom
               run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run, s"),
               mark_h: float = typer.Option(0.0, "--mark-h", help="draw this step as a line, s (0: none)"),
               out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/stability)"),
-              name: Optional[str] = typer.Option(None, "--name", help="file stem (default `<case>-stability`)")) -> None:
+              name: Optional[str] = typer.Option(None, "--name", help="file stem (default `<case>-stability`)"),
+              overwrite: bool = typer.Option(False, "--overwrite",
+                                             help="replace the files of an earlier map of the same --name")) -> None:
     """Measure the largest stable fixed step per integrator setting and N beside its prediction.
 
     Bisection on whole runs (completed, energy balance within the divergence threshold),
@@ -340,7 +342,7 @@ def stability(case: str = typer.Argument(..., help="scene name or path to a .tom
         search = api.Bisection(n_key, t_end if t_end != 0.0 else None, periods, h_min, h_max, tol, jobs, run_cap,
                                mark_h or None)
         res = api.stability(sc, method or None, n, search, out=out_dir, name=name,
-                            progress=lambda line: sys.stderr.write(line + "\n"))
+                            progress=lambda line: sys.stderr.write(line + "\n"), overwrite=overwrite)
     typer.echo(res.markdown)
     typer.echo(f"\n{res.summary}")
     typer.echo("wrote " + ", ".join(map(str, res.files)))

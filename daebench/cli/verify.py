@@ -20,7 +20,10 @@ def verify(integrator: str = typer.Argument(..., help="integrator name (see `dae
            opt: list[str] = typer.Option([], "--opt", help="integrator setting: name=value (the cases set the step)"),
            only: Optional[str] = typer.Option(None, "--only",
                                               help="comma-separated properties: order, drift, energy, contract, contact"),
-           as_json: bool = typer.Option(False, "--json", help="print one JSON record (stdout holds nothing else)")) -> None:
+           as_json: bool = typer.Option(False, "--json", help="print one JSON record (stdout holds nothing else)"),
+           run_cap: Optional[float] = typer.Option(None, "--run-cap",
+                                                   help="wall-time cap of each property [s] (default 10 min); a "
+                                                        "property over it fails")) -> None:
     """Measure what an integrator declares on cases with exact solutions; PASS/FAIL per property.
 
     Order, constraint index, energy, the step contract and contact handling, one
@@ -30,7 +33,7 @@ def verify(integrator: str = typer.Argument(..., help="integrator name (see `dae
     try:
         settings = api.parse_pairs(opt, "--opt", "alpha=-0.1")
         props = [p.strip() for p in only.split(",") if p.strip()] if only else None
-        res = api.verify(integrator, settings, properties=props,
+        res = api.verify(integrator, settings, properties=props, **({} if run_cap is None else {"run_cap": run_cap}),
                          progress=None if as_json else (lambda p: sys.stderr.write(f"measuring {p} …\n")))
     except api.ParamError as exc:
         fail(str(exc))

@@ -401,7 +401,7 @@ def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, 
             q = lift(cs, system, t, q, lifted)
         if cs.active:
             # the impact was located on g = 0 (or −GAP_BAND): start the closed phase on it
-            q, v = project(cs.phase(system), t, q, v)
+            q, v = project_resting(cs, cs.phase(system), t, q, v)
         cs.armed[i] = False
     elif kind == "stop":
         # the contact and every other slipping one at rest with it stick here
@@ -493,6 +493,10 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
             e_c[short] = 0.0
             res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i, lzb)
     resting = [c for r, c in enumerate(part) if res.vn_plus[r] < REBOUND_MIN]
+    if lzb is None:   # contacts of the event that the impact lifts off only briefly rest with the others
+        resting += _lifted_briefly(base, t, q, res.v_plus, resting,
+                                   [c for r, c in enumerate(part) if c not in resting and res.impulse_n[r] <= 0.0
+                                    and g[c] <= GAP_BAND], cs.step)
     cs.release([c for c in part if c in cs.active and c not in resting], t)
     cs.d_impacts += res.energy_loss
     loss = res.energy_loss  # booked on the first contact that takes an impulse (the impacting one if it does)
@@ -526,7 +530,46 @@ def _unresolvable_rebounds(base: Problem, t: float, q: np.ndarray, part: list[in
     _, G, gam = base.gap_rows(q, res.v_plus)
     gdd = G[part] @ a - gam[part]
     zeno_time = max(step, ZENO_FLIGHT) * (1.0 - min(e, 1.0 - 1e-12))
-    return hit & ((vn_plus < REBOUND_MIN) | (2.0 * vn_plus < zeno_time * np.maximum(-gdd, 0.0)))
+    return hit & ((vn_plus < REBOUND_MIN) | back_within(vn_plus, gdd, zeno_time))
+
+
+def back_within(vn: np.ndarray, gdd: np.ndarray, span: float) -> np.ndarray:
+    """Which contacts leaving their surface at ġ = ``vn`` > 0 under the gap acceleration
+    g̈ = ``gdd`` are back on it within ``span`` seconds (2ġ < span |g̈|, g̈ < 0): the rule of
+    every Zeno decision (a rebound sequence, a rocking's alternating lift-offs, a contact at
+    rest that drifts open)."""
+    vn = np.asarray(vn, float)
+    return (vn > 0.0) & (2.0 * vn < span * np.maximum(-np.asarray(gdd, float), 0.0))
+
+
+def _lifted_briefly(base: Problem, t: float, q: np.ndarray, v: np.ndarray, closed: list[int], rows: list[int],
+                    step: float) -> list[int]:
+    """Which open contacts ``rows`` on their surface (no impulse of their own: an impact of
+    another lifts them, or the integrator's drift opens them) leave it so slowly that they
+    would be back within the step in force (:func:`back_within`, g̈ with the contacts
+    ``closed`` kept): no step resolves the flight — the Zeno accumulation of a rocking body's
+    alternating impacts ends within it — so they are at rest."""
+    if not rows:
+        return []
+    _, G, gam = base.gap_rows(q, v)
+    try:
+        a, _ = Problem(base.system, tuple(sorted(set(closed)))).acceleration(t, q, v)
+    except np.linalg.LinAlgError:   # redundant closed contacts: their free acceleration instead
+        a, _ = base.acceleration(t, q, v)
+    vn, gdd = G[rows] @ v, G[rows] @ a - gam[rows]
+    return [c for c, back in zip(rows, back_within(vn, gdd, max(step, ZENO_FLIGHT))) if back]
+
+
+def project_resting(cs: ContactState, problem: Problem, t: float, q: np.ndarray, v: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`project` onto the closed contacts of ``problem``, the kinetic energy the
+    velocity projection removes (a contact brought to rest: the end of its Zeno sequence;
+    ≥ 0, a projection in the kinetic metric) booked as impact loss."""
+    q1, v1 = project(problem, t, q, v)
+    if problem.m:
+        M = problem.mass(q1)
+        cs.d_impacts += max(0.5 * float(v @ M @ v - v1 @ M @ v1), 0.0)
+    return q1, v1
 
 
 def _law(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.ndarray, e: float,
@@ -537,8 +580,9 @@ def _law(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.nd
     Its failure ends the run, named."""
     res = frictional_impact(M, GN, GT, mu, v, e, held) if lzb is None else lzb(M, GN, v, e=e, B=held)
     if not res.ok:
-        fail = failure_message if lzb is None else lzb_failure
-        raise StepFailure(f"{fail(res.status)} (impact of contact {i})", t)
+        why = failure_message(res.status) if lzb is None else lzb_failure(res.status, res.step_count,
+                                                                           float(np.min(e)))
+        raise StepFailure(f"{why} (impact of contact {i})", t)
     return res
 
 
@@ -547,7 +591,10 @@ def settle(cs: ContactState, t: float, q: np.ndarray, v: np.ndarray) -> bool:
     (:func:`daebench.core.resting_contacts.resting_lcp`): the closed contacts and the open
     ones at rest on their surface (|g| ≤ GAP_BAND, |ġ| ≤ REBOUND_MIN) are the candidates;
     those with a positive force close (or stay closed), the others open. Returns whether
-    the closed set changed. Frictionless contacts only: with friction the stick/slip
+    the closed set changed. An open contact on its surface that leaves it so slowly that it
+    would be back within the step in force is a candidate too (:func:`_lifted_briefly`: an
+    index-3 step's drift opened it; a rebound of this instant is the impact law's and the Zeno
+    rule's, :func:`_unresolvable_rebounds`). Frictionless contacts only: with friction the stick/slip
     phases decide (:mod:`daebench.driver.stickslip`)."""
     base = cs.base
     nc = base.n_contacts
@@ -555,7 +602,10 @@ def settle(cs: ContactState, t: float, q: np.ndarray, v: np.ndarray) -> bool:
         return False
     g, G, gam = base.gap_rows(q, v)
     vn = G @ v
-    cand = sorted(set(cs.active) | {c for c in range(nc) if abs(g[c]) <= GAP_BAND and abs(vn[c]) <= REBOUND_MIN})
+    touching = [c for c in range(nc) if c not in cs.active and abs(g[c]) <= GAP_BAND]
+    drifting = [c for c in touching if vn[c] > REBOUND_MIN and cs.last_impact_t[c] != t]  # not a rebound
+    cand = sorted(set(cs.active) | {c for c in touching if abs(vn[c]) <= REBOUND_MIN}
+                  | set(_lifted_briefly(base, t, q, v, cs.active, drifting, cs.step)))
     if not cand:
         return False
     a_free, _ = base.acceleration(t, q, v)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import time
+import traceback
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -42,7 +43,8 @@ import pandas as pd
 from daebench.core import coulomb, impact_checks, interrupt
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
-from daebench.driver.events import ContactState, apply_event, find_event, impact_law_name, project, settle
+from daebench.driver.events import (ContactState, apply_event, find_event, impact_law_name,
+                                    project_resting, settle)
 from daebench.driver.history import (Block, block, columns, divergence, frame, penetration, state_row,
                                      states_arrays)
 from daebench.driver.stickslip import PAINLEVE_SLIP
@@ -79,6 +81,7 @@ class RunResult:
     phases: int = 0
     states: dict[str, np.ndarray] | None = None  # with record_states: t, q, v, a, lam at the output times
     impact_law: str = ""              # the driver's impact law, e.g. "newton, simultaneous" ("": none applied)
+    traceback: str = ""               # where the exception that ended the run was raised ("" if none did)
 
 
     @property
@@ -126,6 +129,10 @@ class Driver:
 
     # -- public -----------------------------------------------------------------
     def run(self) -> RunResult:
+        with interrupt.signals_counted():
+            return self._run()
+
+    def _run(self) -> RunResult:
         wall0 = time.perf_counter()
         sys_ = self.system
         q, v = sys_.initial_state()
@@ -145,6 +152,7 @@ class Driver:
         if cs.mu.any():
             self.work["friction"] = 0.0  # slip friction at closed contacts (the t = 0 row too)
         self._contact_work: tuple[float, ...] | None = None
+        self._work_book = impact_checks.ContactWork()   # rule 6 of core.impact_checks
         terms0 = sys_.energy(q, v)
         self.E0 = float(sum(terms0.values()))
         # energy scale of the run: the size of the initial energy terms (a system starting
@@ -158,6 +166,7 @@ class Driver:
         status, message = "completed", ""
         state = State(0.0, q, v)
         phases = 0
+        signals = interrupt.signal_count()
         try:
             stalled = 0
             while not _end_reached(state.t, self.t_end):
@@ -176,9 +185,19 @@ class Driver:
             if exc.t is not None:
                 self._t_last = max(self._t_last, float(exc.t))
             message = f"t = {self._t_last:.6g} s: {msg}"
-        except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
-            status, message = "failed", f"t = {self._t_last:.6g} s: {type(exc).__name__}: {exc}"
+        except BaseException as exc:  # noqa: BLE001 - a run is a boundary its code cannot cross
+            if interrupt.from_signal(exc, signals):
+                raise     # Ctrl-C, SIGTERM or the wall-time cap: the caller's business
+            status, message = "failed", f"t = {self._t_last:.6g} s: {interrupt.describe_raised(exc)}"
+            if getattr(self.integ, "failure", None) is None:
+                self.integ.failure = exc  # its traceback, for `run --traceback` and RunOutput.traceback
+        failure = getattr(self.integ, "failure", None)
+        where = "".join(traceback.format_exception(failure)) if failure is not None and status != "completed" else ""
         broken = impact_checks.violations(cs.impacts, self.energy_scale)
+        if self.integ.capabilities.contacts:   # rules 5 and 6: a capturing contact makes no energy
+            e = None if law is None or getattr(law, "restitution", None) is None else float(law.restitution)
+            broken += (impact_checks.capturing_violations(cs.impacts, self.energy_scale, e)
+                       + self._work_book.violations(self.energy_scale, e))
         if broken and status == "completed":
             status, message = "failed", impact_checks.verdict(broken)
         hist = frame(self.rows)
@@ -187,7 +206,7 @@ class Driver:
                          self.integ.counters_snapshot(), hist, cs.impacts, dict(self.cmax), res,
                          self._last_state, phases,
                          states_arrays(self._states, sys_.n, sys_.n_bilateral) if self.record_states else None,
-                         impact_law_name(cs))
+                         impact_law_name(cs), where)
 
     _t_last = 0.0
     _last_state: State | None = None
@@ -197,7 +216,7 @@ class Driver:
         cs = self.contacts
         if cs.constraint and not cs.mu.any() and settle(cs, state.t, state.q, state.v):
             # the acceleration-level contact law changed the closed set: start that phase
-            q, v = project(cs.phase(self.system), state.t, state.q, state.v)
+            q, v = project_resting(cs, cs.phase(self.system), state.t, state.q, state.v)
             return State(state.t, q, v)
         problem = self._current = cs.phase(self.system)
         a, lam = problem.acceleration(state.t, state.q, state.v)
@@ -325,6 +344,8 @@ class Driver:
             self.cmax.update(C=float(c[0]), Cdot=float(c[1]), Cddot=float(c[2]))
         cs.impacts.extend(adv.events)
         self._contact_work = adv.contact_work
+        if adv.contact_work is not None:
+            self._work_book.add(adv.new.t, adv.contact_work[1])
         return adv
 
     # -- bookkeeping -------------------------------------------------------------------

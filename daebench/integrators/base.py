@@ -42,7 +42,6 @@ party package does the same in its own ``pyproject.toml``.
 
 from __future__ import annotations
 
-import re
 import sys
 from dataclasses import asdict, dataclass, field, fields, replace
 from importlib.metadata import entry_points
@@ -56,6 +55,7 @@ from daebench.core.problem import Problem
 from daebench.stepping import control, dense as _dense
 from daebench.stepping.watch import Watch
 from daebench.core.system import State
+from daebench.integrators import declarations
 
 ENTRY_POINT_GROUP = "daebench.integrators"
 
@@ -493,30 +493,28 @@ def refusals() -> list[str]:
     return list(_REGISTRY_CACHE[2])
 
 
-NAME_RULE = re.compile(r"^[a-z0-9][a-z0-9_.-]*$")
-
-
 def declaration_problems(cls: Any, name: str | None = None) -> list[str]:
     """What is wrong with the declarations of integrator class ``cls`` (rule 1 of the
-    contract: a subclass of :class:`Integrator`, a lower-case ``name`` — the entry point's
-    ``name`` when given —, :class:`Capabilities`, a tuple of :class:`Setting` —, and rules
+    contract: a subclass of :class:`Integrator`, a valid ``name`` — the entry point's
+    ``name`` when given —, valid :class:`Capabilities`, a tuple of valid :class:`Setting`:
+    :mod:`.declarations` —, and rules
     2–3: ``_start`` and ``_step_impl`` implemented, unless it is compiled); [] when none."""
     if not (isinstance(cls, type) and issubclass(cls, Integrator)):
         return [f"{cls!r} is not a subclass of daebench.integrators.base.Integrator"]
-    out = []
     own = getattr(cls, "name", "")
-    if not isinstance(own, str) or not NAME_RULE.match(own):
-        out.append(f"class attribute name = {own!r}: a lower-case name is needed (letters, digits, '-', '_', '.')")
-    elif name is not None and own != name:
+    out = declarations.name_problems(own)
+    if not out and name is not None and own != name:
         out.append(f"the entry point is named '{name}' but the class declares name = '{own}' (make them agree: "
                    f"rename the entry point in the plugin's pyproject.toml or the class attribute `name`)")
     if not isinstance(cls.capabilities, Capabilities):
         out.append(f"capabilities = {cls.capabilities!r}: a daebench.integrators.base.Capabilities is needed")
-    elif not isinstance(cls.capabilities.order, int) or cls.capabilities.order < 1:
-        out.append(f"capabilities.order = {cls.capabilities.order!r}: a whole number >= 1 is needed")
+    else:
+        out += declarations.capability_problems(cls.capabilities)
     spec = cls.settings_spec
     if not isinstance(spec, (tuple, list)) or not all(isinstance(x, Param) for x in spec):
         out.append("settings_spec must be a tuple of daebench.integrators.base.Setting")
+    else:
+        out += declarations.settings_problems(spec)
     compiled = any(k.__name__ == "CompiledIntegrator" and k.__module__.startswith("daebench.") for k in cls.__mro__)
     if not compiled:
         for method in ("_start", "_step_impl"):
@@ -585,17 +583,28 @@ def friction_refusal(name: str, what: str) -> str:
             f"friction where the case offers one (`--set contact.law=penalty` or `hertz`), or `--set contact.friction=0`.")
 
 
+def _laws_hint(laws: tuple[str, ...] | None, wanted: tuple[str, ...]) -> str:
+    """`` (`--set contact.law=a` or `b`)`` for the laws of ``wanted`` the case offers (all of
+    them when its laws are not known); '' when it offers none of them."""
+    fit = [w for w in wanted if laws is None or w in laws]
+    if not fit:
+        return ""
+    return f" (`--set contact.law={fit[0]}`" + "".join(f" or `{w}`" for w in fit[1:]) + ")"
+
+
 def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
                        adaptive: bool = False, what: str = "this case",
                        contacts_by_integrator: bool = False, contact_law: str | None = None,
-                       n_contacts: int = 0, friction: bool = False) -> None:
+                       n_contacts: int = 0, friction: bool = False, laws: tuple[str, ...] | None = None) -> None:
     """Refuse a mismatch before the first step, with a message that says what to do.
 
     ``contacts_by_integrator``: the system leaves its contacts to the integrator (no
     law); ``contact_law``: the name of its law otherwise. An integrator that resolves
     contacts itself takes over contacts with no law or the ``constraint`` law (whose
     restitution it applies); a continuous law would count the contact twice.
-    ``friction``: the system's contacts have Coulomb coefficients μ > 0 (:func:`applies_friction`)."""
+    ``friction``: the system's contacts have Coulomb coefficients μ > 0 (:func:`applies_friction`);
+    ``laws``: the contact laws the case offers (its ``contact.law`` choices; None: not known),
+    so that a message suggests only laws the case accepts."""
     cap = cls.capabilities
     if friction and not applies_friction(cls, contact_law):
         raise IntegratorError(friction_refusal(cls.name, what))
@@ -603,8 +612,8 @@ def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
         raise IntegratorError(
             f"{what} leaves its contacts to the integrator (contact law 'complementarity'), but "
             f"'{cls.name}' does not resolve contacts; use an integrator that does (`daebench list`: "
-            f"'resolves contacts'), or pick a contact law the driver handles "
-            f"(`--set contact.law=hertz`, `penalty` or `constraint`)."
+            f"'resolves contacts'), or pick a contact law the driver handles"
+            + _laws_hint(laws, ("hertz", "penalty", "constraint")) + "."
         )
     if cap.contacts and not contacts_by_integrator and (n_contacts == 0 or contact_law is None):
         raise IntegratorError(
@@ -622,8 +631,10 @@ def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,
         raise IntegratorError(
             f"integrator '{cls.name}' integrates ODEs only, but {what} has constraints "
             f"(bilateral joints or contact law 'constraint'). Use an integrator that "
-            f"handles constraints (hht, baumgarte, newmark, ida), or for contact choose "
-            f"`--set contact.law=hertz` or `penalty`."
+            f"handles constraints (hht, baumgarte, newmark, ida)"
+            + (f", or for contact choose a continuous law{_laws_hint(laws, ('hertz', 'penalty'))}"
+               if laws is None or {"hertz", "penalty"} & set(laws) else
+               f"; {what} offers no continuous contact law (its laws: {', '.join(laws)})") + "."
         )
     if adaptive and not cap.adaptive:
         raise IntegratorError(

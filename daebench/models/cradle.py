@@ -72,6 +72,8 @@ CONTACT = contact_schema(("constraint", "hertz", "complementarity"), exponent=Tr
                          impact_law=True, hertz_rule="Hertz's formula from the radii of the two balls, "
                          "cradle.modulus and cradle.poisson")
 MAX_BALLS = 100
+MAX_MASS_RATIO = 1e9     # heaviest over lightest ball (check_scene): 7 of float64's 16 digits are left
+MAX_MASS_DECADES = math.log10(MAX_MASS_RATIO)
 
 SCHEMA: dict[str, Param] = {
     p.name: p
@@ -232,7 +234,22 @@ def build(scene: Scene) -> Cradle:
 
 
 def check_scene(scene: Scene) -> None:
+    """The contact keys' checks, and masses that float64 arithmetic survives: the heaviest
+    ball at most :data:`MAX_MASS_RATIO` times the lightest (the masses go as ratio^(3(i−1)):
+    ratio 20 with 100 balls overflowed, 0.05 underflowed to a singular mass matrix)."""
+    from daebench.core.scene import SceneError  # core: the scene module reads models' schemas
+
     CONTACT.check(scene)
+    n, ratio = scene["cradle.balls"], scene["cradle.ratio"]
+    decades = 3.0 * (n - 1) * abs(math.log10(ratio))
+    if decades > MAX_MASS_DECADES:
+        most = 1 + int(MAX_MASS_DECADES / (3.0 * abs(math.log10(ratio))))
+        lo, hi = 10.0 ** (-MAX_MASS_DECADES / (3.0 * (n - 1))), 10.0 ** (MAX_MASS_DECADES / (3.0 * (n - 1)))
+        raise SceneError(f"cradle.ratio = {ratio:g} with cradle.balls = {n} makes the last ball's mass "
+                         f"1e{'-' if ratio < 1 else ''}{decades:.0f} times the striker's (ratio^(3(N−1))); at most "
+                         f"{MAX_MASS_RATIO:.0e} either way is computed (beyond it the impact laws' solves lose more "
+                         f"than 9 of float64's 16 digits; beyond 1e308 the masses overflow): with {n} balls keep cradle.ratio in [{lo:.4g}, {hi:.4g}], "
+                         f"or with ratio {ratio:g} use at most {most} balls")
 
 
 def final_velocities(history: Any) -> np.ndarray:

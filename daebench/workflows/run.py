@@ -5,7 +5,6 @@ case's exact solution or its cached reference; :class:`RunOutput` is a view of i
 
 from __future__ import annotations
 
-import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
@@ -136,12 +135,4 @@ def run(scene: Scene, integrator: str, settings: dict[str, Any] | None = None, w
             bar.stop()
     st = res.states
     return RunOutput(rec, scene, st["t"], st["q"], st["v"], st["a"], st["lam"], res.history,
-                     errors(scene, res.history, res.impacts), failure_traceback(integ, rec.status))
-
-
-def failure_traceback(integ: Any, status: str) -> str:
-    """The traceback of the exception a step of ``integ`` raised, when it ended the run."""
-    exc = getattr(integ, "failure", None)
-    if exc is None or status == "completed":
-        return ""
-    return "".join(traceback.format_exception(exc))
+                     errors(scene, res.history, res.impacts), res.traceback)

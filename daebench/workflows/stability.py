@@ -298,9 +298,20 @@ def _whole_numbers(text: str, key: str) -> list[int]:
     return out
 
 
+def _check_n_key(scene: Scene, key: str) -> None:
+    """Refuse an N key the scene does not have, naming the whole-number keys it has (the
+    default key is allowed to be absent: the scene's own N is then used)."""
+    if key in scene.schema or key == Bisection.n_key:
+        return
+    ints = sorted(k for k, p in scene.schema.items() if p.type is int)
+    have = ", ".join(ints) if ints else "none (give --n '' to run the scene's own)"
+    raise ParamError(f"--n-key '{key}': scene '{scene.name}' has no such key; its whole-number keys: {have}")
+
+
 def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str = "auto",
                   search: Bisection = Bisection(), out: Path | None = None,
-                  name: str | None = None, progress: Callable[[str], None] | None = None) -> StabilityResult:
+                  name: str | None = None, progress: Callable[[str], None] | None = None,
+                  overwrite: bool = False) -> StabilityResult:
     """The stability map of ``scene`` (:func:`stability_map`) with its files under ``out``
     (default results/stability; ``<name or scene-stability>``.parquet, .csv, .md, .png:
     :mod:`.stability_report`), the folder proved writable and the name a plain file-name
@@ -308,13 +319,16 @@ def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str
 
     ``methods`` are ``integrator:setting=value,...`` texts (:func:`parse_method`); ``n``
     the values of ``search.n_key``, comma-separated ('': the scene's own; 'auto':
-    :data:`DEFAULT_N` when the scene has that key).
+    :data:`DEFAULT_N` when the scene has that key). Files of an earlier map of the same
+    name are replaced only with ``overwrite``.
 
     Raises
     ------
     ParamError
-        For a bad method, N or bound, before anything runs.
+        For a bad method, N, N key or bound, or files that exist without ``overwrite``,
+        before anything runs.
     """
+    _check_n_key(scene, search.n_key)
     try:
         parsed = [parse_method(m) for m in methods]
         if n.strip() == "auto":
@@ -330,6 +344,10 @@ def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str
     stem = check_name(name if name is not None else f"{scene.name}-stability", "--name")
     out = ensure_writable_dir(Path(out) if out is not None else results_dir() / "stability", "output folder (--out)",
                               stem + ".parquet")
+    earlier = [p.name for p in stability_report.paths(out, stem) if p.exists()]
+    if earlier and not overwrite:
+        raise ParamError(f"a stability map '{stem}' exists in {out} ({', '.join(earlier)}); pass --overwrite to "
+                         f"replace it, or choose another --name")
     te = min(search.t_end, scene.t_end) if search.t_end is not None else None
     search = replace(search, t_end=te)
     length = f"{te:g} s" if te is not None else f"{search.periods:g} periods of the fastest mode"

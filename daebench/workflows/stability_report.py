@@ -99,12 +99,17 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
     return path
 
 
+def paths(out_dir: Path, stem: str) -> list[Path]:
+    """The four files of the map ``stem`` in ``out_dir``: .parquet, .csv, .md, .png."""
+    return [under_root(out_dir, f"{stem}{suffix}") for suffix in (".parquet", ".csv", ".md", ".png")]
+
+
 def write(df: pd.DataFrame, out_dir: Path, stem: str, title: str, h_max: float,
           mark_h: float | None = None, scenes: tuple[tuple[str, str], ...] = ()) -> list[Path]:
     """<stem>.parquet, .csv, .md and .png in ``out_dir`` (each path checked to stay in it,
     each file written atomically; a failure says what was kept)."""
     flat = df.assign(settings=df["settings"].astype(str))
-    files = [under_root(out_dir, f"{stem}{suffix}") for suffix in (".parquet", ".csv", ".md", ".png")]
+    files = paths(out_dir, stem)
     kept = "the table was printed above"
     try:
         out_dir.mkdir(parents=True, exist_ok=True)

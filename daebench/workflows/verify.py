@@ -26,7 +26,11 @@ Properties (each a function ``(cls, settings) -> Check``, in :data:`PROPERTIES`)
   block's first four impacts.
 
 A property the integrator cannot be measured on (no case it runs) is ``n/a`` with the
-reason, never a failure; a run that fails is a failure with its message.
+reason, never a failure; a run that fails is a failure with its message. Each property has
+a wall-time cap (``run_cap``, :data:`PROPERTY_CAP` by default): a plugin's properties are
+measured in a forked child process that is killed beyond it (code blocked where no
+cooperative stop reaches), and whatever the integrator's code raises — an exit or an
+interrupt of its own included — is that property's failure.
 """
 
 from __future__ import annotations
@@ -43,7 +47,9 @@ from daebench.core.params import ParamError, did_you_mean
 from daebench.core.problem import Problem
 from daebench.core.scene import Scene
 from daebench.core.system import State
-from daebench.harness.running import checks
+from daebench.core import interrupt
+from daebench.harness.running import checks, isolated
+from daebench.harness.running.deadline import check_run_cap, deadline
 from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.integrators import base
 from daebench.integrators.base import IntegratorError
@@ -69,6 +75,7 @@ IMPACT_STEP = 1e-3       # s
 IMPACT_TOL = 1e-6        # s: event-driven impact times (the driver locates the event)
 HOUSNER_STEPS = {False: 1e-3, True: 2.5e-4}   # event-driven, resolved by the integrator (first order)
 HOUSNER_TOL = {False: 1e-6, True: 3e-3}
+PROPERTY_CAP = 600.0     # s: the default wall-time cap of one property (verify --run-cap)
 
 
 @dataclass(frozen=True)
@@ -434,18 +441,44 @@ PROPERTIES: dict[str, Callable[[type, dict[str, Any]], Check]] = {
     "contact": check_contact}
 
 
-def verify(name: str, settings: dict[str, Any] | None = None, properties: Sequence[str] | None = None,
-           progress: Callable[[str], None] | None = None) -> VerifyResult:
-    """Measure what integrator ``name`` declares (module docstring), at ``settings``.
+def _measure(p: str, cls: type, settings: dict[str, Any], run_cap: float) -> Check:
+    """Property ``p`` of ``cls`` within ``run_cap`` seconds of wall time: in a forked child for
+    a plugin (code that blocks is stopped there, :mod:`daebench.harness.running.isolated`),
+    under the cooperative cap for a built-in; whatever its code raises is the finding."""
+    signals = interrupt.signal_count()
+    try:
+        with interrupt.signals_counted():
+            if isolated.available() and not cls.__module__.startswith("daebench."):
+                return isolated.call(lambda _: PROPERTIES[p](cls, settings), run_cap, None, f"property '{p}'")[0]
+            with deadline(run_cap):
+                return PROPERTIES[p](cls, settings)
+    except ParamError as exc:   # a setting the case refuses (e.g. ~1e10 steps)
+        return Check(p, "n/a", str(exc))
+    except interrupt.RunTimeout as exc:
+        return Check(p, "fail", f"{exc} (verify --run-cap sets the cap of each property)")
+    except BaseException as exc:  # noqa: BLE001 - the integrator's own error is the finding
+        if interrupt.from_signal(exc, signals):
+            raise
+        return Check(p, "fail", f"raised {interrupt.describe_raised(exc)}")
+
+
+def verify(name: str, settings: dict[str, Any] | None = None, properties: Sequence[str] | str | None = None,
+           progress: Callable[[str], None] | None = None, run_cap: float = PROPERTY_CAP) -> VerifyResult:
+    """Measure what integrator ``name`` declares (module docstring), at ``settings``, each
+    property within ``run_cap`` seconds of wall time (:data:`PROPERTY_CAP` by default);
+    ``progress`` is called with each property's name before it runs, then with its line.
 
     Raises
     ------
     IntegratorError
         An unknown integrator, bad settings or an unknown property — before anything runs.
     """
+    run_cap = check_run_cap(run_cap)
     cls = base.get_integrator(checks.resolve_integrator(name))
     settings = dict(settings or {})
     cls(**settings)   # the settings are checked before any run
+    if isinstance(properties, str):   # "order" or "order,drift": names, not letters
+        properties = [p.strip() for p in properties.split(",") if p.strip()]
     wanted = list(properties or PROPERTIES)
     unknown = [p for p in wanted if p not in PROPERTIES]
     if unknown:
@@ -455,11 +488,6 @@ def verify(name: str, settings: dict[str, Any] | None = None, properties: Sequen
     for p in wanted:
         if progress is not None:
             progress(p)
-        try:
-            out.append(PROPERTIES[p](cls, settings))
-        except ParamError as exc:   # a setting the case refuses (e.g. ~1e10 steps)
-            out.append(Check(p, "n/a", str(exc)))
-        except Exception as exc:  # noqa: BLE001 - the integrator's own error is the finding
-            out.append(Check(p, "fail", f"raised {type(exc).__name__}: {exc}"))
+        out.append(_measure(p, cls, settings, run_cap))
     cap = cls.capabilities
     return VerifyResult(cls.name, settings, asdict(cap), out)

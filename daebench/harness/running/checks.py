@@ -226,13 +226,25 @@ def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> N
     IntegratorError
     """
     check_contacts_fit(scene, cls)
-    system = system if system is not None else build_system(scene)
+    check_fits_system(scene, cls, system if system is not None else build_system(scene))
+
+
+def check_fits_system(scene: Any, cls: type[Integrator], system: Any) -> None:
+    """The capability check the driver makes at its start
+    (:func:`daebench.integrators.base.check_capabilities`, with the driver's arguments),
+    made before any compile, its messages naming only contact laws the scene offers.
+
+    Raises
+    ------
+    IntegratorError
+    """
     law = system.contact_law
     needs_constraints = system.n_bilateral > 0 or (law is not None and not law.continuous and system.n_contacts > 0
                                                    and not cls.capabilities.contacts)
+    choices = getattr(scene.schema.get("contact.law"), "choices", None)
     base.check_capabilities(cls, needs_constraints, contacts_by_integrator=system.contacts_by_integrator,
-                       contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
-                       what=f"scene '{scene.name}'")
+                            contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
+                            what=f"scene '{scene.name}'", laws=tuple(choices) if choices else None)
 
 
 # -- the step of a conditionally stable method -----------------------------------------------------

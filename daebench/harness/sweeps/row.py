@@ -107,6 +107,8 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
                    cpu_spread=tm.cpu_spread, repeats=tm.repeats, t_final=res.t_final,
                    settings=json.dumps(rec.settings, default=str))
         row.update(res.counters)
+        if res.traceback:   # the exception that ended the run, the integrator's frames included
+            row["traceback"] = res.traceback
         if rec.warnings:   # e.g. a step beyond the method's stability limit (harness.running.checks.check_step)
             row["warning"] = "; ".join(rec.warnings)
         row.update(metrics.stability_verdict(res.status, res.message, res.t_final, sc.t_end))
