@@ -124,7 +124,7 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
                                                    "scored beside the runs and marked external; repeatable")) -> None:
     """Run every applicable integrator at the case's protocol and score each run against the reference.
 
-    The protocol is the runs each integrator declares for the case, else one at its defaults. Prints one
+    The protocol is the case's own (its scene file's [compare] table), else one run each at the defaults. Prints one
     table of the runs and the recommendation per target, and writes the table and the work-precision
     figure."""
     from daebench import api

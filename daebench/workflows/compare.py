@@ -1,18 +1,10 @@
 """`daebench compare CASE`: every applicable integrator at the case's protocol, each run
 scored against the reference, one table and one work-precision figure.
 
-**Where a protocol is declared.** By each integrator, for the cases it names
-(:meth:`daebench.integrators.base.Integrator.protocol`, its ``protocols`` table: steps or
-tolerances and fixed settings; daebench's own share one table per step family,
-:mod:`daebench.integrators.protocols`) — not in the scene file. A protocol names
-integrators and their settings (validated by each integrator's own settings when the sweep
-is planned), while a scene file describes physics: every scene key is typed and
-range-checked by the model's schema, and the scene hash that keys the cached references
-covers all of it, so a protocol inside the scene would re-key every reference when a step
-list changes. An integrator that declares nothing for the case runs once at its default
-settings (:func:`protocol_for`). What a case's comparison plots (its error measures) is
-the case's own (:data:`MEASURES`). The table's heading says what was run
-(:func:`heading`).
+**Where a protocol is declared.** In the case's scene file (its ``[compare]`` table:
+methods, steps, contact step, tolerances, measures, targets, tags), or by an integrator
+for the case; :mod:`daebench.workflows.protocol` reads both (:func:`protocol_for`). The
+table's heading says what was run (:func:`heading`).
 
 **Applicable.** An integrator the scene's contact law and constraints allow
 (:func:`daebench.harness.running.checks.check_applicable`, the driver's own rule, checked before anything
@@ -39,7 +31,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -60,83 +52,9 @@ from daebench.harness.sweeps.sweep import HARNESS_FAILURES
 from daebench.harness.sweeps.plan import RunSpec, plan_sweep
 from daebench.integrators import base
 from daebench.workflows import score as external
+from daebench.workflows.protocol import Entry, Protocol, declared_entries, default_protocol, protocol_for
 
-
-@dataclass(frozen=True)
-class Entry:
-    """One integrator of a protocol: fixed steps or tolerances (neither: one run at its
-    defaults) and fixed settings."""
-
-    integrator: str
-    steps: tuple[float, ...] = ()
-    tols: tuple[float, ...] = ()
-    options: Mapping[str, Any] = field(default_factory=dict)
-    declared: bool = False      # the integrator's own declaration for the case (else: its defaults)
-
-
-@dataclass(frozen=True)
-class Protocol:
-    """What `daebench compare` runs on a case and which error measures it plots; in a
-    measure ``{obs}`` stands for the case's headline observable
-    (:func:`daebench.harness.scoring.pipeline.headline`: what the model declares first)."""
-
-    entries: tuple[Entry, ...]
-    measures: tuple[str, ...] = ("err_{obs}_max_trusted",)
-    why: str = ""
-
-    def resolved(self, obs: str) -> "Protocol":
-        """This protocol with ``{obs}`` replaced by the score name ``obs``."""
-        return replace(self, measures=tuple(m.format(obs=obs) for m in self.measures))
-
-
-#: what a case's comparison plots (beside the table) and why: the case's own, whoever runs on it
-MEASURES: dict[str, tuple[tuple[str, ...], str]] = {
-    **{c: (("err_{obs}_max_trusted", "err_pre_{obs}_max", "err_impact1_t"),
-           "the θ error over the reference's trusted span beside the error before the first impact and the first "
-           "impact's time error") for c in ("beam-impact", "beam-impact-hub")},
-    "rocking-block": (("err_{obs}_max_trusted", "err_omega_max_trusted"),
-                      "θ and ω over the capturing reference's trusted span"),
-    "slider-crank-clearance": (("err_{obs}_max", "err_{obs}_max_trusted", "err_y_max"),
-                               "the crank angle over the whole run (the reference's estimated θ digits stay ≥ 4 of "
-                               "the range throughout) and over its trusted span (the chattering's bounces part from "
-                               "the coarse check run soon after the first impact), the slider's height"),
-}
-
-
-def _entry(name: str, runs: base.Runs | None) -> Entry:
-    return Entry(name) if runs is None else Entry(name, tuple(runs.steps), tuple(runs.tols), dict(runs.options), True)
-
-
-def declared_entries(scene: Scene) -> dict[str, Entry]:
-    """The runs each registered integrator declares for ``scene`` (by its name), in run
-    order: tolerance runs first (the longest: a two-worker sweep then ends together), then
-    by name; integrators that declare nothing are not in it."""
-    out = {}
-    for name, reg in base.registry().items():
-        runs = reg.cls.protocol(scene.name) if reg.cls is not None else None
-        if runs is not None:
-            out[name] = _entry(name, runs)
-    return dict(sorted(out.items(), key=lambda kv: (not kv[1].tols, kv[0])))
-
-
-def default_protocol(scene: Scene) -> Protocol:
-    """Every registered integrator, one run at its default settings."""
-    return Protocol(tuple(Entry(n) for n in sorted(base.registry())), ("err_{obs}_max_trusted",),
-                    "no protocol declared for this case: every integrator once, at its default settings")
-
-
-def protocol_for(scene: Scene) -> Protocol:
-    """What compare runs on ``scene``: each integrator's declared runs for it
-    (:func:`declared_entries`), then every registered integrator that declares none, once
-    at its defaults, so that the comparison covers every integrator; the case's measures."""
-    declared = declared_entries(scene)
-    if not declared:
-        return default_protocol(scene)
-    measures, why = MEASURES.get(scene.name, (("err_{obs}_max_trusted",), ""))
-    extra = tuple(Entry(n) for n in sorted(base.registry()) if n not in declared)
-    return Protocol(tuple(declared.values()) + extra, measures,
-                    "each integrator's declared runs for this case, the others once at their defaults"
-                    + (f"; {why}" if why else ""))
+__all__ = ["Entry", "Protocol", "declared_entries", "default_protocol", "protocol_for", "run_compare"]
 
 
 @dataclass
@@ -309,13 +227,15 @@ def with_orders(df: pd.DataFrame, measures: Sequence[str]) -> pd.DataFrame:
 
 
 def recommendation(df: pd.DataFrame, proto: Protocol, model: str | None) -> tuple[list[dict[str, Any]], dict[str, str]]:
-    """The recommendation records over the protocol's measures (default targets) and the
-    paragraph, from daebench's own runs (never an external row)."""
+    """The recommendation records over the protocol's measures (the case's targets, else
+    round decades of the errors) and the paragraph, from daebench's own runs (never an
+    external row)."""
     own = df[~external.is_external(df)]
     ms = measures_present(own, proto.measures)
     if not ms or not len(own):
         return [], {}
-    _, recs, paras = recommend.for_table(own, ms, model_of=lambda case: model)
+    targets = {**recommend.default_targets(own, ms), **{m: t for m, t in proto.targets.items() if m in ms}}
+    _, recs, paras = recommend.for_table(own, ms, targets, model_of=lambda case: model)
     return [r for rs in recs.values() for r in rs], paras
 
 
@@ -406,11 +326,11 @@ def heading(res: CompareResult, case: str) -> str:
                                         else what) for what, _, names in groups]
     given = [g for g in groups if not g[1] and not g[0].startswith(defaults)]
     rest = [g for g in groups if not g[1] and g not in given]
-    sources = (["the runs each integrator declares for this case"] if any(g[1] for g in groups) else []) \
+    sources = (["the runs declared for this case"] if any(g[1] for g in groups) else []) \
         + (["runs given to compare"] if given else [])
     if rest:
         sources.append("the others once at their defaults: nothing declared for this case" if sources
-                       else "every integrator once at its defaults: none declares runs for this case")
+                       else "every integrator once at its defaults: no runs declared for this case")
     return f"{case}: {len(df)} runs ({'; '.join(sources)}) — " + "; ".join(parts)
 
 
