@@ -67,3 +67,29 @@ def test_errors_that_do_not_fall_give_no_prediction():
     df2, prog = converge.extend(df, {"err_x_max": (1e-6,)}, 1e6, _runner([]))
     assert len(df2) == len(df) and "no series predicts" in converge.answer_text(prog.predictions.get(
         ("err_x_max", 1e-6)), 1e6)
+
+
+def test_compare_extends_a_series_until_its_target_is_decided(tmp_path, monkeypatch):
+    """The pendulum against its exact solution: hht (α = 0, order 2) from h = 1e-2, 5e-3 is
+    halved until three runs decide θ ≤ 1e-3 deg; compare.json names the budget and the rule."""
+    import json
+
+    from daebench.harness.sweeps.options import Execution, SweepOptions
+    from daebench.models.scenes import load_scene
+    from daebench.workflows import compare as C
+
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path / "results"))
+    sc = load_scene("pendulum", {"t_end": 0.5})
+    proto = C.Protocol((C.Entry("hht", (1e-2, 5e-3), options={"alpha": 0.0}),), measures=("err_theta_max",),
+                       targets={"err_theta_max": (1e-3,)})
+    res = C.run_compare(sc, SweepOptions(reference="none", execution=Execution(jobs=1, progress=False)),
+                        out=tmp_path / "cmp", protocol=proto, budget_s=300.0)
+    df = res.table.sort_values("h", ascending=False)
+    e = df["err_theta_max"].to_numpy()
+    assert len(df) >= 4 and (e[1:] < e[:-1]).all()                      # halved, errors falling
+    assert (e <= 1e-3).sum() >= 2 and e[-3] > 1e-3 or (e <= 1e-3).sum() >= 3
+    rec = res.recommendations[0]
+    assert rec["pick"].startswith("hht") and res.convergence["added"]
+    side = json.loads((tmp_path / "cmp" / "compare.json").read_text())
+    assert side["convergence"]["budget_s"] == 300.0 and "≥ 3 runs" in side["convergence"]["stopping_rule"]
+    assert any("stopping rule" in line for line in res.summary_lines())
