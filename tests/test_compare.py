@@ -65,30 +65,32 @@ def test_compare_scores_every_row_and_writes_table_and_figure(tmp_path, monkeypa
     assert res.heading("pendulum") == "pendulum: 2 runs (runs given to compare) — hht: h = 0.01, 0.005 s with alpha = 0"
 
 
-def test_protocols_are_the_integrators_declarations():
-    """compare reads each integrator's declaration for the case (daebench's own share one table
-    per step family) and runs every other integrator once at its defaults; the heading says
-    what ran, grouped."""
-    from daebench.integrators import protocols
+def test_protocols_are_the_cases_declarations():
+    """compare reads the case's [compare] table (the methods it names at its steps, the
+    contact step only for the event-driven ones) and runs every other integrator once at its
+    defaults; the heading says what ran, grouped."""
     from daebench.integrators.base import get_integrator
 
     sc = load_scene("rocking-block")
-    assert get_integrator("hht").protocol("rocking-block") == protocols.EVENT_DRIVEN["rocking-block"]
-    assert get_integrator("moreau").protocol("rocking-block").steps == (2e-3, 1e-3, 5e-4)
-    assert get_integrator("central").protocol("rocking-block") is None
+    assert sc.comparison.steps == (2e-3, 1e-3, 5e-4) and get_integrator("hht").protocol("rocking-block") is None
     proto = C.protocol_for(sc)
     by = {e.integrator: e for e in proto.entries}
     assert by["hht"].declared and by["hht"].steps == (2e-3, 1e-3, 5e-4) and not by["central"].declared
+    assert by["moreau"].steps == (2e-3, 1e-3, 5e-4) and not by["ida"].declared
+    beams = {e.integrator: e for e in C.protocol_for(load_scene("beam-impact")).entries}
+    assert beams["hht"].options == {"h_contact": 1e-6} and beams["moreau"].options == {}   # capturing: no contact step
+    assert beams["ida"].tols == (1e-4, 1e-5, 1e-6) and not beams["ida"].steps
+    assert list(beams)[0] == "ida"   # tolerance runs first
     import pandas as pd
     df = pd.DataFrame({"integrator": ["moreau", "moreau", "nsgenalpha", "nsgenalpha", "central"],
                        "h": [2e-3, 1e-3, 2e-3, 1e-3, 1e-4], "tol": [float("nan")] * 5})
     res = C.CompareResult(df, {}, [], proto)
     assert res.heading("rocking-block") == (
-        "rocking-block: 5 runs (the runs each integrator declares for this case; the others once at their defaults: "
+        "rocking-block: 5 runs (the runs declared for this case; the others once at their defaults: "
         "nothing declared for this case) — moreau, nsgenalpha: h = 0.002, 0.001 s; central: one run at its defaults")
     df = pd.DataFrame({"integrator": ["hht", "ida"], "h": [1e-4, float("nan")], "tol": [float("nan")] * 2})
     assert C.CompareResult(df, {}, [], C.default_protocol(sc)).heading("pendulum") == (
-        "pendulum: 2 runs (every integrator once at its defaults: none declares runs for this case) — hht, ida: "
+        "pendulum: 2 runs (every integrator once at its defaults: no runs declared for this case) — hht, ida: "
         "one run each at their defaults")
 
 

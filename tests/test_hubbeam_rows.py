@@ -56,6 +56,8 @@ def _independent(s: HubBeam, t: float, q: np.ndarray, v: np.ndarray) -> tuple[di
     if s.kind == "modes":
         tot = np.abs(part).sum()
         obs.update({f"W{i + 1}": (p / tot if tot > 0 else 0.0) for i, p in enumerate(part)})
+    for j, c in enumerate(s.coordinate_names):   # the state itself, recorded for the modal measures
+        obs[f"q_{c}"], obs[f"v_{c}"] = q[j], v[j]
     # gravity: g ∫ρS Y dx over the quadrature points, Y the inertial height of each point
     at = tab.at
     p1 = a + tab.x + at.phx @ A - (0.5 * np.einsum("i,kij,j->k", B, tab.H, B) if fore else 0.0)

@@ -25,7 +25,7 @@ def test_halvings_and_protocols():
     p = S.survey_protocol(sc)
     declared = list(compare.declared_entries(sc).values())
     assert p.entries[: len(declared)] == tuple(declared)             # what each integrator declares, as compare has it
-    assert declared[0].integrator == "ida" and declared[0].tols == (1e-4,)
+    assert declared[0].integrator == "ida" and declared[0].tols == (1e-4, 1e-5, 1e-6)   # the case's [compare] table
     assert {x.integrator for x in p.entries} >= {"lcp", "imm", "central"}
     q = S.case_scene("ball", quick=True)
     assert q.t_end == S.QUICK_T_END and S.survey_protocol(q, quick=True).entries[0].steps == (1e-4, 5e-5)

@@ -4,6 +4,7 @@ costs (`daebench effects`) and the largest stable step (`daebench stability`).""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
@@ -15,7 +16,9 @@ from daebench.harness.files import OutputWriteError
 from daebench.harness.scoring import glossary, pipeline
 from daebench.harness.sweeps import sweep
 from daebench.harness.sweeps.options import Execution, Plan, SweepOptions, from_keywords
+from daebench.core.params import ParamError
 from daebench.workflows import compare as _compare
+from daebench.workflows import converge as _converge
 from daebench.workflows import effects as _effects
 from daebench.workflows import report as _report
 from daebench.workflows import stability as _stability
@@ -73,7 +76,8 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *, o
 
 def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides: Overrides = None,
             out: str | Path | None = None, report: bool = False,
-            protocol: _compare.Protocol | None = None, include: Sequence[Any] = ()) -> _compare.CompareResult:
+            protocol: _compare.Protocol | None = None, include: Sequence[Any] = (),
+            budget: float | None = None) -> _compare.CompareResult:
     """Every applicable integrator at the case's protocol, scored against the reference;
     the table, the work–precision figure and (``report``) one HTML page in ``out``
     (default results/compare/<case>-<hash>). ``options``: as
@@ -82,12 +86,17 @@ def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides:
     :class:`daebench.workflows.score.Source` values, as :func:`daebench.score` takes them),
     scored beside the runs and marked external; refused before any run when their data are.
     The result's ``ok`` is the exit rule: every run gave a verdict and every history equals
-    the previous comparison's (``changed`` says which did not)."""
+    the previous comparison's (``changed`` says which did not). ``budget``: wall time [s]
+    for extending each series until its targets are decided (default
+    :data:`daebench.workflows.converge.DEFAULT_BUDGET_S`; 0: the protocol's runs only)."""
     sc = load_scene(scene, overrides)
     if isinstance(include, (str, Path, Source, pd.DataFrame)):
         include = [include]
     sources = [s if isinstance(s, Source) else Source(s) for s in include]
-    res = _compare.run_compare(sc, options or _compare.DEFAULT_OPTIONS, out, protocol, sources)
+    if budget is not None and not (isinstance(budget, (int, float)) and math.isfinite(budget) and budget >= 0):
+        raise ParamError(f"budget must be a number of seconds ≥ 0 (0: the protocol's runs only), got {budget!r}")
+    res = _compare.run_compare(sc, options or _compare.DEFAULT_OPTIONS, out, protocol, sources,
+                               _converge.DEFAULT_BUDGET_S if budget is None else float(budget))
     if report:
         try:
             res.page = _report.write_compare_report(res, sc, res.folder / "report.html")

@@ -14,6 +14,7 @@ import typer
 
 from daebench.cli import textout
 from daebench.cli.common import fail, floats, load_scene_or_exit, out, print_table, refusals
+from daebench.workflows.converge import DEFAULT_BUDGET_S
 
 
 def register(app: typer.Typer) -> None:
@@ -121,10 +122,14 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
                                              help="also write report.html (one self-contained page) in the folder"),
             include: list[str] = typer.Option([], "--include",
                                               help="another code's trajectory (CSV/Parquet, as for `daebench score`), "
-                                                   "scored beside the runs and marked external; repeatable")) -> None:
+                                                   "scored beside the runs and marked external; repeatable"),
+            budget: float = typer.Option(DEFAULT_BUDGET_S, "--budget",
+                                         help="wall time [s] for extending each method's series (h/2, tol/10) until "
+                                              f"every target is decided; default {DEFAULT_BUDGET_S:g} s; 0: the "
+                                              "protocol's runs only")) -> None:
     """Run every applicable integrator at the case's protocol and score each run against the reference.
 
-    The protocol is the runs each integrator declares for the case, else one at its defaults. Prints one
+    The protocol is the case's own (its scene file's [compare] table), else one run each at the defaults. Prints one
     table of the runs and the recommendation per target, and writes the table and the work-precision
     figure."""
     from daebench import api
@@ -134,7 +139,7 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
     try:
         options = api.SweepOptions(reference=reference, timing=api.Timing(run_cap=run_cap),
                                    execution=api.Execution(jobs=jobs, progress=True))
-        res = api.compare(sc, options, out=out_dir, report=report_page, include=include)
+        res = api.compare(sc, options, out=out_dir, report=report_page, include=include, budget=budget)
     except KeyboardInterrupt as exc:  # during the runs, or after them (scoring, figures): said, never silent
         done = getattr(exc, "table", None)
         kept = (f"{int((done['status'] != 'interrupted').sum())} of {len(done)} runs had finished; "

@@ -81,7 +81,9 @@ class Observable:
 @dataclass(frozen=True)
 class Position:
     """A point from two columns (``tip_x``, ``tip_y``), scored as one Euclidean error
-    ``err_<name>_{final,max,l2}``."""
+    ``err_<name>_{final,max,l2}``; with ``angle`` also its polar angle about the origin
+    (a chord angle when the origin is a hinge: frame-invariant), scored as
+    ``err_<angle>_{final,max,l2}`` [deg]."""
 
     name: str
     x: str
@@ -89,6 +91,8 @@ class Position:
     unit: str = "m"
     label: str = ""
     impact_windows: bool = False
+    angle: str = ""
+    angle_label: str = ""
 
     def __post_init__(self) -> None:
         for what, v in (("name", self.name), ("x column", self.x), ("y column", self.y)):
@@ -154,11 +158,19 @@ class Observables:
         return [o for o in self.declared if o.fingerprint_tol is not None]
 
     def by_score_name(self, name: str) -> Observable | Position | None:
-        """The declaration whose error columns are ``err_<name>_*``."""
+        """The declaration whose error columns are ``err_<name>_*`` (a position's polar
+        angle as an observable in deg)."""
         for d in (*self.declared, *self.positions):
             if d.score_name == name:
                 return d
+        for p in self.positions:
+            if p.angle and p.angle == name:
+                return Observable(name, "deg", p.angle_label or f"angle of {p.label or p.name}")
         return None
 
 
 NONE = Observables()
+
+#: history columns that hold the generalized state (``q_<coordinate>``, ``v_<coordinate>``):
+#: recorded for the modal measures, never scored as observables
+STATE_PREFIXES = ("q_", "v_")

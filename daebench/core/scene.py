@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from daebench.core.bounded_file import UnreadableFile, read_bounded
+from daebench.core.comparison import Comparison
 from daebench.core.params import Param, ParamError, did_you_mean, parse_pairs
 
 
@@ -132,6 +133,23 @@ def scene_names() -> list[str]:
     return [p.stem for p in sorted(cases_dir().glob("*.toml"))]
 
 
+def tagged(tag: str) -> list[str]:
+    """The names of the scene files whose ``[compare]`` tags hold ``tag`` (the survey's sets:
+    :data:`daebench.core.comparison.TAGS`), read from the files' tables alone.
+
+    Raises
+    ------
+    SceneError
+        For a scene file whose ``[compare]`` table cannot be read (it names the file).
+    """
+    from daebench.core import comparison   # its read() reads through this module
+
+    if tag not in comparison.TAGS:
+        raise SceneError(f"unknown case tag '{tag}'{did_you_mean(tag, comparison.TAGS)} "
+                         f"(tags: {', '.join(comparison.TAGS)})")
+    return [p.stem for p in sorted(cases_dir().glob("*.toml")) if tag in comparison.read(p).tags]
+
+
 def list_scenes() -> list[tuple[str, str]]:
     """(name, description) of every scene file in :func:`cases_dir`; a file that cannot be
     read has 'cannot be read: …' as its description (it affects only what names it)."""
@@ -184,6 +202,8 @@ class Scene:
     check: Callable[["Scene"], None] | None = field(default=None, repr=False, compare=False)
     #: the values as the scene file gave them (before overrides); None when not read from a file
     base: dict[str, Any] | None = field(default=None, repr=False, compare=False)
+    #: how the case is compared (its file's ``[compare]`` table): not physics, not in :attr:`hash`
+    comparison: Comparison = field(default_factory=Comparison, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         check_name(self.name)
@@ -208,7 +228,8 @@ class Scene:
     def hash(self) -> str:
         """Content hash of the resolved physics: name, description and the output-only keys
         (:data:`OUTPUT_ONLY`) excluded, so a history format or a choice of scored observables
-        uses the same cached reference."""
+        uses the same cached reference; the ``[compare]`` table (:attr:`comparison`) is not a
+        value and not in it."""
         body = {k: v for k, v in sorted(self.values.items()) if k not in ("name", "description", *OUTPUT_ONLY)}
         return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
@@ -232,7 +253,8 @@ class Scene:
             values[key] = validate_key(key, raw, self.schema, "--set")
         if "name" in pairs:
             check_name(values["name"], "--set name")
-        return Scene(values.get("name") or self.name, self.model, values, self.schema, self.source, self.check, self.base).checked()
+        return Scene(values.get("name") or self.name, self.model, values, self.schema, self.source, self.check,
+                     self.base, self.comparison).checked()
 
     def revalidated(self) -> "Scene":
         """This scene after every value is checked again by its declared parameter, with the

@@ -180,8 +180,8 @@ class Integrator:
     #: contact laws whose contacts it takes over (``capabilities.contacts`` only):
     #: "complementarity" = left to it (no law), "constraint" = the impact law's restitution applies
     contact_laws: ClassVar[tuple[str, ...]] = ("complementarity", "constraint")
-    #: its protocol per case (scene name → :class:`Runs`), read by :meth:`protocol`; daebench's
-    #: own share one table per step family (:mod:`daebench.integrators.protocols`)
+    #: its own protocol per case (scene name → :class:`Runs`), read by :meth:`protocol`; it
+    #: comes before the case's ``[compare]`` table (daebench's own declare none: the cases do)
     protocols: ClassVar[Mapping[str, Runs]] = {}
 
     def __init__(self, **settings: Any) -> None:
@@ -252,9 +252,10 @@ class Integrator:
     @classmethod
     def protocol(cls, case: str) -> Runs | None:
         """What `daebench compare` runs of this integrator on the scene named ``case`` (its
-        steps or tolerances and fixed settings); None: nothing declared (compare runs it
-        once at its defaults, the survey at its default step and halvings). Override it to
-        decide from the case name, or declare the table ``protocols``."""
+        steps or tolerances and fixed settings), before the case's own ``[compare]`` table;
+        None: nothing of its own (the case's table decides, else compare runs it once at
+        its defaults, the survey at its default step and halvings). Override it to decide
+        from the case name, or declare the table ``protocols``."""
         return cls.protocols.get(case)
 
     @property

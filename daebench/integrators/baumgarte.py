@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from daebench.integrators import protocols
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.stepping import abm as _abm
@@ -66,7 +65,6 @@ class BaumgarteABM4(CompiledIntegrator):
     (Baumgarte parameters in multibody dynamics).
     """
 
-    protocols = protocols.EVENT_DRIVEN   # compare's steps per case, shared by its step family
 
     name: ClassVar[str] = "baumgarte"
     description: ClassVar[str] = "Baumgarte-stabilized acceleration form + Adams–Bashforth–Moulton 4 (RK4 start)"

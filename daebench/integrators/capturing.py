@@ -41,7 +41,6 @@ from typing import Any
 from daebench.stepping import episodes as _ep
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
-from daebench.integrators import protocols
 from daebench.integrators.base import STEP_SETTINGS, Advance, IntegratorError, Setting, friction_refusal
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.core.system import State
@@ -60,7 +59,6 @@ CAPTURE_STEP_SETTINGS = (
 class CapturingIntegrator(CompiledIntegrator):
     """Compiled event-capturing integrator (see the module docstring)."""
 
-    protocols = protocols.CAPTURING   # compare's steps per case, shared by its step family
 
     def __init__(self, **settings: Any) -> None:
         super().__init__(**settings)

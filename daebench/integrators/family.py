@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from daebench.integrators import protocols
 from daebench.integrators.base import Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.stepping import newmark as _nm
@@ -56,7 +55,6 @@ def chung_hulbert(rho_inf: float) -> Coefficients:
 class NewmarkFamily(CompiledIntegrator):
     """Base of the Newmark-family integrators: subclasses implement :meth:`coefficients`."""
 
-    protocols = protocols.EVENT_DRIVEN   # compare's steps per case, shared by its step family
 
     fail_messages = {k: v.replace("{maxiter}", "{newton_maxiter}") for k, v in _nm.FAIL_MESSAGES.items()}
 

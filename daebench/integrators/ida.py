@@ -121,7 +121,6 @@ import math
 import numpy as np
 from sksundae.ida import IDA as _SundaeIDA
 
-from daebench.integrators import protocols
 from daebench.integrators.base import (
     STEP_SETTINGS,
     Advance,
@@ -180,7 +179,6 @@ class IDA(Integrator):
     Petzold 1996).
     """
 
-    protocols = protocols.REFERENCE   # compare's steps per case, shared by its step family
 
     name = "ida"
     description = "SUNDIALS IDA: variable-order BDF (1-5) on the GGL index-2 form; the reference solver"

@@ -112,7 +112,8 @@ OBSERVABLES = (
     Observable("gap", "m", "gap", height=True),
     Observable("tip_x", "m", "tip x"),
     Observable("tip_y", "m", "tip y", fingerprint_tol=1e-6, height=True, summary=True),
-    Position("tip", "tip_x", "tip_y", label="tip position", impact_windows=True),
+    Position("tip", "tip_x", "tip_y", label="tip position", impact_windows=True, angle="chord",
+             angle_label="chord angle hinge→tip"),
 )
 
 # Dense H tables cost nq·nB² doubles; refuse scenes that would need more than this.
@@ -360,7 +361,10 @@ class HubBeam(KernelSystem):
             terms["contact"] = np.array([float(law.potential(obs[r, 5:6])) for r in range(q.shape[0])])
         else:
             terms["contact"] = np.zeros(q.shape[0])
-        return {k: obs[:, j] for j, k in enumerate(names)}, terms
+        cols = {k: obs[:, j] for j, k in enumerate(names)}
+        for j, c in enumerate(self.coordinate_names):   # the state, for the modal measures (never scored)
+            cols[f"q_{c}"], cols[f"v_{c}"] = q[:, j].copy(), v[:, j].copy()
+        return cols, terms
 
     @property
     def _obs_names(self) -> tuple[str, ...]:
@@ -386,6 +390,24 @@ class HubBeam(KernelSystem):
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         return {k: float(x[0]) for k, x in self.output_rows(np.full(1, float(t)), q, v)[0].items()}
+
+    def linearisation(self) -> tuple[np.ndarray, np.ndarray]:
+        """(M, K) of the motion linearised about the initial state at rest: the mass matrix
+        there and the tangent stiffness K = −∂Q/∂q (elastic, and gravity's), symmetrised;
+        their generalized eigenvectors are the model's linearised modes
+        (:mod:`daebench.harness.scoring.modal`)."""
+        q0, _ = self.initial_state()
+        v0 = np.zeros(self.n)
+        Kq, _ = self.force_jacobian(0.0, q0, v0)
+        return np.asarray(self.mass(q0), float), -0.5 * (Kq + Kq.T)
+
+    def finer(self) -> "HubBeam":
+        """The same scene on a finer discretization (twice the modes, at most MAX_MODES;
+        twice the elements or nodes): the converged frequencies a mode is tested against."""
+        n = self.scene["discretization.n"]
+        fine = min(2 * n, MAX_MODES) if self.kind == "modes" else min(2 * n, MAX_NODES if self.kind == "meshfree"
+                                                                          else MAX_ELEMENTS)
+        return HubBeam(self.scene.with_overrides({"discretization.n": fine}))
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         q0 = np.zeros(self.n)

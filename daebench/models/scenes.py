@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 from typing import Any, Iterable
 
+from daebench.core import comparison
 from daebench.core.params import Param, did_you_mean
 from daebench.core.scene import COMMON_SCHEMA, Scene, SceneError, flatten, read_toml, resolve_path, validate_key
 from daebench.models import MODELS, get_model
@@ -36,6 +37,10 @@ def load_scene(name_or_path: str | os.PathLike, overrides: Iterable[str] | dict[
 
 
 def scene_from_dict(raw: dict[str, Any], name: str = "scene", source: str = "") -> Scene:
+    """A validated scene from a scene file's TOML: the physics keys as values, the
+    ``[compare]`` table apart (:mod:`daebench.core.comparison`, outside the hash)."""
+    raw = dict(raw)
+    cmp = comparison.parse(raw.pop("compare", None), source or name)
     flat = flatten(raw)
     model = flat.get("model")
     if model is None:
@@ -54,4 +59,5 @@ def scene_from_dict(raw: dict[str, Any], name: str = "scene", source: str = "") 
         values[key] = validate_key(key, v, schema, source or name, strict=True)
     values["name"] = values.get("name") or name
     check = getattr(get_model(model), "check_scene", None)
-    return Scene(values["name"], model, values, schema, source, check, dict(values) if source else None).checked()
+    return Scene(values["name"], model, values, schema, source, check, dict(values) if source else None,
+                 cmp).checked()

@@ -1,18 +1,10 @@
 """`daebench compare CASE`: every applicable integrator at the case's protocol, each run
 scored against the reference, one table and one work-precision figure.
 
-**Where a protocol is declared.** By each integrator, for the cases it names
-(:meth:`daebench.integrators.base.Integrator.protocol`, its ``protocols`` table: steps or
-tolerances and fixed settings; daebench's own share one table per step family,
-:mod:`daebench.integrators.protocols`) — not in the scene file. A protocol names
-integrators and their settings (validated by each integrator's own settings when the sweep
-is planned), while a scene file describes physics: every scene key is typed and
-range-checked by the model's schema, and the scene hash that keys the cached references
-covers all of it, so a protocol inside the scene would re-key every reference when a step
-list changes. An integrator that declares nothing for the case runs once at its default
-settings (:func:`protocol_for`). What a case's comparison plots (its error measures) is
-the case's own (:data:`MEASURES`). The table's heading says what was run
-(:func:`heading`).
+**Where a protocol is declared.** In the case's scene file (its ``[compare]`` table:
+methods, steps, contact step, tolerances, measures, targets, tags), or by an integrator
+for the case; :mod:`daebench.workflows.protocol` reads both (:func:`protocol_for`). The
+table's heading says what was run (:func:`heading`).
 
 **Applicable.** An integrator the scene's contact law and constraints allow
 (:func:`daebench.harness.running.checks.check_applicable`, the driver's own rule, checked before anything
@@ -39,7 +31,8 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field, replace
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -59,84 +52,11 @@ from daebench.harness.sweeps.options import Execution, SweepOptions
 from daebench.harness.sweeps.sweep import HARNESS_FAILURES
 from daebench.harness.sweeps.plan import RunSpec, plan_sweep
 from daebench.integrators import base
+from daebench.workflows import converge
 from daebench.workflows import score as external
+from daebench.workflows.protocol import Entry, Protocol, declared_entries, default_protocol, protocol_for
 
-
-@dataclass(frozen=True)
-class Entry:
-    """One integrator of a protocol: fixed steps or tolerances (neither: one run at its
-    defaults) and fixed settings."""
-
-    integrator: str
-    steps: tuple[float, ...] = ()
-    tols: tuple[float, ...] = ()
-    options: Mapping[str, Any] = field(default_factory=dict)
-    declared: bool = False      # the integrator's own declaration for the case (else: its defaults)
-
-
-@dataclass(frozen=True)
-class Protocol:
-    """What `daebench compare` runs on a case and which error measures it plots; in a
-    measure ``{obs}`` stands for the case's headline observable
-    (:func:`daebench.harness.scoring.pipeline.headline`: what the model declares first)."""
-
-    entries: tuple[Entry, ...]
-    measures: tuple[str, ...] = ("err_{obs}_max_trusted",)
-    why: str = ""
-
-    def resolved(self, obs: str) -> "Protocol":
-        """This protocol with ``{obs}`` replaced by the score name ``obs``."""
-        return replace(self, measures=tuple(m.format(obs=obs) for m in self.measures))
-
-
-#: what a case's comparison plots (beside the table) and why: the case's own, whoever runs on it
-MEASURES: dict[str, tuple[tuple[str, ...], str]] = {
-    **{c: (("err_{obs}_max_trusted", "err_pre_{obs}_max", "err_impact1_t"),
-           "the θ error over the reference's trusted span beside the error before the first impact and the first "
-           "impact's time error") for c in ("beam-impact", "beam-impact-hub")},
-    "rocking-block": (("err_{obs}_max_trusted", "err_omega_max_trusted"),
-                      "θ and ω over the capturing reference's trusted span"),
-    "slider-crank-clearance": (("err_{obs}_max", "err_{obs}_max_trusted", "err_y_max"),
-                               "the crank angle over the whole run (the reference's estimated θ digits stay ≥ 4 of "
-                               "the range throughout) and over its trusted span (the chattering's bounces part from "
-                               "the coarse check run soon after the first impact), the slider's height"),
-}
-
-
-def _entry(name: str, runs: base.Runs | None) -> Entry:
-    return Entry(name) if runs is None else Entry(name, tuple(runs.steps), tuple(runs.tols), dict(runs.options), True)
-
-
-def declared_entries(scene: Scene) -> dict[str, Entry]:
-    """The runs each registered integrator declares for ``scene`` (by its name), in run
-    order: tolerance runs first (the longest: a two-worker sweep then ends together), then
-    by name; integrators that declare nothing are not in it."""
-    out = {}
-    for name, reg in base.registry().items():
-        runs = reg.cls.protocol(scene.name) if reg.cls is not None else None
-        if runs is not None:
-            out[name] = _entry(name, runs)
-    return dict(sorted(out.items(), key=lambda kv: (not kv[1].tols, kv[0])))
-
-
-def default_protocol(scene: Scene) -> Protocol:
-    """Every registered integrator, one run at its default settings."""
-    return Protocol(tuple(Entry(n) for n in sorted(base.registry())), ("err_{obs}_max_trusted",),
-                    "no protocol declared for this case: every integrator once, at its default settings")
-
-
-def protocol_for(scene: Scene) -> Protocol:
-    """What compare runs on ``scene``: each integrator's declared runs for it
-    (:func:`declared_entries`), then every registered integrator that declares none, once
-    at its defaults, so that the comparison covers every integrator; the case's measures."""
-    declared = declared_entries(scene)
-    if not declared:
-        return default_protocol(scene)
-    measures, why = MEASURES.get(scene.name, (("err_{obs}_max_trusted",), ""))
-    extra = tuple(Entry(n) for n in sorted(base.registry()) if n not in declared)
-    return Protocol(tuple(declared.values()) + extra, measures,
-                    "each integrator's declared runs for this case, the others once at their defaults"
-                    + (f"; {why}" if why else ""))
+__all__ = ["Entry", "Protocol", "declared_entries", "default_protocol", "protocol_for", "run_compare"]
 
 
 @dataclass
@@ -156,6 +76,7 @@ class CompareResult:
     changed: list[str] = field(default_factory=list)
     page: Path | None = None          # the HTML page, when one was written
     recommendations: list[dict[str, Any]] = field(default_factory=list)   # one record per target
+    convergence: dict[str, Any] = field(default_factory=dict)             # budget, stopping rule, runs added
     paragraphs: dict[str, str] = field(default_factory=dict)              # the same in words, per case
     model: str | None = None                                              # the case's model (labels, units)
 
@@ -228,7 +149,8 @@ DEFAULT_OPTIONS = SweepOptions(reference="compute", execution=Execution(jobs=2))
 
 
 def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str | Path | None = None,
-                protocol: Protocol | None = None, include: Sequence[external.Source] = ()) -> CompareResult:
+                protocol: Protocol | None = None, include: Sequence[external.Source] = (),
+                budget_s: float = 0.0) -> CompareResult:
     """Run the protocol of ``scene``, score every run, write the table and the figure, and
     compare each run's history digest with the previous comparison in the same folder.
 
@@ -241,6 +163,8 @@ def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str 
     out : output folder (default results/compare/<scene>-<hash>)
     protocol : instead of the case's own
     include : trajectories of other codes, scored beside the runs (module docstring)
+    budget_s : wall time [s] for extending the series until each target is decided
+        (:mod:`daebench.workflows.converge`); 0: the protocol's runs only
 
     Raises
     ------
@@ -274,22 +198,29 @@ def run_compare(scene: Scene, options: SweepOptions = DEFAULT_OPTIONS, out: str 
         except ReferenceMissing:
             ref = None
     truths = [external.truth_for(scene, e, lambda: ref) for e in others]   # a unit error refuses before any run
-    df = sweep.run_specs(specs, scene, options.scored_against("require" if ref is not None else "none"),
-                         description=f"compare {scene.name}")
+    scored = options.scored_against("require" if ref is not None else "none")
+    t0 = time.perf_counter()
+    df = sweep.run_specs(specs, scene, scored, description=f"compare {scene.name}")
+    took = time.perf_counter() - t0
     gone = df.apply(_refused_at_start, axis=1) if len(df) else pd.Series([], dtype=bool)
     for _, r in df[gone].iterrows():
         refused.setdefault(r["integrator"], str(r["message"]))
     df = df[~gone].reset_index(drop=True)
+    cpu = float(pd.to_numeric(df.get(evidence.COST, pd.Series(dtype=float)), errors="coerce").sum())
+    df, prog = converge.compare_extend(df, scene, proto.entries, targets_of(df, proto), scored, budget_s,
+                                       len(specs), took / cpu if cpu > 0 else 1.0)
     changed = digest.mismatch_lines(previous, df)   # a run whose history differs from its last time
     if others:
         rows = [external.external_row(scene, e, tr, len(df) + k) for k, (e, tr) in enumerate(zip(others, truths))]
         df = pd.concat([df, pd.DataFrame(rows)], ignore_index=True)
     df = with_orders(df, measures_present(df, proto.measures))
-    recs, paras = recommendation(df, proto, scene.model)
+    recs, paras = recommendation(df, proto, scene.model, prog)
+    conv = {"budget_s": prog.budget_s, "spent_s": prog.spent_s, "stopping_rule": converge.stopping_rule(prog.budget_s),
+            "stopped": prog.stopped, "added": [f"{lab} {x}" for lab, x in prog.added]}
     done = CompareResult(df, refused, [], proto, ref, head, folder, changed, recommendations=recs, paragraphs=paras,
-                         model=scene.model)
+                         model=scene.model, convergence=conv)
     try:
-        done.files = write(df, scene, proto, folder, refused, ref, recs)
+        done.files = write(df, scene, proto, folder, refused, ref, recs, conv)
     except OSError as exc:  # a full disk after the work: the table still reaches the caller
         err = write_error(exc, "the comparison to", folder, "every run finished: the table is printed, "
                           "not saved (run again to save it)")
@@ -308,15 +239,30 @@ def with_orders(df: pd.DataFrame, measures: Sequence[str]) -> pd.DataFrame:
     return df.assign(order=o["order"], regime=o["regime"])
 
 
-def recommendation(df: pd.DataFrame, proto: Protocol, model: str | None) -> tuple[list[dict[str, Any]], dict[str, str]]:
-    """The recommendation records over the protocol's measures (default targets) and the
-    paragraph, from daebench's own runs (never an external row)."""
+def targets_of(df: pd.DataFrame, proto: Protocol) -> dict[str, tuple[float, ...]]:
+    """The targets per measure: the case's, else round decades of daebench's own runs' errors."""
+    own = df[~external.is_external(df)]
+    ms = measures_present(own, proto.measures)
+    return {**recommend.default_targets(own, ms), **{m: t for m, t in proto.targets.items() if m in ms}}
+
+
+def recommendation(df: pd.DataFrame, proto: Protocol, model: str | None, prog: converge.Progress | None = None
+                   ) -> tuple[list[dict[str, Any]], dict[str, str]]:
+    """The recommendation records over the protocol's measures (:func:`targets_of`) and the
+    paragraph, from daebench's own runs (never an external row); a target without a pick
+    says what the extension found (:func:`daebench.workflows.converge.answer_text`)."""
     own = df[~external.is_external(df)]
     ms = measures_present(own, proto.measures)
     if not ms or not len(own):
         return [], {}
-    _, recs, paras = recommend.for_table(own, ms, model_of=lambda case: model)
-    return [r for rs in recs.values() for r in rs], paras
+    _, recs, paras = recommend.for_table(own, ms, targets_of(df, proto), model_of=lambda case: model)
+    out = [r for rs in recs.values() for r in rs]
+    if prog is not None:
+        for r in out:
+            if not r["pick"]:
+                why = converge.answer_text(prog.predictions.get((r["measure"], float(r["target"]))), prog.budget_s)
+                r["missing"] = f"{why}; {r['missing']}" if r["missing"] else why
+    return out, paras
 
 
 def default_folder(scene: Scene) -> Path:
@@ -340,7 +286,8 @@ def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
 
 
 def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused: Mapping[str, str],
-          ref: Any, recs: Sequence[Mapping[str, Any]] = ()) -> list[Path]:
+          ref: Any, recs: Sequence[Mapping[str, Any]] = (), convergence: Mapping[str, Any] | None = None
+          ) -> list[Path]:
     """table.csv/.parquet, the work-precision figure (one panel per measure, against CPU
     time) and a JSON sidecar (protocol, the recommendation records, not-applicable
     integrators, reference, provenance)."""
@@ -364,6 +311,7 @@ def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused
                              external=jsonable([{"label": r["label"], "settings": r["settings"], "cost_s": r["wall_s"],
                                                  "steps": r["steps"]} for _, r in ext.iterrows()]),
                              reference=None if ref is None else str(ref.path),
+                             convergence=jsonable(dict(convergence or {})),
                              timing={"repeats": timing.REPEATS, "short_run_s": timing.SHORT_RUN_S,
                                      "warmup_cap_s": timing.WARMUP_CAP_S})
     return files + [side]
@@ -406,11 +354,11 @@ def heading(res: CompareResult, case: str) -> str:
                                         else what) for what, _, names in groups]
     given = [g for g in groups if not g[1] and not g[0].startswith(defaults)]
     rest = [g for g in groups if not g[1] and g not in given]
-    sources = (["the runs each integrator declares for this case"] if any(g[1] for g in groups) else []) \
+    sources = (["the runs declared for this case"] if any(g[1] for g in groups) else []) \
         + (["runs given to compare"] if given else [])
     if rest:
         sources.append("the others once at their defaults: nothing declared for this case" if sources
-                       else "every integrator once at its defaults: none declares runs for this case")
+                       else "every integrator once at its defaults: no runs declared for this case")
     return f"{case}: {len(df)} runs ({'; '.join(sources)}) — " + "; ".join(parts)
 
 
@@ -474,6 +422,12 @@ def summary_lines(res: CompareResult) -> list[str]:
             "no cost given: not on the work–precision figure"
         lines.append(f"external: {r['label']} ({json.loads(r['settings']).get('source', '?')}), scored against the "
                      f"{r['against']}; {cost}")
+    conv = res.convergence
+    if conv:
+        added = f"{len(conv['added'])} run(s) added ({', '.join(conv['added'])})" if conv["added"] else "no run added"
+        lines.append(f"series extended within a budget of {conv['budget_s']:g} s ({conv['spent_s']:.3g} s spent): "
+                     f"{added}; stopped: {conv['stopped']}")
+        lines.append(f"stopping rule: {conv['stopping_rule']}")
     for k, v in res.not_applicable.items():
         lines.append(f"not applicable: {k} — {v}")
     return lines

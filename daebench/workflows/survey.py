@@ -46,7 +46,7 @@ from typing import Any, Iterator, Mapping, Sequence
 import pandas as pd
 
 from daebench.core.params import ParamError
-from daebench.core.scene import Scene, scene_names
+from daebench.core.scene import Scene, scene_names, tagged
 from daebench.harness.analysis import costs, evidence, profiles, recommend
 from daebench.harness.files import atomic_write, jsonable, results_dir
 from daebench.harness.references import fingerprints
@@ -64,7 +64,6 @@ from daebench.models.scenes import load_scene
 from daebench.workflows import compare
 from daebench.workflows.compare import Entry, Protocol
 
-QUICK_CASES = ("pendulum", "ball", "spring-wall")
 QUICK_T_END = 0.5          # s: the ball's first impact is at 0.45 s
 QUICK_LEVELS = 2           # --quick: defaults and one halving
 LEVELS = 3                 # defaults and two halvings
@@ -331,9 +330,10 @@ def repeat_check(df: pd.DataFrame, specs: Sequence[RunSpec], scene: Scene, ref_m
 
 
 def select_cases(opts: SurveyOptions) -> list[str]:
-    """The cases of the survey: ``opts.cases``, else the quick set, else every case."""
+    """The cases of the survey: ``opts.cases``, else the cases tagged ``quick`` (under
+    ``quick``) or ``survey`` in their ``[compare]`` table (:func:`daebench.core.scene.tagged`)."""
     names = scene_names()
-    want = list(opts.cases) or (list(QUICK_CASES) if opts.quick else names)
+    want = list(opts.cases) or tagged("quick" if opts.quick else "survey")
     unknown = [c for c in want if c not in names]
     if unknown:
         raise ParamError(f"unknown case(s) {', '.join(unknown)}; `daebench list` shows the cases")

@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from daebench.core.observables import STATE_PREFIXES
+
 PROBE_RTOL = 1e-9   # probe values agree to this fraction of each quantity's largest |entry|
 PROBE_MOVES = (1, 2)  # the probe states: the start, and the start moved by 1× and 2× PROBE_STEP
 PROBE_STEP = 0.01   # relative move of each coordinate and velocity (see _moved)
@@ -42,7 +44,7 @@ def probe(system: Any) -> dict[str, list[float]]:
         q, v = (q0, v0) if k == 0 else (_moved(q0, k, 1e-3), _moved(v0, k, 1e-2))
         t = 0.1 * k
         for name, vals in (("E", system.energy(q, v)), ("obs", system.observables(t, q, v))):
-            for key in sorted(vals):
+            for key in sorted(k for k in vals if not k.startswith(STATE_PREFIXES)):   # the probe's own input
                 out.setdefault(f"{name}.{key}", []).append(float(vals[key]))
         out.setdefault("M", []).extend(np.asarray(system.mass(q), float).ravel().tolist())
         out.setdefault("Q", []).extend(np.asarray(system.applied_force(t, q, v), float).ravel().tolist())

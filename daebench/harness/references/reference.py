@@ -571,7 +571,9 @@ def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: di
                  "the reference", kept)
     meta = {"scene": scene.name, "scene_hash": scene.hash, "scene_values": scene.values,
             "integrator": integ.name, "settings": integ.to_config(), "wall_s": res.wall_s,
-            "counters": res.counters, "impacts": impacts, "output_dt": dense_scene["output.dt"], "agreement": agreement,
+            "counters": res.counters, "impacts": impacts,
+            "impulses": [float(i.impulse) for i in res.impacts],   # the impulse measure's truth
+            "output_dt": dense_scene["output.dt"], "agreement": agreement,
             "accuracy": acc_meta, "contact_law_revision": CONTACT_LAW_REVISION,
             "energy_residual_max": res.energy_residual, "model_probe": modelprobe.record(build_system(scene)),
             **extra, "sha256": sha256(path), "rows": len(hist),

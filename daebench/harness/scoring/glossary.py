@@ -33,6 +33,7 @@ class Measure:
     short : a few words for a table header ("θ max trusted")
     unit : its unit ('' for a count or a ratio)
     definition : one line: how it is computed
+    source : where the measure comes from ('' for a plain count or norm)
     """
 
     column: str
@@ -40,6 +41,7 @@ class Measure:
     short: str
     unit: str = ""
     definition: str = ""
+    source: str = ""
 
     @property
     def name(self) -> str:
@@ -136,10 +138,33 @@ FIXED: dict[str, tuple[str, str, str, str]] = {
     "windows_ref": ("windows of the truth", "windows ref", "", "the truth's windows (one per impact)"),
 }
 
+_MODAL = "Géradin & Rixen, Mechanical Vibrations (2015) §2.3; daebench.harness.scoring.modal"
+_NONSMOOTH = "Moreau (1988); Acary & Brogliato, Numerical Methods for Nonsmooth Dynamical Systems (2008) ch. 10"
+#: measures that mean physics: column → (words, short header, unit, definition, source)
+PHYSICS: dict[str, tuple[str, str, str, str, str]] = {
+    "modes_resolved": ("modes in the resolved band", "resolved modes", "",
+                       "linearised modes within 5 % of a finer discretization's frequency (or below the case's "
+                       "[compare] modes_below)", _MODAL),
+    "err_band_energy_max": ("max error energy in the resolved band", "band E err", "J",
+                            "largest ½ Σ_band (ė_i² + ω_i² e_i²) of the modal errors e = ΦᵀM(q_run − q_truth) "
+                            "before the first impact", _MODAL),
+    "err_rest_energy_max": ("max error energy outside the resolved band", "rest E err", "J",
+                            "the same over the modes outside the resolved band", _MODAL),
+    "err_impulse_measure": ("distance between the cumulative contact impulses", "Λ(t) dist", "N s",
+                            "(1/T)∫₀ᵀ |Λ_run(t) − Λ_truth(t)| dt, Λ(t) the impulses of the impacts up to t plus "
+                            "∫λ dt of the contact forces, T the trusted span", _NONSMOOTH),
+    "err_impulse_measure_rel": ("relative distance between the cumulative contact impulses", "Λ(t) dist rel", "",
+                                "err_impulse_measure divided by the truth's total impulse Λ_truth(T)", _NONSMOOTH),
+}
+_MODE = re.compile(r"(?P<err>err_)?mode(?P<k>\d+)_(?P<what>omega|energy)(?P<max>_max)?")
+
 #: error norms: norm → (words, short, how)
 NORMS = {"max": ("max error", "max", "the largest |run − truth|"),
          "final": ("final error", "final", "|run − truth| at the last time"),
-         "l2": ("L2 error", "L2", "the root-mean-square of run − truth")}
+         "l2": ("L2 error", "L2", "the root-mean-square of run − truth"),
+         "l1": ("L¹ error", "L¹", "the time average of |run − truth| (a velocity of a run with contacts: it falls "
+                                  "with the impact times' error, where the max stays at the jump's size; Acary & "
+                                  "Brogliato 2008, ch. 10)")}
 #: where an error is measured: (column prefix, trusted) → (words, short, where)
 SPANS = {("", False): ("over the whole run", "whole run",
                        "over the run's output times, the truth interpolated within its smooth segments"),
@@ -150,8 +175,16 @@ SPANS = {("", False): ("over the whole run", "whole run",
                            "largest over the windows after each impact, the run's window shifted onto the truth's "
                            "(NaN unless every impact matched)"),
          ("winm_", False): ("per matched window", "matched windows",
-                            "the same over the windows of the impacts that matched")}
-_ERROR = re.compile(r"err_(?P<where>pre_|winm_|win_)?(?P<obs>.+)_(?P<norm>final|max|l2)(?P<trusted>_trusted)?")
+                            "the same over the windows of the impacts that matched"),
+         ("band_", False): ("in the resolved modal band", "band",
+                            "before the first impact, the part Σ_band (c_oᵀφ_i) e_i of the linearised error carried "
+                            "by the resolved modes (e = ΦᵀM(q_run − q_truth), mass-normalised modes of the "
+                            "linearisation at the start; Géradin & Rixen 2015 §2.3)"),
+         ("rest_", False): ("outside the resolved modal band", "rest",
+                            "the same, carried by the modes outside the resolved band (a discretization's "
+                            "unresolved modes)")}
+_ERROR = re.compile(r"err_(?P<where>pre_|winm_|win_|band_|rest_)?(?P<obs>.+)_(?P<norm>final|max|l2|l1)"
+                    r"(?P<trusted>_trusted)?")
 _IMPACT_T = re.compile(r"err_impact(?P<k>\d+)_t")
 _ORDINAL = {1: "first", 2: "second", 3: "third"}
 
@@ -180,6 +213,23 @@ def describe(column: str, model: str | None = None) -> Measure:
     ``model``; without it, those every model agrees on)."""
     if column in FIXED:
         return Measure(column, *FIXED[column])
+    if column in PHYSICS:
+        return Measure(column, *PHYSICS[column])
+    m = _MODE.fullmatch(column)
+    if m and ((not m.group("err") and not m.group("max")) or (m.group("err") and m.group("max")
+                                                             and m.group("what") == "energy")):
+        k = m.group("k")
+        if m.group("what") == "omega":
+            return Measure(column, f"frequency of linearised mode {k}", f"ω{k}", "rad/s",
+                           f"√ of the k-th generalized eigenvalue of K φ = ω² M φ at the start (−√|ω²| for ω² ≤ 0)",
+                           _MODAL)
+        if m.group("err"):
+            return Measure(column, f"max error of mode {k}'s energy", f"E{k} err", "J",
+                           f"largest |E_{k},run − E_{k},truth| before the first impact, E_i = ½(η̇_i² + ω_i² η_i²), "
+                           f"η = ΦᵀM(q − q₀)", _MODAL)
+        return Measure(column, f"energy of mode {k}", f"E{k}", "J",
+                       f"the truth's largest ½(η̇_{k}² + ω_{k}² η_{k}²) before the first impact, η = ΦᵀM(q − q₀)",
+                       _MODAL)
     m = _IMPACT_T.fullmatch(column)
     if m:
         k = int(m.group("k"))
@@ -196,7 +246,8 @@ def describe(column: str, model: str | None = None) -> Measure:
         if key not in SPANS:    # a window error over the trusted span is not made
             return Measure(column, column, column)
         sw, ss, where = SPANS[key]
-        return Measure(column, f"{label} {nw} {sw}", f"{label} {ns} {ss}", unit, f"{how} of {label}, {where}")
+        src = _MODAL if key[0] in ("band_", "rest_") else _NONSMOOTH if m.group("norm") == "l1" else ""
+        return Measure(column, f"{label} {nw} {sw}", f"{label} {ns} {ss}", unit, f"{how} of {label}, {where}", src)
     d = declared_observable(column, model)
     if d is not None:
         return Measure(column, d.label or d.score_name, d.label or d.score_name, d.unit, "the observable itself")
@@ -243,6 +294,13 @@ def markdown() -> str:
     for col in FIXED:
         m = describe(col)
         lines.append(_row(f"`{col}`", m.name, m.definition))
+    lines += ["", "## Measures that mean physics", "",
+              "Frame-invariant, modal and nonsmooth measures (the band columns follow the error pattern above with "
+              "`<where>` = `band_`, `rest_`; velocities take the `l1` norm).", "",
+              _row("column", "display name", "definition", "source"), _row("---", "---", "---", "---")]
+    for col in (*PHYSICS, "mode<k>_omega", "mode<k>_energy", "err_mode<k>_energy_max"):
+        m = describe(col.replace("<k>", "1"))
+        lines.append(_row(f"`{col}`", m.name.replace("1", "k"), m.definition.replace("_1", "_k"), m.source))
     lines += ["", "## Observables the models declare", "", _row("model", "score name `<obs>`", "label", "unit"),
               _row("---", "---", "---", "---")]
     from daebench.models import MODELS, PROVIDERS  # lazy: the model registry, only for the page (daebench's own models)

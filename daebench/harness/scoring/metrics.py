@@ -23,12 +23,12 @@ from typing import Any, Sequence
 import numpy as np
 import pandas as pd
 
-from daebench.core.observables import NONE, Observables
+from daebench.core.observables import NONE, STATE_PREFIXES, Observables
 
 GRID_POINTS = 2001             # default size of the uniform comparison grid
 ENERGY_RTOL = 1e-6             # energy residual beyond this × energy scale is flagged
 #: History columns that are bookkeeping, not observables.
-_BOOKKEEPING_PREFIXES = ("E_", "W_", "lambda_")
+_BOOKKEEPING_PREFIXES = ("E_", "W_", "lambda_", *STATE_PREFIXES)
 _BOOKKEEPING = {"t", "E", "D_impacts", "energy_residual", "n_active", "C", "Cdot", "Cddot"}
 
 
@@ -121,6 +121,9 @@ def accuracy(hist: pd.DataFrame, ref: pd.DataFrame, observables: Sequence[str] |
     for p in points:
         e = np.hypot(run_i[p.x] - ref_i[p.x], run_i[p.y] - ref_i[p.y])
         out.update(error_norms(e, f"err_{p.score_name}"))
+        if p.angle:
+            d = np.degrees(np.arctan2(run_i[p.y], run_i[p.x]) - np.arctan2(ref_i[p.y], ref_i[p.x]))
+            out.update(error_norms((d + 180.0) % 360.0 - 180.0, f"err_{p.angle}"))
     return out
 
 

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from daebench.core.observables import Observable, Observables, Position
-from daebench.harness.scoring import eventseq, graphdist, impact_metrics, metrics, oracle
+from daebench.harness.scoring import eventseq, graphdist, impact_metrics, metrics, modal, nonsmooth, oracle
 from daebench.core.params import ParamError
 from daebench.models import MODELS, get_model
 
@@ -88,6 +88,8 @@ class Truth:
     trust_impacts: int = -1
     #: what computed the reference, in a few words ('ida rtol 1e-11', 'moreau h 5e-06 (event capturing)')
     made_by: str = ""
+    #: the normal impulse of each impact [N s] (the impulse measure; empty: not recorded)
+    impulses: tuple[float, ...] = ()
 
     @property
     def description(self) -> str:
@@ -143,8 +145,10 @@ def exact_truth(run: Run) -> Truth | None:
 def reference_truth(ref: Any) -> Truth:
     """A cached reference (:class:`daebench.harness.references.reference.Reference`) as a truth."""
     acc = ref.meta.get("accuracy") or {}
+    imp = ref.meta.get("impulses") or ()
     return Truth(ref.history, tuple(float(x) for x in ref.impacts), "reference", float(ref.rtol),
-                 float(acc.get("trust_t", math.nan)), int(acc.get("trust_impacts", -1)), ref.describe())
+                 float(acc.get("trust_t", math.nan)), int(acc.get("trust_impacts", -1)), ref.describe(),
+                 tuple(float(x) for x in imp) if len(imp) == len(ref.impacts) else ())
 
 
 def truth(run: Run, reference: Callable[[], Any] | None) -> Truth | None:
@@ -190,10 +194,12 @@ def trusted(run: Run, tr: Truth) -> dict[str, Any]:
 
 
 #: every measure of a run against its truth, in column order (see the module docstring)
-#: (event sequence classified, the exact impact oracle, the graph distance)
+#: (event sequence classified, the exact impact oracle, the graph distance, the modal band
+#: errors of a flexible model, velocities in L¹ and the impulse measure of a run with contacts)
 MEASURES: tuple[Callable[[Run, Truth], dict[str, Any]], ...] = (accuracy, trusted, events, impacts,
                                                                 eventseq.measure, oracle.measure,
-                                                                graphdist.measure)
+                                                                graphdist.measure, modal.measure,
+                                                                nonsmooth.measure)
 
 
 def score(run: Run, tr: Truth | None,
