@@ -125,7 +125,9 @@ def case_sheet(scene: Scene) -> dict[str, Any]:
     exact = has_exact_solution(system, scene.t_end)
     bil = int(system.n_bilateral)
     return {
-        "case": scene.name, "description": scene.description, "model": scene.model, "scene_hash": scene.hash,
+        "case": scene.name, "description": description(scene), "model": scene.model, "scene_hash": scene.hash,
+        "changed": {k: {"value": _plain(v), "case_file": _plain(scene.base.get(k))} for k, v in scene.changes().items()
+                    if k != "description"},
         "daebench": __version__,
         "model_description": inspect.cleandoc(module.__doc__ or getattr(module, "DESCRIPTION", "")),
         "parameters": params,
@@ -144,6 +146,18 @@ def case_sheet(scene: Scene) -> dict[str, Any]:
                     "command": f"daebench score {scene.name} FILE.csv"
                                + (" [--impacts IMPACTS.csv]" if system.n_contacts else "") + " [--json]"},
     }
+
+
+def description(scene: Scene) -> str:
+    """The scene's description, followed — when ``--set`` changed values the description may
+    quote — by the values used: 'restitution 0.8 …' exported with contact.restitution = 0.5
+    says so, so that the sheet never states a value the case does not use."""
+    changed = {k: v for k, v in scene.changes().items() if k != "description"}
+    if not changed:
+        return scene.description
+    used = "; ".join(f"{k} = {_md_value(_plain(v))} (the case file: {_md_value(_plain(scene.base.get(k)))})"
+                     for k, v in changed.items())
+    return f"{scene.description} — exported with {used}"
 
 
 def _md_value(v: Any) -> str:
@@ -222,7 +236,7 @@ def export_case(scene: Scene, out: str | Path | None = None, write: bool = True)
     sheet = case_sheet(scene)
     if not write:
         return ExportResult(sheet, ())
-    folder = ensure_writable_dir(Path(out) if out is not None else default_folder(scene), "export folder (--out)")
+    folder = ensure_writable_dir(out if out is not None else default_folder(scene), "export folder (--out)")
     text = {".json": json.dumps(sheet, indent=2, ensure_ascii=False) + "\n", ".md": markdown(sheet)}
     files = []
     for suffix, body in text.items():
