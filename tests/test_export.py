@@ -98,3 +98,20 @@ def test_every_docs_case_page_is_current():
              if not (DOCS / f"{n}.md").exists()
              or (DOCS / f"{n}.md").read_text() != markdown(daebench.export_case(n, write=False).sheet)]
     assert stale == []
+
+
+def test_an_empty_out_is_refused(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    r = runner.invoke(app, ["export", "ball", "--out", ""])
+    assert r.exit_code != 0 and "must be a folder path" in r.output
+    assert not list(tmp_path.glob("ball.*"))
+
+
+def test_the_description_states_the_values_used_after_set(results):
+    import daebench
+
+    sheet = daebench.export_case("ball", overrides=["contact.restitution=0.5"], write=False).sheet
+    assert "restitution 0.8" in sheet["description"]   # the case file's own words …
+    assert "contact.restitution = 0.5 (the case file: 0.8)" in sheet["description"]   # … and the value used
+    assert sheet["changed"] == {"contact.restitution": {"value": 0.5, "case_file": 0.8}}
+    assert daebench.export_case("ball", write=False).sheet["changed"] == {}

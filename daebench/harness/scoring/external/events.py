@@ -29,8 +29,9 @@ from daebench.harness.scoring.external.records import ExternalDataError, Externa
 
 #: a gap at or below this × the file's largest |gap| is closed
 GAP_CLOSED = 1e-9
-#: a gap that turns back up at a row whose gap is at most this × the last row's approach is a
-#: bounce short of closing (the contact would have closed within about one output interval)
+#: a gap that turns back up at a row whose gap is at most this × its change over the interval
+#: before or after is a bounce short of closing (at the speed either side, the contact closes
+#: within about one output interval; a smooth minimum changes by O(Δt²) only)
 REVERSAL_REACH = 2.0
 #: the impacts file found beside a data file FILE.csv
 BESIDE = "{stem}-impacts.csv"
@@ -44,8 +45,8 @@ def gap_events(t: np.ndarray, gap: np.ndarray, contact: int = 0) -> list[Externa
     first closed one; at that row when its gap is 0, as an event-driven code writes it) and
     ends at its last closed row (an instantaneous bounce: t_end = t). A file that starts
     closed starts with no impact. A bounce short of closing is an open row k where the gap
-    stops falling (g[k−1] > g[k] ≤ g[k+1]) with g[k] ≤ :data:`REVERSAL_REACH` × (g[k−1] − g[k]):
-    the impact is at t[k]."""
+    stops falling (g[k−1] > g[k] ≤ g[k+1]) with g[k] ≤ :data:`REVERSAL_REACH` × the larger of
+    g[k−1] − g[k] and g[k+1] − g[k]: the impact is at t[k]."""
     t, g = np.asarray(t, float), np.asarray(gap, float)
     if not g.size:
         return []
@@ -65,7 +66,7 @@ def gap_events(t: np.ndarray, gap: np.ndarray, contact: int = 0) -> list[Externa
                                       float(np.min(g[k:j + 1]))))
             k = j + 1
         elif (not closed[k] and k + 1 < g.size and t[k] > t[k - 1] and g[k - 1] > g[k] <= g[k + 1]
-              and g[k + 1] > g[k] - tol and g[k] <= REVERSAL_REACH * (g[k - 1] - g[k])):
+              and g[k] <= REVERSAL_REACH * max(g[k - 1] - g[k], g[k + 1] - g[k])):
             out.append(ExternalImpact(float(t[k]), contact, float(t[k]), False, float(g[k])))
             k += 1
         else:
