@@ -115,3 +115,12 @@ def test_the_description_states_the_values_used_after_set(results):
     assert "contact.restitution = 0.5 (the case file: 0.8)" in sheet["description"]   # … and the value used
     assert sheet["changed"] == {"contact.restitution": {"value": 0.5, "case_file": 0.8}}
     assert daebench.export_case("ball", write=False).sheet["changed"] == {}
+
+
+def test_the_score_page_lists_what_each_cases_file_holds():
+    from daebench.core.scene import list_scenes
+    from daebench.workflows.export import file_table
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "score-external.md").read_text()
+    assert file_table([n for n, _ in list_scenes()]) in page, \
+        "docs/score-external.md's per-case table is stale: paste daebench.workflows.export.file_table's output"

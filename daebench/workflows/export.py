@@ -31,7 +31,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -249,3 +249,26 @@ def export_case(scene: Scene, out: str | Path | None = None, write: bool = True)
 def default_folder(scene: Scene) -> Path:
     """results/export/<scene>-<first 8 digits of its hash>"""
     return results_dir() / "export" / f"{scene.name}-{scene.hash[:8]}"
+
+
+def file_table(names: Sequence[str]) -> str:
+    """What a file must hold for each case of ``names`` (the documentation's table, one row a
+    case): the scored columns with their units, the other observables a file may give, the
+    contact points and their law, how impacts are written, and the truth."""
+    from daebench.api.catalogue import load_scene   # lazy: the catalogue sits above the workflows
+
+    out = ["| case | scored columns [unit] | other observables | contact points | impacts | truth |",
+           "|---|---|---|---|---|---|"]
+    for name in names:
+        scene = load_scene(name)
+        sheet = case_sheet(scene)
+        obs = {o["name"]: o for o in sheet["observables"]}
+        scored = sheet["scoring"]["scored"]
+        c = sheet["contact"]
+        law = f" ({c['law'] or 'resolved by the integrator'})" if c["points"] else ""
+        how = ("—" if not c["points"] else "none: a continuous force law" if c.get("continuous")
+               else "two rows per impact, or an impacts file")
+        out.append(f"| {name} | " + ", ".join(f"`{k}`" + (f" [{obs[k]['unit']}]" if obs[k]['unit'] else "") for k in scored if k in obs)
+                   + f" | {', '.join(f'`{k}`' for k in obs if k not in scored) or '—'} | {c['points']}{law} | {how} | "
+                   + ("exact solution" if sheet["scoring"]["truth"] == "the exact solution" else "reference") + " |")
+    return "\n".join(out)
