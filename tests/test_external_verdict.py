@@ -86,3 +86,18 @@ def test_the_exact_pendulum_with_its_energy_completes():
     df = pd.DataFrame({"t": t, "theta_deg": np.degrees(th), "E": E0_PENDULUM})
     row = _row("pendulum", df)
     assert row["status"] == "completed" and row["energy_resid_max"] == 0.0 and row["energy_ok"]
+
+
+def test_the_command_exits_1_for_a_file_whose_physics_broke(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from _external_files import csv
+    from daebench.cli.app import app
+
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path / "results"))
+    t = np.linspace(0.0, T_BALL, 2501)
+    x = H0 - 0.5 * G * t * t
+    f = csv(tmp_path / "floor.csv", pd.DataFrame({"t": t, "x": x, "v": -G * t, "gap": x}))
+    r = CliRunner().invoke(app, ["score", "ball", f])
+    out = " ".join(r.output.split())
+    assert r.exit_code == 1 and "status: diverged: contact 0 is" in out and "inside its rigid obstacle" in out

@@ -42,7 +42,8 @@ def score(case: str = typer.Argument(..., help="scene name or path to a .toml fi
     """Score another code's trajectory of a case as a daebench run is scored.
 
     The trajectory is held to the case's exact solution or reference with every measure of a
-    daebench run; the scored row is written and a summary printed."""
+    daebench run, and judged by a run's rules (exit 1 when it diverged or failed); the scored
+    row is written and a summary printed."""
     from daebench import api
 
     sc = load_scene_or_exit(case, set_)
@@ -59,9 +60,11 @@ def score(case: str = typer.Argument(..., help="scene name or path to a .toml fi
         fail(f"scoring {file} raised {type(exc).__name__}: {exc}", 1)
     if as_json:
         sys.stdout.write(res.as_json() + "\n")
-        return
-    for line in textout.kv_lines(res.summary()):
-        out(line)
+    else:
+        for line in textout.kv_lines(res.summary()):
+            out(line)
+    if res.row["status"] != "completed":   # as `daebench run`: a file whose physics broke exits 1
+        raise typer.Exit(1)
 
 
 def export(case: str = typer.Argument(..., help="scene name or path to a .toml file"),

@@ -341,7 +341,8 @@ def summary(res: ScoreResult) -> list[tuple[str, str]]:
         lines.append(("cost", f"{_g(ext.cost_s, '.4g')} s, {_g(ext.steps, '.0f')} steps (as the data say)"))
     lines.append(("file", f"{ext.rows} rows, largest output spacing {_g(ext.spacing, '.4g')} s (the case's "
                           f"output.dt {_g(sc['output.dt'], '.4g')} s)" + (", resampled" if ext.resampled else "")))
-    for note in str(r.get("message") or "").split("; ") if r["status"] == "completed" else ext.notes:
+    notes = str(r.get("message") or "").split("; ")   # the reason (a file that did not complete), then the notes
+    for note in notes[r["status"] != "completed":]:
         if note:
             lines.append(("note", note))
     if res.path is not None:
