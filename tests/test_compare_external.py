@@ -27,6 +27,8 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "exudyn_pe
 #: a small protocol for the pendulum: the comparison's own runs are not what is tested here
 SMALL = C.Protocol((C.Entry("hht", (1e-2, 5e-3), options={"alpha": 0.0}),), measures=("err_theta_max_trusted",),
                    why="two hht runs beside the included files")
+SMALL_BALL = C.Protocol((C.Entry("hht", (1e-3,)),), measures=("err_x_max_trusted",),
+                        why="one hht run beside the included file")
 
 
 def example():
@@ -40,7 +42,8 @@ def example():
 def results(tmp_path, monkeypatch):
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path / "results"))
     real = C.protocol_for
-    monkeypatch.setattr(C, "protocol_for", lambda sc: SMALL if sc.name == "pendulum" else real(sc))
+    small = {"pendulum": SMALL, "ball": SMALL_BALL}
+    monkeypatch.setattr(C, "protocol_for", lambda sc: small.get(sc.name) or real(sc))
     return tmp_path / "results"
 
 
@@ -92,6 +95,23 @@ def test_compare_shows_included_rows_marked_external(tmp_path, monkeypatch):
     assert len(lines) == 1 and "not shown" not in lines[0].get_label()
     assert list(lines[0].get_xdata()) == [0.01, 0.02]   # the files' costs, on the CPU axis
     assert lines[0].get_ydata() == pytest.approx([1e-4, 1e-5], rel=1e-6)
+
+
+def test_an_included_file_takes_its_impacts_from_beside_it(tmp_path):
+    from _closed_forms import T_BALL, ball_impacts, ball_motion
+
+    imp = ball_impacts()
+    t = np.linspace(0.0, T_BALL, 2501)
+    x, v = ball_motion(t, imp)
+    f = tmp_path / "code.csv"
+    pd.DataFrame({"t": t, "x": x, "v": v}).to_csv(f, index=False)
+    pd.DataFrame({"t": imp[1:], "contact": 0}).to_csv(tmp_path / "code-impacts.csv", index=False)
+    out = tmp_path / "cmp"
+    r = runner.invoke(app, ["compare", "ball", "--include", str(f), "--jobs", "1", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    ext = pd.read_parquet(out / "table.parquet").query("integrator == 'external'").iloc[0]
+    assert json.loads(ext["settings"])["events"] == "impacts file"
+    assert (ext["impacts_matched"], ext["impacts_missed"]) == (len(imp) - 1, 1)
 
 
 def test_an_included_file_with_a_unit_error_refuses_before_any_run(tmp_path):
