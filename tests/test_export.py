@@ -98,3 +98,29 @@ def test_every_docs_case_page_is_current():
              if not (DOCS / f"{n}.md").exists()
              or (DOCS / f"{n}.md").read_text() != markdown(daebench.export_case(n, write=False).sheet)]
     assert stale == []
+
+
+def test_an_empty_out_is_refused(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    r = runner.invoke(app, ["export", "ball", "--out", ""])
+    assert r.exit_code != 0 and "must be a folder path" in r.output
+    assert not list(tmp_path.glob("ball.*"))
+
+
+def test_the_description_states_the_values_used_after_set(results):
+    import daebench
+
+    sheet = daebench.export_case("ball", overrides=["contact.restitution=0.5"], write=False).sheet
+    assert "restitution 0.8" in sheet["description"]   # the case file's own words …
+    assert "contact.restitution = 0.5 (the case file: 0.8)" in sheet["description"]   # … and the value used
+    assert sheet["changed"] == {"contact.restitution": {"value": 0.5, "case_file": 0.8}}
+    assert daebench.export_case("ball", write=False).sheet["changed"] == {}
+
+
+def test_the_score_page_lists_what_each_cases_file_holds():
+    from daebench.core.scene import list_scenes
+    from daebench.workflows.export import file_table
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "score-external.md").read_text()
+    assert file_table([n for n, _ in list_scenes()]) in page, \
+        "docs/score-external.md's per-case table is stale: paste daebench.workflows.export.file_table's output"

@@ -62,7 +62,10 @@ def test_the_json_record_has_the_keys_of_a_bench_row(tmp_path):
     f = tmp_path / "exact.parquet"
     df.to_parquet(f, index=False)
     rec = _score_json("pendulum", str(f), "--label", "closed-form", "--cost-s", "0.5", "--steps", "1000")
-    assert set(rec) == set(row)
+    from daebench.workflows.score import FILE_COLUMNS
+
+    assert set(rec) == set(row) | set(FILE_COLUMNS)
+    assert (rec["file_dt_max"], rec["file_rows"], rec["file_resampled"]) == (pytest.approx(1e-3), 1001, False)
     assert rec["label"] == "closed-form" and rec["wall_s"] == 0.5 and rec["steps"] == 1000
     assert rec["err_pos_max"] < 1e-12 and rec["status"] == "completed"
 
@@ -85,7 +88,7 @@ def test_an_event_driven_file_gives_its_impacts_by_two_rows_at_one_time(tmp_path
     """Two rows at each impact (before and after, gap 0) are the jump's sides: the impacts are
     found from the gap, none is missed, and the errors stay those of the exact motion."""
     imp = ball_impacts()
-    t = np.sort(np.concatenate([np.linspace(0.0, T_BALL, 251), imp, imp]))
+    t = np.sort(np.concatenate([np.linspace(0.0, T_BALL, 2501), imp, imp]))   # at the case's output.dt
     x, v = ball_motion(t, imp)
     first = np.flatnonzero(np.diff(t) == 0)            # the row before each impact: v⁻
     x[first], x[first + 1] = 0.0, 0.0
@@ -186,7 +189,7 @@ def test_refuses_what_is_not_csv_or_parquet(tmp_path, results):
 
 
 def test_refuses_a_file_over_the_size_limit(tmp_path, results, monkeypatch):
-    from daebench.harness.scoring import external
+    from daebench.harness.scoring.external import reading as external
 
     f = _csv(tmp_path / "a.csv", _pendulum())
     monkeypatch.setattr(external, "MAX_BYTES", 1000)

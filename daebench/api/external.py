@@ -18,7 +18,7 @@ from daebench.workflows.score import ScoreResult, Source
 def score(scene: SceneLike, data: Any, *, impacts: Any = None, overrides: Iterable[str] | dict[str, Any] | None = None,
           label: str | None = None, cost_s: float | None = None, steps: int | None = None,
           reference: str = "compute", progress: bool = False, write: bool = True,
-          out: str | Path | None = None) -> ScoreResult:
+          out: str | Path | None = None, allow_start_mismatch: bool = False) -> ScoreResult:
     """Score another code's trajectory of a case as a daebench run is scored.
 
     Parameters
@@ -28,12 +28,16 @@ def score(scene: SceneLike, data: Any, *, impacts: Any = None, overrides: Iterab
         the case's observables in its units (`daebench show CASE`), optionally energy terms
         (:mod:`daebench.harness.scoring.external`)
     impacts : the event sequence: a file or DataFrame with columns ``t`` and ``contact``,
-        or a list of times; default: from the ``gap`` column or repeated times
+        or a list of times; default: the file ``<stem>-impacts.csv`` beside ``data``, else
+        from the ``gap`` column, else repeated times
     label, cost_s, steps : the row's name, the external run's cost [s] and step count
         (default: the file's metadata)
     reference : 'compute' (the reference is computed when missing), 'require'
     progress : a progress bar on stderr while a reference is computed
-    write, out : write the row (default results/score/<case>-<hash8>/<label>-<digest8>.json)
+    write, out : write the row (default results/score/<case>-<hash8>/<label>-<key8>.json, the key
+        a digest of everything scored)
+    allow_start_mismatch : score a file whose values at t = 0 differ from the case's start
+        (else refused, the column and both values named)
 
     Returns
     -------
@@ -46,7 +50,7 @@ def score(scene: SceneLike, data: Any, *, impacts: Any = None, overrides: Iterab
         Refused data (what is wrong and the fix), before anything is written.
     """
     sc = load_scene(scene, overrides)
-    return _score.score_file(sc, Source(data, impacts, label, cost_s, steps), reference,
+    return _score.score_file(sc, Source(data, impacts, label, cost_s, steps, allow_start_mismatch), reference,
                              run_progress_factory(progress), write, out)
 
 

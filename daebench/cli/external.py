@@ -23,13 +23,17 @@ def score(case: str = typer.Argument(..., help="scene name or path to a .toml fi
                                                "(`daebench show CASE` lists them with their units)"),
           impacts: Optional[str] = typer.Option(None, "--impacts",
                                                 help="CSV/Parquet file of the impacts: columns t and contact "
-                                                     "(default: from the gap column, or rows written twice)"),
+                                                     "(default: FILE's stem + '-impacts.csv' beside it, else from "
+                                                     "the gap column, else rows written twice)"),
           set_: list[str] = typer.Option([], "--set", help="override a scene key: dotted.key=value"),
           label: Optional[str] = typer.Option(None, "--label", help="the row's name (default: the file's "
                                                                      "'# label:' line, else its name)"),
           cost_s: Optional[float] = typer.Option(None, "--cost-s", help="the external run's cost [s] (places it on "
                                                                         "work-precision figures)"),
           steps: Optional[int] = typer.Option(None, "--steps", help="the external run's number of steps"),
+          allow_start: bool = typer.Option(False, "--allow-start-mismatch",
+                                           help="score a file whose values at t = 0 differ from the case's start "
+                                                "(a note in the row instead of a refusal)"),
           reference: str = typer.Option("compute", "--reference",
                                         help="without an exact solution: compute (when missing) | require"),
           out_dir: Optional[str] = typer.Option(None, "--out",
@@ -38,13 +42,14 @@ def score(case: str = typer.Argument(..., help="scene name or path to a .toml fi
     """Score another code's trajectory of a case as a daebench run is scored.
 
     The trajectory is held to the case's exact solution or reference with every measure of a
-    daebench run; the scored row is written and a summary printed."""
+    daebench run, and judged by a run's rules (exit 1 when it diverged or failed); the scored
+    row is written and a summary printed."""
     from daebench import api
 
     sc = load_scene_or_exit(case, set_)
     try:
         res = api.score(sc, file, impacts=impacts, label=label, cost_s=cost_s, steps=steps, reference=reference,
-                        progress=not as_json, out=out_dir)
+                        progress=not as_json, out=out_dir, allow_start_mismatch=allow_start)
     except api.OutputWriteError as exc:
         fail(str(exc), 1)
     except api.ParamError as exc:
@@ -55,9 +60,11 @@ def score(case: str = typer.Argument(..., help="scene name or path to a .toml fi
         fail(f"scoring {file} raised {type(exc).__name__}: {exc}", 1)
     if as_json:
         sys.stdout.write(res.as_json() + "\n")
-        return
-    for line in textout.kv_lines(res.summary()):
-        out(line)
+    else:
+        for line in textout.kv_lines(res.summary()):
+            out(line)
+    if res.row["status"] != "completed":   # as `daebench run`: a file whose physics broke exits 1
+        raise typer.Exit(1)
 
 
 def export(case: str = typer.Argument(..., help="scene name or path to a .toml file"),

@@ -384,7 +384,7 @@ def table_rows(df: pd.DataFrame, measures: Sequence[str], model: str | None = No
         o = f"{order:.2g}" + ("*" if r.get("regime") else "") if isinstance(order, float) and math.isfinite(order) \
             else "-"
         imp = f"{_int(r.get('impacts_matched'))}/{_int(r.get('impacts_spurious'))}"
-        rows.append([who, f"{_int(r.get('steps'))} steps" if ext else _setting(r) or "defaults", r["status"],
+        rows.append([who, _setting(r) or ("-" if ext else "defaults"), r["status"],   # external: h = t_end/steps
                      _int(r.get("steps")),
                      r.get("cpu_s"), *[r.get(m) for m in ms], o, imp])
     return cols, rows

@@ -31,7 +31,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -125,7 +125,9 @@ def case_sheet(scene: Scene) -> dict[str, Any]:
     exact = has_exact_solution(system, scene.t_end)
     bil = int(system.n_bilateral)
     return {
-        "case": scene.name, "description": scene.description, "model": scene.model, "scene_hash": scene.hash,
+        "case": scene.name, "description": description(scene), "model": scene.model, "scene_hash": scene.hash,
+        "changed": {k: {"value": _plain(v), "case_file": _plain(scene.base.get(k))} for k, v in scene.changes().items()
+                    if k != "description"},
         "daebench": __version__,
         "model_description": inspect.cleandoc(module.__doc__ or getattr(module, "DESCRIPTION", "")),
         "parameters": params,
@@ -144,6 +146,18 @@ def case_sheet(scene: Scene) -> dict[str, Any]:
                     "command": f"daebench score {scene.name} FILE.csv"
                                + (" [--impacts IMPACTS.csv]" if system.n_contacts else "") + " [--json]"},
     }
+
+
+def description(scene: Scene) -> str:
+    """The scene's description, followed — when ``--set`` changed values the description may
+    quote — by the values used: 'restitution 0.8 …' exported with contact.restitution = 0.5
+    says so, so that the sheet never states a value the case does not use."""
+    changed = {k: v for k, v in scene.changes().items() if k != "description"}
+    if not changed:
+        return scene.description
+    used = "; ".join(f"{k} = {_md_value(_plain(v))} (the case file: {_md_value(_plain(scene.base.get(k)))})"
+                     for k, v in changed.items())
+    return f"{scene.description} — exported with {used}"
 
 
 def _md_value(v: Any) -> str:
@@ -222,7 +236,7 @@ def export_case(scene: Scene, out: str | Path | None = None, write: bool = True)
     sheet = case_sheet(scene)
     if not write:
         return ExportResult(sheet, ())
-    folder = ensure_writable_dir(Path(out) if out is not None else default_folder(scene), "export folder (--out)")
+    folder = ensure_writable_dir(out if out is not None else default_folder(scene), "export folder (--out)")
     text = {".json": json.dumps(sheet, indent=2, ensure_ascii=False) + "\n", ".md": markdown(sheet)}
     files = []
     for suffix, body in text.items():
@@ -235,3 +249,26 @@ def export_case(scene: Scene, out: str | Path | None = None, write: bool = True)
 def default_folder(scene: Scene) -> Path:
     """results/export/<scene>-<first 8 digits of its hash>"""
     return results_dir() / "export" / f"{scene.name}-{scene.hash[:8]}"
+
+
+def file_table(names: Sequence[str]) -> str:
+    """What a file must hold for each case of ``names`` (the documentation's table, one row a
+    case): the scored columns with their units, the other observables a file may give, the
+    contact points and their law, how impacts are written, and the truth."""
+    from daebench.api.catalogue import load_scene   # lazy: the catalogue sits above the workflows
+
+    out = ["| case | scored columns [unit] | other observables | contact points | impacts | truth |",
+           "|---|---|---|---|---|---|"]
+    for name in names:
+        scene = load_scene(name)
+        sheet = case_sheet(scene)
+        obs = {o["name"]: o for o in sheet["observables"]}
+        scored = sheet["scoring"]["scored"]
+        c = sheet["contact"]
+        law = f" ({c['law'] or 'resolved by the integrator'})" if c["points"] else ""
+        how = ("—" if not c["points"] else "none: a continuous force law" if c.get("continuous")
+               else "two rows per impact, or an impacts file")
+        out.append(f"| {name} | " + ", ".join(f"`{k}`" + (f" [{obs[k]['unit']}]" if obs[k]['unit'] else "") for k in scored if k in obs)
+                   + f" | {', '.join(f'`{k}`' for k in obs if k not in scored) or '—'} | {c['points']}{law} | {how} | "
+                   + ("exact solution" if sheet["scoring"]["truth"] == "the exact solution" else "reference") + " |")
+    return "\n".join(out)
