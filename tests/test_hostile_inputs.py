@@ -9,7 +9,7 @@ from typing import ClassVar
 import pytest
 from typer.testing import CliRunner
 
-from daebench.harness.sweeps import executors
+from daebench.harness.sweeps import dask_cluster
 from daebench.cli.app import app
 from daebench.integrators import base
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
@@ -51,7 +51,7 @@ def isolated(monkeypatch, tmp_path):
     reg = {**base.registry(), "initbug": Registered("initbug", RaisesInInit, "tests"),
            "hang": Registered("hang", Hang, "tests")}
     monkeypatch.setattr(base, "registry", lambda refresh=False: dict(reg))
-    monkeypatch.setattr(executors, "DASK_CONNECT_TIMEOUT", 1.0)
+    monkeypatch.setattr(dask_cluster, "DASK_CONNECT_TIMEOUT", 1.0)
 
 
 def refused(args: list[str], fragment: str, code: int = 2) -> None:

@@ -69,8 +69,8 @@ def test_score_across_cases_known_answers():
 @pytest.mark.slow
 def test_quick_case_budget_skip_then_resume(tmp_path, monkeypatch):
     """A budget too small for the second round: its runs are 'skipped-budget' rows; resumed
-    with the same budget nothing runs (the rounds' time already spent counts), with a larger
-    one only those run, and the first round's rows are kept bit for bit."""
+    with the same budget nothing runs (the rounds' time already spent counts); a larger
+    budget is another survey (refused on resume), and a new name runs it."""
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
     o = dict(cases=("pendulum",), integrators=("hht", "newmark"), quick=True, jobs=1, name="t",
              reference="none", repeat_check=False, progress=False)
@@ -87,9 +87,11 @@ def test_quick_case_budget_skip_then_resume(tmp_path, monkeypatch):
         S.run_survey(S.SurveyOptions(budget_s=100.0, **o))
     same = S.run_survey(S.SurveyOptions(budget_s=1e-6, resume=True, **o)).table   # the same budget: the time
     assert list(same.status) == list(tab.status)                   # already spent still counts, nothing runs
-    again = S.run_survey(S.SurveyOptions(budget_s=1e6, resume=True, **o)).table
+    with pytest.raises(ParamError, match=r"budget per case \(--budget, s\): planned 1e-06, now 1e\+06"):
+        S.run_survey(S.SurveyOptions(budget_s=1e6, resume=True, **o))
+    again = S.run_survey(S.SurveyOptions(budget_s=1e6, **{**o, "name": "t2"})).table
     assert list(again.status) == ["completed"] * 4
-    keep = ["run", "label", "h", "wall_s", "steps"]
+    keep = ["run", "label", "h", "steps"]
     first = [0, 2]
     pd.testing.assert_frame_equal(again[keep].iloc[first], tab[keep].iloc[first], check_dtype=False)
 

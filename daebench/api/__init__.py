@@ -36,6 +36,7 @@ from daebench.core.params import Param, ParamError, parse_pairs
 from daebench.harness.files import OutputWriteError
 from daebench.core.interrupt import RunTimeout
 from daebench.harness.running.progress import RunProgress
+from daebench.harness.sweeps.dask_cluster import ClusterLost
 from daebench.harness.sweeps.executors import sigterm_as_interrupt
 from daebench.harness.sweeps.options import Execution, Plan, Storage, SweepOptions, Timing
 from daebench.harness.sweeps.sweep import HARNESS_FAILURES, SweepInterrupted
@@ -63,6 +64,7 @@ __all__ = [
     "plot_work_precision", "plot_convergence", "plot_histories",
     # arguments and errors
     "Param", "parse_pairs", "numbers", "ParamError", "OutputWriteError", "RunTimeout", "SweepInterrupted",
+    "ClusterLost",
     "sigterm_as_interrupt",
     "RunProgress",
 ]

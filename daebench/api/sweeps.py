@@ -52,6 +52,9 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *, o
     jobs : worker processes (a crashing run costs only its own row)
     scheduler : Dask scheduler address, 'local', or a Client
     executor : 'process' (default), 'inline' (this process, no isolation) or 'dask'
+    no_workers_timeout : seconds a Dask cluster may have no worker while runs wait before
+        the sweep stops with :class:`daebench.api.ClusterLost` (default 60); a lost
+        scheduler stops it so too, its runs in flight interrupted (``resume`` runs them)
     progress : progress bars on stderr (default False)
     name, folder, write, resume, overwrite : the table results/bench/<name>.parquet (unique
         name by default; ``folder`` instead of results/bench; rows stored as they finish;

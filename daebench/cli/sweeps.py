@@ -30,6 +30,26 @@ def _again(name: Optional[str], resume: bool, exc: Any) -> str:
                       + ([] if resume else ["--resume"]))
 
 
+#: --no-workers-timeout: its default (None: the executor's, a minute) and help (bench and survey)
+NO_WORKERS_HELP = (None, "seconds a Dask cluster may have no worker while runs wait (default 60); then the "
+                         "sweep stops, its runs in flight interrupted (--resume runs them)")
+
+
+def _no_workers(seconds: Optional[float]) -> dict[str, float]:
+    return {} if seconds is None else {"no_workers_timeout": seconds}
+
+
+def _cluster_lost(exc: Any, name: Optional[str], resume: bool) -> None:
+    """A lost Dask scheduler or a cluster without workers: one line, what was kept, how to go on; exit 1."""
+    table = getattr(exc, "table", None)
+    kept = ""
+    if table is not None and len(table):
+        done = int((table["status"] != "interrupted").sum())
+        kept = f"; {done} of {len(table)} runs finished" + (f", their rows are in {exc.path}" if exc.path else "")
+    sys.stderr.write(f"{exc}{kept}\ncontinue with: {_again(name, resume, exc)}\n")
+    raise typer.Exit(1)
+
+
 def _grid(items: list[str]) -> dict[str, list[str]]:
     grid: dict[str, list[str]] = {}
     for it in items:
@@ -56,6 +76,8 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
           scheduler: Optional[str] = typer.Option(
               None, "--scheduler",
               help="run on Dask: a scheduler address (tcp://host:8786), or 'local' for a local cluster of --jobs workers"),
+          no_workers_timeout: Optional[float] = typer.Option(
+              NO_WORKERS_HELP[0], "--no-workers-timeout", help=NO_WORKERS_HELP[1]),
           ref_mode: str = typer.Option("require", "--reference",
                                        help="require (error if missing) | compute | auto (score if cached) | none "
                                             "(no reference: runs are scored only against a model's exact solution)"),
@@ -79,8 +101,12 @@ def bench(scene: str = typer.Argument(..., help="scene name or path to a .toml f
                             options=settings, force=force)
             options = api.SweepOptions(reference=ref_mode, timing=api.Timing.for_repeats(repeats, run_cap),
                                        storage=api.Storage(name=name, resume=resume, overwrite=overwrite),
-                                       execution=api.Execution(jobs=jobs, scheduler=scheduler, progress=True))
-            df = api.bench(sc, plan=plan, options=options)
+                                       execution=api.Execution(jobs=jobs, scheduler=scheduler, progress=True,
+                                                               **_no_workers(no_workers_timeout)))
+            try:
+                df = api.bench(sc, plan=plan, options=options)
+            except api.ClusterLost as exc:
+                _cluster_lost(exc, name, resume)
     except api.SweepInterrupted as exc:
         done = int((exc.table["status"] != "interrupted").sum())
         sys.stderr.write(f"interrupted: {done} of {len(exc.table)} runs finished; their rows are in {exc.path}\n"
@@ -235,6 +261,8 @@ def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-sepa
                                                        "of halved steps beyond it are 'skipped-budget' rows"),
            jobs: int = typer.Option(2, "--jobs", "-j", help="worker processes (or Dask workers)"),
            scheduler: Optional[str] = typer.Option(None, "--scheduler", help="run on Dask: 'local' or tcp://host:8786"),
+           no_workers_timeout: Optional[float] = typer.Option(
+               NO_WORKERS_HELP[0], "--no-workers-timeout", help=NO_WORKERS_HELP[1]),
            target: list[str] = typer.Option([], "--target",
                                             help="MEASURE=v1,v2: target errors in the measure's units "
                                                  "(default: decades of the errors reached)"),
@@ -259,8 +287,11 @@ def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-sepa
             opts = api.SurveyOptions(cases=_names(cases), integrators=_names(integrators), quick=quick,
                                      budget_s=budget, jobs=jobs, scheduler=scheduler, name=name, resume=resume,
                                      overwrite=overwrite, run_cap=run_cap, targets=api.parse_targets(target),
-                                     reference=reference)
-            res = api.survey(opts, report=report_page)
+                                     reference=reference, no_workers_timeout=no_workers_timeout)
+            try:
+                res = api.survey(opts, report=report_page)
+            except api.ClusterLost as exc:
+                _cluster_lost(exc, name, resume)
     except api.SweepInterrupted as exc:
         sys.stderr.write(f"interrupted; the finished rows are stored. continue with: {_again(name, resume, exc)}\n")
         raise typer.Exit(130)
@@ -270,6 +301,10 @@ def survey(cases: Optional[str] = typer.Option(None, "--cases", help="comma-sepa
         if res.workers_started is not None else ""
     out(f"wall time of the survey: {time.perf_counter() - t0:.1f} s (name {res.name}; "
         f"resume with --resume --name {res.name}{pool})")
+    if not res.completed:
+        sys.stderr.write(f"no run of the survey completed ({len(res.table)} runs): nothing was judged"
+                         + (f"; see the 'message' column of {res.folder / 'table.csv'}" if len(res.table) else "")
+                         + "\n")
     if not res.ok:
         raise typer.Exit(1)
 

@@ -14,6 +14,7 @@ import errno
 import json
 import math
 import os
+import secrets
 import tempfile
 from pathlib import Path
 from typing import Any, Callable
@@ -87,29 +88,81 @@ def describe_os_error(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}"
 
 
+#: characters of a temporary file's name beyond ``.<name>.`` and ``.tmp`` (as many as a pid had: the
+#: name-length checks that count ``.<name>.9999999.tmp`` hold)
+TEMP_TAG_CHARS = 7
+_TAG_ALPHABET = "0123456789abcdefghijklmnopqrstuvwxyz"
+
+
+def temp_beside(path: Path) -> Path:
+    """A new, empty temporary file beside ``path`` (``.<name>.<tag>.tmp``), created with
+    ``O_EXCL``: unique per process, thread and call, so two writers of one target (threads
+    of one process included) never share it.
+
+    Raises
+    ------
+    OSError
+        When the folder cannot take it.
+    """
+    for _ in range(100):
+        tag = "".join(secrets.choice(_TAG_ALPHABET) for _ in range(TEMP_TAG_CHARS))
+        tmp = path.with_name(f".{path.name}.{tag}.tmp")
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        except FileExistsError:
+            continue
+        return tmp
+    raise FileExistsError(errno.EEXIST, "no free temporary name after 100 tries", str(path))
+
+
 def atomic_write(path: Path, write: Callable[[Path], Any], what: str, kept: str = "") -> None:
-    """Write ``path`` through a temporary file beside it (``write(tmp)``, then ``os.replace``).
-    A failure removes the temporary file and raises :class:`OutputWriteError` naming the
-    file, the cause and ``kept`` (what is safe)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    """Write ``path`` through a temporary file of its own beside it (:func:`temp_beside`;
+    ``write(tmp)``, then ``os.replace``): a reader sees the old file or the new one, and of
+    concurrent writers of one target the last one's whole file stays. A failure removes
+    the temporary file and raises :class:`OutputWriteError` naming the file, the cause and
+    ``kept`` (what is safe)."""
+    tmp = None
     try:
+        tmp = temp_beside(path)
         write(tmp)
         os.replace(tmp, path)
     except OSError as exc:
-        raise write_error(exc, what, path, kept, tmp) from None
+        raise write_error(exc, what, path, kept, tmp, folder=path.parent) from None
+    except BaseException:   # a writer's own exception (or Ctrl-C): no temporary file is left behind
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
+        raise
+
+
+def _missing(exc: BaseException, folder: Path, tmp: Path | None) -> str | None:
+    """For a 'No such file or directory' while writing: what was missing, in words (the
+    folder removed meanwhile, or the temporary file removed by someone else)."""
+    if getattr(exc, "errno", None) != errno.ENOENT:
+        return None
+    if not folder.is_dir():
+        return f"the folder {folder} no longer exists (removed while daebench wrote there)"
+    if tmp is not None:
+        return (f"its temporary file {tmp.name} was removed before it could be moved into place (by another "
+                f"process cleaning {folder}?)")
+    return None
 
 
 def write_error(exc: BaseException, what: str, path: Path | str, kept: str = "",
-                tmp: Path | None = None) -> OutputWriteError:
-    """The :class:`OutputWriteError` of a failed write (the temporary file ``tmp`` removed)."""
+                tmp: Path | None = None, folder: Path | None = None) -> OutputWriteError:
+    """The :class:`OutputWriteError` of a failed write (the temporary file ``tmp`` removed),
+    naming the cause: a full disk, a folder that is not writable or was removed meanwhile,
+    a temporary file removed by someone else, else the system's own words. ``folder``:
+    where it was written (default: ``path`` itself, a folder)."""
+    missing = _missing(exc, Path(folder) if folder is not None else Path(path), tmp)
     if tmp is not None:
         try:
             os.unlink(tmp)
         except OSError:
             pass
-    why = describe_os_error(exc)
+    why = missing or describe_os_error(exc)
     fix = "Free space there" if why.startswith("the disk is full") else (
-        "Make it writable" if why.startswith("it is not writable") else "Mend that")
+        "Make it writable" if why.startswith("it is not writable") else
+        "Leave the folder and its files alone while daebench writes" if missing else "Mend that")
     return OutputWriteError(f"could not write {what} {path}: {why}. "
                             + (f"{kept[0].upper()}{kept[1:]}. " if kept else "")
                             + f"{fix} or choose another folder (--out, or DAEBENCH_RESULTS), "

@@ -12,8 +12,9 @@ refuses are listed with their reason, as in `compare`.
 tolerance) of every setting. The first round always runs; a later round runs only if the
 time spent on the case so far plus :data:`ROUND_GROWTH` × the last round's wall time (a
 halved step costs about twice as much) fits the budget. The runs of rounds left out are
-rows with status ``skipped-budget`` (not stored: ``--resume`` with a larger ``--budget``
-runs them; a resume counts the rounds' times already spent, ``<store>.rounds.json``). The time to compute a missing reference is not counted. A single run is
+rows with status ``skipped-budget`` (not stored; a resume counts the rounds' times already
+spent, ``<store>.rounds.json``, so it runs no more of them: the survey is the one planned,
+and a larger ``--budget`` is a new survey). The time to compute a missing reference is not counted. A single run is
 capped (``timeout`` row) at ``run_cap``, by default the budget but at least
 :data:`MIN_RUN_CAP_S` (a cold numba compile takes 30–90 s, minutes on a loaded machine;
 a worker killed while compiling leaves nothing in the cache, so the next run compiles again).
@@ -26,7 +27,10 @@ killed); under ``--scheduler`` one Dask client and its workers.
 **Resumable.** Each case's rows go to its own row store
 (``results/survey/<name>/runs/<name>--<case>.rows.sqlite``,
 :class:`daebench.harness.sweeps.store.SweepStore`) as they finish; ``resume`` with the same
-name runs only the missing rows.
+name runs only the missing rows, and only as the survey was planned: ``--resume`` with other
+cases, integrators, budget, targets or reference mode is refused naming the difference
+(:mod:`daebench.workflows.survey_plan`). A target of a measure no case is scored on is
+refused before anything runs; a survey in which no run completed fails (``ok`` is False).
 
 **Determinism.** Where rows carry a history ``digest`` (:mod:`daebench.harness.sweeps.digest`),
 the cheapest completed run of each case is repeated in this process and its digest
@@ -53,28 +57,22 @@ from daebench.harness.references import fingerprints
 from daebench.harness.references.reference import load_reference
 from daebench.harness.running import checks, provenance
 from daebench.harness.running.progress import run_progress_factory
-from daebench.harness.scoring import pipeline
-from daebench.harness.sweeps import executors, sweep
+from daebench.harness.sweeps import dask_cluster, executors, sweep
 from daebench.harness.sweeps.row import execute, outcome_row
 from daebench.harness.sweeps.options import Execution, SweepOptions, Timing
 from daebench.harness.sweeps.plan import RunSpec
 from daebench.harness.sweeps.store import StoreError, SweepStore, assemble, check_name, unique_name
-from daebench.integrators import base
-from daebench.models.scenes import load_scene
-from daebench.workflows import compare
-from daebench.workflows.compare import Entry, Protocol
+from daebench.workflows import compare, survey_plan
+from daebench.workflows.survey_protocol import (FALLBACK_SUFFIX, LEVELS, QUICK_LEVELS, QUICK_T_END,  # noqa: F401
+                                                case_measures, case_scene, halvings, rounds, survey_protocol)
+from daebench.workflows.compare import Protocol
 
-QUICK_T_END = 0.5          # s: the ball's first impact is at 0.45 s
-QUICK_LEVELS = 2           # --quick: defaults and one halving
-LEVELS = 3                 # defaults and two halvings
 DEFAULT_BUDGET_S = 300.0   # per case
 QUICK_BUDGET_S = 30.0
 QUICK_REPEATS = 1          # --quick: one timed run after the warm-up (the full survey: the sweep's rule)
 MIN_RUN_CAP_S = 600.0     # default cap of one run: the budget, at least this (a cold compile: 30-90 s, minutes under load)
 ROUND_GROWTH = 2.0         # predicted cost of the next round of halved steps / the last round's
 SKIPPED = "skipped-budget"
-#: measures a case's protocol does not declare are taken from these, in order, when present
-FALLBACK_SUFFIX = "_max"
 
 
 @dataclass(frozen=True)
@@ -96,6 +94,7 @@ class SurveyOptions:
     progress: bool = True
     repeat_check: bool = True
     folder: Path | None = None
+    no_workers_timeout: float | None = None   # s a Dask cluster may have no worker (None: the executor's default)
 
     @property
     def repeats(self) -> int | None:
@@ -105,8 +104,10 @@ class SurveyOptions:
     def sweep_options(self, reference: str, run_cap: float | None) -> SweepOptions:
         """The options of a case's sweep: scored under ``reference``, each run capped at ``run_cap``."""
         timing = Timing(run_cap=run_cap) if self.repeats is None else Timing(repeats=self.repeats, run_cap=run_cap)
+        wait = {} if self.no_workers_timeout is None else {"no_workers_timeout": self.no_workers_timeout}
         return SweepOptions(reference=reference, timing=timing,
-                            execution=Execution(jobs=self.jobs, scheduler=self.scheduler, progress=self.progress))
+                            execution=Execution(jobs=self.jobs, scheduler=self.scheduler, progress=self.progress,
+                                                **wait))
 
     @property
     def budget(self) -> float:
@@ -151,82 +152,19 @@ class SurveyResult:
         return self.table[self.table["status"].isin(("error", "crashed"))] if len(self.table) else self.table
 
     @property
+    def completed(self) -> int:
+        """How many runs completed (a survey without one has judged nothing)."""
+        return int((self.table["status"] == "completed").sum()) if len(self.table) else 0
+
+    @property
     def ok(self) -> bool:
-        """No run failed that way and every repeat check matched (the exit rule)."""
-        return not len(self.failures) and not mismatches(self)
+        """At least one run completed, none failed that way and every repeat check matched
+        (the exit rule)."""
+        return self.completed > 0 and not len(self.failures) and not mismatches(self)
 
     def mismatches(self) -> list[dict[str, Any]]:
         """The repeat checks whose digests differ (:func:`mismatches`)."""
         return mismatches(self)
-
-
-# ---- protocols --------------------------------------------------------------------------
-def _default(cls: type, key: str) -> float | None:
-    for s in cls.settings_spec:
-        if s.name == key:
-            return float(s.default)
-    return None
-
-
-def halvings(name: str, levels: int = LEVELS) -> Entry:
-    """``name`` at its default step and ``levels - 1`` halvings (fixed-step), or at its
-    default rtol and decades below it (adaptive only); one run at its defaults otherwise."""
-    cls = base.get_integrator(name)
-    caps = cls.capabilities
-    h0 = _default(cls, "h")
-    if caps.fixed_step and h0 is not None:
-        return Entry(name, steps=tuple(h0 / 2 ** k for k in range(levels)))
-    r0 = _default(cls, "rtol")
-    if caps.adaptive and r0 is not None:
-        return Entry(name, tols=tuple(r0 / 10 ** k for k in range(levels)))
-    return Entry(name)
-
-
-def survey_protocol(scene: Scene, quick: bool = False) -> Protocol:
-    """The runs each integrator declares for the case (as `compare` has them) and every
-    other integrator at its defaults and halvings; under ``quick`` every integrator at its
-    default and one halving."""
-    levels = QUICK_LEVELS if quick else LEVELS
-    declared = {} if quick else compare.declared_entries(scene)
-    # a plugin that cannot be loaded gets one entry, which planning lists as not applicable with the reason
-    entries = list(declared.values()) + [halvings(n, levels) if r.cls is not None else Entry(n)
-                                         for n, r in sorted(base.registry().items()) if n not in declared]
-    measures = compare.protocol_for(scene).measures if declared else compare.default_protocol(scene).measures
-    why = "each integrator's declared runs for this case, the others at their defaults and two halvings" \
-        if declared else f"every integrator at its defaults and {levels - 1} halving(s)"
-    return Protocol(tuple(entries), tuple(measures), why).resolved(pipeline.headline(scene).score_name)
-
-
-def case_scene(name: str, quick: bool = False) -> Scene:
-    """The scene of a case; under ``quick`` with t_end at most :data:`QUICK_T_END`."""
-    sc = load_scene(name)
-    return sc.with_overrides({"t_end": min(sc.t_end, QUICK_T_END)}) if quick else sc
-
-
-def rounds(specs: Sequence[RunSpec]) -> list[list[RunSpec]]:
-    """Specs grouped by refinement level: the k-th run of each setting in round k."""
-    seen: dict[str, int] = {}
-    out: list[list[RunSpec]] = []
-    for s in specs:
-        key = s.integrator + json.dumps({k: v for k, v in s.options.items()
-                                         if k not in ("h", "rtol", "atol", "adaptive")}, sort_keys=True, default=str)
-        k = seen.get(key, 0)
-        seen[key] = k + 1
-        while len(out) <= k:
-            out.append([])
-        out[k].append(s)
-    return out
-
-
-def case_measures(df: pd.DataFrame, proto: Protocol) -> list[str]:
-    """The protocol's measures with a finite value, else the first two ``err_*_max``
-    whole-run measures that have one."""
-    ms = compare.measures_present(df, proto.measures)
-    if ms:
-        return ms
-    cand = [c for c in df.columns if c.startswith("err_") and c.endswith(FALLBACK_SUFFIX)
-            and c.count("_") == 2 and pd.to_numeric(df[c], errors="coerce").notna().any()]
-    return cand[:2]
 
 
 # ---- running ---------------------------------------------------------------------------------
@@ -350,7 +288,7 @@ def workers(opts: SurveyOptions) -> Iterator[tuple[SurveyOptions, executors.Work
         with executors.shared_pool(opts.jobs) as pool:
             yield opts, pool
         return
-    client, release = executors.connect_dask(opts.scheduler, opts.jobs)
+    client, release = dask_cluster.connect_dask(opts.scheduler, opts.jobs)
     try:
         yield replace(opts, scheduler=client), None
     finally:
@@ -375,18 +313,28 @@ def run_survey(opts: SurveyOptions) -> SurveyResult:
     opts.budget  # noqa: B018  (validated before anything runs)
     name = check_name(opts.name) if opts.name else unique_name("survey" + ("-quick" if opts.quick else ""))
     folder = Path(opts.folder) if opts.folder is not None else results_dir() / "survey" / name
-    if folder.exists() and (folder / "survey.json").exists() and not (opts.resume or opts.overwrite):
+    started = (folder / "survey.json").exists() or (folder / survey_plan.PLAN_FILE).exists()
+    if started and not (opts.resume or opts.overwrite):
         raise StoreError(f"survey '{name}' exists in {folder}; pass --resume to complete it, "
                                     f"--overwrite to replace it, or choose another --name")
+    scenes = [case_scene(c, opts.quick) for c in cases]
+    survey_plan.check_targets(opts.targets, survey_plan.target_measures(
+        scenes, lambda sc: survey_protocol(sc, opts.quick).measures))
+    plan = survey_plan.plan_of(opts, cases)
+    if opts.resume:
+        survey_plan.check_resume(folder, name, plan)
     runs = folder / "runs"
+    survey_plan.record(folder, plan)
     t0 = time.perf_counter()
     results = []
     with workers(opts) as (run_opts, pool):
-        for c in cases:
+        for sc in scenes:
             try:
-                results.append(run_case(case_scene(c, run_opts.quick), run_opts, name, runs))
-            except sweep.SweepInterrupted as exc:
+                results.append(run_case(sc, run_opts, name, runs))
+            except (sweep.SweepInterrupted, dask_cluster.ClusterLost) as exc:
                 exc.name = name
+                if isinstance(exc, dask_cluster.ClusterLost):
+                    exc.table = None   # one case's table: not the survey's
                 raise
     res = score(results, opts.targets)
     res.name, res.folder, res.wall_s = name, folder, time.perf_counter() - t0

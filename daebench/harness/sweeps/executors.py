@@ -1,4 +1,5 @@
-"""Where a sweep's runs execute: this process, worker processes, or a Dask cluster.
+"""Where a sweep's runs execute: this process or worker processes (a Dask cluster:
+:mod:`.dask_cluster`).
 
 Every executor takes the planned runs and a function ``fn(spec) -> row`` that never
 raises for an ordinary failure (:func:`daebench.harness.sweeps.row.execute`), and hands each row to
@@ -52,7 +53,6 @@ from daebench.harness.running.child_process import describe_exit, die_with_paren
 
 POLL_S = 0.25               # how often the pool looks at its workers
 BACKSTOP_GRACE_S = 30.0     # a run is killed this long after its cap would have stopped it
-DASK_CONNECT_TIMEOUT = 10.0  # s to reach a Dask scheduler
 
 Row = dict[str, Any]
 
@@ -284,82 +284,3 @@ def _run_pool(pending: deque, pool: WorkerPool, fn: Callable[[Any], Row], n: int
             else:
                 w.spec = None
             on_row(row)
-
-
-# ---- Dask -----------------------------------------------------------------------------------
-def connect_dask(scheduler: Any, jobs: int) -> tuple[Any, Callable[[], None]]:
-    """A ``dask.distributed.Client`` for ``scheduler`` ("local": a local cluster of
-    ``jobs`` single-threaded worker processes; an address such as tcp://host:8786; or a
-    Client) and the function that releases what was created here.
-
-    Raises
-    ------
-    ExecutorError
-        Without dask.distributed, for an unknown scheduler form, or an unreachable one.
-    """
-    try:
-        from dask.distributed import Client, LocalCluster  # lazy: dask, an optional extra
-    except ImportError:
-        raise ExecutorError("the Dask executor needs dask.distributed: pip install 'daebench[dask]' "
-                            "(or pip install \"dask[distributed]\")") from None
-    if isinstance(scheduler, Client):
-        return scheduler, lambda: None
-    if scheduler in (None, "local"):
-        cluster = LocalCluster(n_workers=max(1, int(jobs)), threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-        client = Client(cluster)
-
-        def close() -> None:
-            client.close()
-            cluster.close()
-        return client, close
-    if not isinstance(scheduler, str) or "://" not in scheduler:
-        raise ExecutorError(f"--scheduler must be 'local' or an address such as tcp://host:8786; got {scheduler!r}")
-    try:
-        client = Client(scheduler, timeout=DASK_CONNECT_TIMEOUT)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise ExecutorError(f"cannot reach the Dask scheduler at {scheduler} within {DASK_CONNECT_TIMEOUT:g} s "
-                            f"({type(exc).__name__}); is it running? Start one with `dask scheduler`, or use "
-                            f"--scheduler local") from None
-    return client, client.close
-
-
-def run_dask(specs: Sequence[Any], fn: Callable[[Any], Row], client: Any, on_row: Callable[[Row], None],
-             make_row: Callable[[Any, str, str], Row], on_running: Callable[[list[Any]], None] | None = None,
-             backstop_s: float | None = None) -> None:
-    """Runs as Dask futures, no more in flight than the cluster has threads (so that a
-    future's age is its run time, for the backstop). The wall-time cap itself acts inside
-    the worker (:func:`daebench.harness.running.deadline.deadline` works in worker threads); a run that
-    outlives the backstop gets a 'timeout' row and the sweep goes on without it (Dask
-    cannot kill a running thread: it finishes or dies with its worker)."""
-    threads = max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info().get("workers", {}).values()))
-    pending = deque(specs)
-    flying: dict[Any, tuple[Any, float]] = {}
-    try:
-        while pending or flying:
-            while pending and len(flying) < threads:
-                s = pending.popleft()
-                flying[client.submit(fn, s, pure=False)] = (s, time.monotonic())
-            if on_running is not None:
-                on_running([s for s, _ in flying.values()])
-            if not any(f.done() for f in flying):
-                time.sleep(POLL_S)
-            for f in list(flying):
-                spec, started = flying[f]
-                if f.done():
-                    try:
-                        row = f.result()
-                    except BaseException as exc:  # KilledWorker (the worker died), a raised run …
-                        status = "crashed" if type(exc).__name__ == "KilledWorker" else "error"
-                        row = make_row(spec, status, f"{type(exc).__name__}: {exc}")
-                elif backstop_s is not None and time.monotonic() - started > backstop_s:
-                    f.cancel()
-                    row = make_row(spec, "timeout", f"run still going after {backstop_s:g} s (beyond its wall-time "
-                                                    f"cap); abandoned")
-                else:
-                    continue
-                del flying[f]
-                on_row(row)
-    finally:
-        for f in flying:
-            f.cancel()

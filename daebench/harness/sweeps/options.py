@@ -15,12 +15,14 @@ them: the one place where the user-facing names meet these values.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 from daebench.core.params import Param, ParamError, did_you_mean
 from daebench.harness.running import inputs, timing
+from daebench.harness.sweeps.dask_cluster import NO_WORKERS_TIMEOUT
 from daebench.integrators.base import DEFAULT_STEP
 
 STEP_PARAM = Param("h", float, DEFAULT_STEP, "a fixed step size [s] in --steps", low=1e-12, high=1.0)
@@ -108,12 +110,20 @@ class Storage:
 class Execution:
     """How to execute: ``executor`` 'process' (``jobs`` worker processes; a crash costs
     one row), 'inline' (this process) or 'dask' (a ``scheduler`` address, 'local' or a
-    Client selects Dask too); ``progress``: bars on stderr."""
+    Client selects Dask too); ``progress``: bars on stderr; ``no_workers_timeout``: seconds
+    a Dask cluster may have no worker while runs wait before the sweep stops
+    (:mod:`daebench.harness.sweeps.dask_cluster`)."""
 
     jobs: int = 1
     executor: str = "process"
     scheduler: Any = None
     progress: bool = True
+    no_workers_timeout: float = NO_WORKERS_TIMEOUT
+
+    def __post_init__(self) -> None:
+        t = self.no_workers_timeout
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not (math.isfinite(t) and t > 0):
+            raise SweepError(f"--no-workers-timeout must be a positive number of seconds, got {t!r}")
 
 
 @dataclass(frozen=True)
@@ -146,7 +156,7 @@ KEYWORDS: dict[str, tuple[str, str]] = {
     "resume": ("storage", "resume"),
     "overwrite": ("storage", "overwrite"),
     "jobs": ("execution", "jobs"), "executor": ("execution", "executor"), "scheduler": ("execution", "scheduler"),
-    "progress": ("execution", "progress"),
+    "progress": ("execution", "progress"), "no_workers_timeout": ("execution", "no_workers_timeout"),
 }
 
 

@@ -165,7 +165,18 @@ class SweepStore:
             raise StoreError(f"cannot resume '{name}': it was planned with other arguments (scene, integrators, "
                              f"grid, steps/tols, options or reference mode differ); repeat the original command "
                              f"with --resume, or start a new sweep")
+        if resume:
+            store.forget_lost_with_the_cluster()
         return store
+
+    def forget_lost_with_the_cluster(self) -> list[int]:
+        """Remove the rows of runs whose Dask worker was lost while they ran (``lost_worker``:
+        the cluster failed, not the run), so that the resumed sweep runs them again; their
+        run indices."""
+        lost = [r for r, row in self.finished().items() if row.get("lost_worker")]
+        for r in lost:
+            self.db.execute("DELETE FROM rows WHERE run = ?", (r,))
+        return lost
 
     def finished(self) -> dict[int, dict[str, Any]]:
         """The rows on disk, by run index."""
@@ -189,18 +200,6 @@ class SweepStore:
                 f"--resume --name {self.name} (the runs without a row are run then)") from None
 
     new = False   # opened for a new sweep (not resumed): discard() may remove it
-
-    def discard(self) -> None:
-        """Close, and remove the row store and the lock of a new sweep that was refused
-        before any row was stored: a refused sweep leaves nothing behind."""
-        try:
-            rows = self.db.execute("SELECT COUNT(*) FROM rows").fetchone()[0]
-        except sqlite3.Error:   # cannot tell: keep it
-            rows = -1
-        self.close()
-        if self.new and not rows:
-            for p in (self.path, self.folder / f"{self.path.name}-journal", self.folder / f"{self.name}.lock"):
-                p.unlink(missing_ok=True)
 
     def close(self) -> None:
         """Close the database and release the lock."""

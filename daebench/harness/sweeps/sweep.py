@@ -31,7 +31,7 @@ from daebench.harness.references.reference import (REF_MARGIN, ReferenceMissing,
                                                    load_reference, reference_tolerances)
 from daebench.harness.running.deadline import check_run_cap
 from daebench.harness.running.progress import SweepProgress, run_progress_factory
-from daebench.harness.sweeps import executors
+from daebench.harness.sweeps import dask_cluster, executors
 from daebench.harness.sweeps.options import Plan, SweepError, SweepOptions
 from daebench.harness.sweeps.plan import RunSpec, plan_sweep
 from daebench.harness.sweeps.row import execute, outcome_row
@@ -135,7 +135,7 @@ def run_specs(specs: Sequence[RunSpec], scene: Scene, options: SweepOptions = Sw
     if executor not in ("process", "inline", "dask"):
         raise SweepError(f"unknown executor '{executor}' (process, inline or dask)")
     use_dask = executor == "dask" or scheduler is not None
-    client, release = executors.connect_dask(scheduler, jobs) if use_dask else (None, lambda: None)
+    client, release = dask_cluster.connect_dask(scheduler, jobs) if use_dask else (None, lambda: None)
     rows: dict[int, dict[str, Any]] = dict(store.finished()) if store is not None else {}
     todo = [s for s in specs if s.index not in rows]
     fn = partial(execute, scene=scene, reference_mode=options.reference, timing=timing,
@@ -158,7 +158,8 @@ def run_specs(specs: Sequence[RunSpec], scene: Scene, options: SweepOptions = Sw
         bar.start()
     try:
         if use_dask:
-            executors.run_dask(todo, fn, client, on_row, make_row, on_running, backstop)
+            dask_cluster.run_dask(todo, fn, client, on_row, make_row, on_running, backstop,
+                                  execution.no_workers_timeout)
         elif executor == "inline":
             executors.run_inline(todo, fn, on_row, on_running)
         else:
@@ -167,6 +168,10 @@ def run_specs(specs: Sequence[RunSpec], scene: Scene, options: SweepOptions = Sw
         df = assemble(list(rows.values()) + interrupted_rows(
             specs, set(rows), scene, "the sweep was interrupted (Ctrl-C or SIGTERM) before this run finished"))
         raise SweepInterrupted(df, None, store.name if store is not None else None) from None
+    except dask_cluster.ClusterLost as exc:   # the runs in flight get no row: a resume runs them
+        exc.table = assemble(list(rows.values()) + interrupted_rows(specs, set(rows), scene, str(exc)))
+        exc.name = store.name if store is not None else None
+        raise
     finally:
         if bar is not None:
             bar.stop()
@@ -218,7 +223,7 @@ def run_sweep(scene: Scene, plan: Plan, options: SweepOptions = SweepOptions()) 
         raise SweepError(f"unknown executor '{execution.executor}' (process, inline or dask)")
     client, release = (None, lambda: None)
     if execution.executor == "dask" or execution.scheduler is not None:  # unreachable: fails before any reference
-        client, release = executors.connect_dask(execution.scheduler,
+        client, release = dask_cluster.connect_dask(execution.scheduler,
                                                  _int_at_least_1(execution.jobs, "jobs", MAX_JOBS))
         options = replace(options, execution=replace(execution, scheduler=client))
     store, new = None, False
@@ -244,15 +249,15 @@ def run_sweep(scene: Scene, plan: Plan, options: SweepOptions = SweepOptions()) 
             raise
         try:
             df = run_specs(specs, scene, options, store, description=scene.name)
-        except SweepInterrupted as exc:
+        except (SweepInterrupted, dask_cluster.ClusterLost) as exc:
             if store is not None:
                 exc.path = write_table(exc.table, store.name, [scene], store.folder, complete=False)
             raise
         if store is not None:
             df.attrs["path"] = write_table(df, store.name, [scene], store.folder, complete=True)
         return df
-    except Exception:   # refused before any run (a missing reference, bad options): nothing is left behind
-        if store is not None:
+    except Exception as exc:   # refused before any run (a missing reference, bad options): nothing is left behind
+        if store is not None and not isinstance(exc, dask_cluster.ClusterLost):
             store.discard()
         raise
     finally:

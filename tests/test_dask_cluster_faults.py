@@ -1,0 +1,301 @@
+"""Faults of a real Dask cluster are faults of the cluster, not of the runs: a scheduler and
+workers started here as processes of their own on loopback ports, killed with SIGKILL. A
+lost scheduler stops the sweep in one line with the runs in flight interrupted (never
+`error`), and `--resume` on the restarted cluster runs them; a lost worker makes its run a
+`crashed` row once (no other worker runs it behind the sweep's back) and a cluster left
+without workers is reported within --no-workers-timeout; a scheduler address is checked
+within the connect timeout, saying what answered there."""
+
+from __future__ import annotations
+
+import http.server
+import os
+import socket
+import sqlite3
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+pytest.importorskip("dask.distributed")
+
+from _dask_processes import Cluster, free_port  # noqa: E402
+
+from daebench.harness.sweeps import dask_cluster  # noqa: E402
+from daebench.harness.sweeps.executors import ExecutorError  # noqa: E402
+
+# runs of a second or two each once a worker has loaded its kernels; one thread a worker
+BENCH = ["bench", "pendulum", "-i", "hht,newmark", "--steps", "2e-5,1e-5", "--set", "t_end=0.5",
+         "--reference", "none", "--repeats", "1"]
+WAIT_S = 120.0
+
+
+@pytest.fixture()
+def cluster(tmp_path):
+    c = Cluster(tmp_path)
+    try:
+        yield c
+    finally:
+        c.stop()
+
+
+def daebench(*args: str, results: Path) -> subprocess.Popen:
+    env = dict(os.environ, DAEBENCH_RESULTS=str(results), COLUMNS="200")
+    return subprocess.Popen([sys.executable, "-m", "daebench.cli.app", *args], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def stored(results: Path, name: str) -> int:
+    db = results / "bench" / f"{name}.rows.sqlite"
+    if not db.exists():
+        return 0
+    try:
+        with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=5) as con:   # never creates it
+            return con.execute("SELECT COUNT(*) FROM rows").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+def until(cond, proc: subprocess.Popen, what: str) -> None:
+    t0 = time.monotonic()
+    while not cond():
+        assert proc.poll() is None, f"the sweep ended before {what}: {proc.communicate()}"
+        assert time.monotonic() - t0 < WAIT_S, f"no {what} after {WAIT_S} s"
+        time.sleep(0.1)
+
+
+def busy(c: Cluster) -> bool:
+    """A worker is processing a run (asked by a client of the test's own)."""
+    from dask.distributed import Client
+
+    with Client(c.address, timeout=10) as client:
+        return any(client.processing().values())
+
+
+def one_line_no_traceback(err: str, what: str) -> None:
+    assert "Traceback" not in err and what in err, err
+
+
+def table(results: Path, name: str) -> pd.DataFrame:
+    return pd.read_parquet(results / "bench" / f"{name}.parquet")
+
+
+def kill_the_scheduler_mid_sweep(cluster: Cluster, res: Path, name: str, workers: int = 1) -> str:
+    """A sweep on a new cluster of ``workers``, its scheduler killed once a row is stored
+    and a run is in flight; the sweep's stderr (it exits 1, saying so in one line)."""
+    cluster.start_scheduler()
+    for _ in range(workers):
+        cluster.worker()
+    p = daebench(*BENCH, "--scheduler", cluster.address, "--name", name, results=res)
+    until(lambda: stored(res, name) >= 1, p, "a first row")
+    until(lambda: busy(cluster), p, "a run in flight")
+    cluster.kill9(cluster.scheduler)
+    _, err = p.communicate(timeout=WAIT_S)
+    assert p.returncode == 1, err
+    one_line_no_traceback(err, f"lost the Dask scheduler at {cluster.address}")
+    return err
+
+
+def resume_to_the_end(cluster: Cluster, res: Path, name: str) -> pd.DataFrame:
+    """``--resume`` of sweep ``name`` on ``cluster``: it exits 0 with every planned run completed, once."""
+    p = daebench(*BENCH, "--scheduler", cluster.address, "--name", name, "--resume", results=res)
+    _, err = p.communicate(timeout=WAIT_S * 2)
+    assert p.returncode == 0, err
+    full = table(res, name)
+    assert sorted(full.run) == [0, 1, 2, 3] and (full.status == "completed").all()
+    return full
+
+
+def test_a_lost_scheduler_interrupts_the_runs_in_flight_and_resume_runs_them(cluster, tmp_path):
+    res = tmp_path / "results"
+    err = kill_the_scheduler_mid_sweep(cluster, res, "d3")
+    assert "continue with: daebench bench" in err and "--resume" in err
+    part = table(res, "d3")
+    assert len(part) == 4 and "error" not in set(part.status) and (part.status == "interrupted").sum() >= 1
+    done = set(part.run[part.status == "completed"])
+
+    cluster.stop()
+    cluster.start_scheduler()      # the same address, restarted
+    cluster.worker()
+    full = resume_to_the_end(cluster, res, "d3")
+    kept = part[part.run.isin(done)].set_index("run")
+    assert (full.set_index("run").loc[sorted(done), "digest"] == kept["digest"]).all()   # finished rows kept
+
+
+def test_a_lost_worker_is_a_crashed_row_once_and_no_workers_is_reported(cluster, tmp_path):
+    res = tmp_path / "results"
+    cluster.start_scheduler()
+    only = cluster.worker()          # --no-nanny: nothing restarts it
+    p = daebench(*BENCH, "--scheduler", cluster.address, "--name", "w", "--no-workers-timeout", "5", results=res)
+    until(lambda: stored(res, "w") >= 1, p, "a first row")
+    until(lambda: busy(cluster), p, "a run in flight")
+    time.sleep(1.0)                  # the sweep has seen where it runs (it looks every 0.25 s)
+    cluster.kill9(only)
+    _, err = p.communicate(timeout=WAIT_S)
+    assert p.returncode == 1, err
+    one_line_no_traceback(err, f"the Dask cluster at {cluster.address} has had no workers for 5 s "
+                               f"(--no-workers-timeout)")
+    part = table(res, "w")
+    crashed = part[part.status == "crashed"]
+    assert len(crashed) == 1 and "its Dask worker tcp://127.0.0.1:" in crashed.message.iloc[0]
+    assert "was lost while it ran" in crashed.message.iloc[0] and "error" not in set(part.status)
+    lost_run = int(crashed.run.iloc[0])
+
+    # the resume on a new worker runs the crashed run again (the cluster failed, not the run)
+    # and the interrupted ones, each once
+    cluster.worker()
+    full = resume_to_the_end(cluster, res, "w")
+    assert "lost_worker" not in full or full.lost_worker.isna().all()
+    assert lost_run in set(full.run)
+
+
+def processing(c: Cluster) -> dict[str, list]:
+    from dask.distributed import Client
+
+    with Client(c.address, timeout=10) as client:
+        return {a: list(k) for a, k in client.processing().items() if k}
+
+
+@pytest.mark.slow
+def test_a_bench_survives_kill9_of_its_scheduler_and_of_a_worker_with_a_local_runs_numbers(cluster, tmp_path):
+    """The scheduler killed mid-sweep and restarted, then a busy worker of two killed: after
+    the resumes every planned row is there once, none `error`, each equal to the row of the
+    same run on local worker processes (history digest, steps, errors)."""
+    res = tmp_path / "results"
+    local = daebench(*BENCH, "--name", "local", "-j", "1", results=res)
+    kill_the_scheduler_mid_sweep(cluster, res, "k", workers=2)
+    statuses = [set(table(res, "k").status)]
+
+    cluster.stop()
+    cluster.start_scheduler()
+    workers = [cluster.worker(), cluster.worker()]
+    p = daebench(*BENCH, "--scheduler", cluster.address, "--name", "k", "--resume", results=res)
+    until(lambda: processing(cluster), p, "a run in flight")
+    busy_at = next(iter(processing(cluster)))
+    time.sleep(1.0)
+    cluster.kill9(next(w for w in workers if w.address == busy_at))
+    _, err = p.communicate(timeout=WAIT_S * 2)
+    statuses.append(set(table(res, "k").status))
+    assert p.returncode == 1 and "gave no verdict (crashed)" in err, err    # the other worker went on
+
+    resume_to_the_end(cluster, res, "k")
+    assert local.wait(timeout=WAIT_S * 2) == 0, local.communicate()
+    assert "interrupted" in statuses[0] and "crashed" in statuses[1] and "error" not in set.union(*statuses)
+    k, loc = table(res, "k").set_index("run"), table(res, "local").set_index("run")
+    for col in ("label", "digest", "steps", "err_theta_max"):
+        assert list(k[col]) == list(loc[col]), col
+
+
+# ---- what answers at a wrong address ----------------------------------------------------------
+class _Server:
+    """A loopback TCP server in a thread: ``answer(conn)`` speaks for each connection."""
+
+    def __init__(self, answer) -> None:
+        self.sock = socket.create_server(("127.0.0.1", 0))
+        self.port = self.sock.getsockname()[1]
+        self.answer = answer
+        self.conns: list[socket.socket] = []
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self) -> None:
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            self.conns.append(conn)
+            threading.Thread(target=self.answer, args=(conn,), daemon=True).start()
+
+    def close(self) -> None:
+        self.sock.close()
+        for c in self.conns:
+            c.close()
+
+
+def _http_400(conn: socket.socket) -> None:   # answers any bytes with 400, as a web server does to garbage
+    try:
+        if conn.recv(1024):
+            conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+    except OSError:
+        pass
+
+
+def _garbage(conn: socket.socket) -> None:
+    conn.sendall(b"\xff" * 64)
+
+
+def _silent(conn: socket.socket) -> None:
+    pass
+
+
+def _connect(address: str, timeout: float) -> BaseException | None:
+    """connect_dask in a thread, joined with a bound (the old code hung ~200 s on an HTTP server)."""
+    out: list[BaseException | None] = []
+
+    def go() -> None:
+        try:
+            dask_cluster.connect_dask(address, 1, timeout=timeout)[1]()
+            out.append(None)
+        except BaseException as exc:   # the refusal is what the test reads
+            out.append(exc)
+
+    t = threading.Thread(target=go, daemon=True)
+    t.start()
+    t.join(timeout + 20.0)
+    assert out, f"connect_dask({address}) still waiting {timeout + 20:g} s after a connect timeout of {timeout:g} s"
+    return out[0]
+
+
+@pytest.mark.parametrize("answer, said", [
+    (_http_400, "an HTTP server answers at 127.0.0.1:{port} ('HTTP/1.1 400 Bad Request'), not a Dask scheduler"),
+    (_garbage, "the service at 127.0.0.1:{port} is not a Dask scheduler: its first bytes b'\\xff\\xff"),
+    (_silent, "something accepts connections at 127.0.0.1:{port} but sent no Dask handshake within 2 s"),
+])
+def test_a_wrong_address_is_named_within_the_connect_timeout(answer, said):
+    srv = _Server(answer)
+    try:
+        exc = _connect(f"tcp://127.0.0.1:{srv.port}", 2.0)
+    finally:
+        srv.close()
+    assert isinstance(exc, ExecutorError), exc
+    assert said.format(port=srv.port) in str(exc) and "dask scheduler" in str(exc)
+
+
+def test_nothing_listening_and_an_http_server_on_the_command_line(tmp_path):
+    port = free_port()
+    exc = _connect(f"tcp://127.0.0.1:{port}", 2.0)
+    assert isinstance(exc, ExecutorError) and f"nothing listens at 127.0.0.1:{port} (connection refused)" in str(exc)
+
+    class Quiet(http.server.SimpleHTTPRequestHandler):
+        def log_message(self, *args) -> None:
+            pass
+
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Quiet)
+    threading.Thread(target=httpd.serve_forever, daemon=True).start()
+    try:
+        p = daebench(*BENCH, "--scheduler", f"tcp://127.0.0.1:{httpd.server_port}", results=tmp_path)
+        _, err = p.communicate(timeout=120)
+    finally:
+        httpd.shutdown()
+        httpd.server_close()
+    assert p.returncode == 2, err
+    one_line_no_traceback(err, f"an HTTP server answers at 127.0.0.1:{httpd.server_port} ('HTTP/1.0 200 OK')")
+    assert not (tmp_path / "bench").exists() or not list((tmp_path / "bench").glob("*.parquet"))
+
+
+def test_the_no_workers_bound_is_an_option_with_help_and_is_checked():
+    from typer.testing import CliRunner
+
+    from daebench.cli.app import app
+    from daebench.harness.sweeps.options import Execution, SweepError
+
+    for cmd in ("bench", "survey"):
+        r = CliRunner().invoke(app, [cmd, "--help"], env={"COLUMNS": "200"})
+        assert "--no-workers-timeout" in r.output and "no worker while runs wait" in r.output
+    for bad in (0.0, -1.0, float("nan"), True):
+        with pytest.raises(SweepError, match="--no-workers-timeout must be a positive number"):
+            Execution(no_workers_timeout=bad)
