@@ -18,6 +18,9 @@ from daebench.harness.files import jsonable
 from daebench.workflows.export import case_sheet
 from daebench.workflows.score import ScoreResult, Source
 
+PeerFailed = _peers.PeerFailed
+PeerUnavailable = _peers.PeerUnavailable
+
 
 @dataclass(frozen=True)
 class PeerResult:

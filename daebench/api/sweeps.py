@@ -10,6 +10,7 @@ from typing import Any, Callable, Iterable, Sequence
 import pandas as pd
 
 from daebench.api.catalogue import SceneLike, load_scene
+from daebench.api.peers import peer_sources
 from daebench.harness.analysis import costs
 from daebench.harness.files import OutputWriteError
 from daebench.harness.scoring import glossary, pipeline
@@ -73,7 +74,8 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *, o
 
 def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides: Overrides = None,
             out: str | Path | None = None, report: bool = False,
-            protocol: _compare.Protocol | None = None, include: Sequence[Any] = ()) -> _compare.CompareResult:
+            protocol: _compare.Protocol | None = None, include: Sequence[Any] = (),
+            peers: Sequence[str] = (), peer_steps: Sequence[float] | None = None) -> _compare.CompareResult:
     """Every applicable integrator at the case's protocol, scored against the reference;
     the table, the work–precision figure and (``report``) one HTML page in ``out``
     (default results/compare/<case>-<hash>). ``options``: as
@@ -81,12 +83,17 @@ def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides:
     when missing) unless given. ``include``: other codes' trajectories (paths, DataFrames or
     :class:`daebench.workflows.score.Source` values, as :func:`daebench.score` takes them),
     scored beside the runs and marked external; refused before any run when their data are.
+    ``peers``: peer codes (:func:`daebench.api.peers.peer_names`) run on the case first, in
+    this same call, at ``peer_steps`` [s] (default: each peer's own steps for the case), their
+    files included as ``include`` is.
     The result's ``ok`` is the exit rule: every run gave a verdict and every history equals
     the previous comparison's (``changed`` says which did not)."""
     sc = load_scene(scene, overrides)
     if isinstance(include, (str, Path, Source, pd.DataFrame)):
         include = [include]
     sources = [s if isinstance(s, Source) else Source(s) for s in include]
+    if peers:
+        sources += peer_sources(sc, list(peers), peer_steps)
     res = _compare.run_compare(sc, options or _compare.DEFAULT_OPTIONS, out, protocol, sources)
     if report:
         try:

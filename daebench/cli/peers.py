@@ -41,13 +41,13 @@ def peer(case: str = typer.Argument(..., help="scene name or path to a .toml fil
         fail(str(exc))
     except api.OutputWriteError as exc:
         fail(str(exc), 1)
-    except RuntimeError as exc:   # the peer's process failed: its own words
+    except api.PeerFailed as exc:   # the peer's process failed: its own words
         fail(str(exc), 1)
     if as_json:
         sys.stdout.write(res.as_json() + "\n")
         return
-    scored = list(sc.get("output.observables") or [])
-    measures = [f"err_{o}_max_trusted" for o in scored if f"err_{o}_max_trusted" in res.rows()[0]]
+    measures = [k for k in res.rows()[0] if k.startswith("err_") and k.endswith("_max_trusted")
+                and not any(w in k for w in ("impact", "pre_", "win"))]
     orders = {m: res.orders(m) for m in measures}
     rows = []
     for i, (r, row) in enumerate(zip(res.runs, res.rows())):

@@ -121,7 +121,14 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
                                              help="also write report.html (one self-contained page) in the folder"),
             include: list[str] = typer.Option([], "--include",
                                               help="another code's trajectory (CSV/Parquet, as for `daebench score`), "
-                                                   "scored beside the runs and marked external; repeatable")) -> None:
+                                                   "scored beside the runs and marked external; repeatable"),
+            peers: Optional[str] = typer.Option(None, "--peers",
+                                                help="peer codes run on the case in this same run and included, "
+                                                     "comma-separated: siconos-mj, siconos-ed, exudyn-ga "
+                                                     "(`daebench peer`)"),
+            peer_steps: Optional[str] = typer.Option(None, "--peer-steps",
+                                                     help="the peers' fixed steps [s], comma-separated (default: "
+                                                          "each peer's own for the case)")) -> None:
     """Run every applicable integrator at the case's protocol and score each run against the reference.
 
     The protocol is the runs each integrator declares for the case, else one at its defaults. Prints one
@@ -134,7 +141,9 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
     try:
         options = api.SweepOptions(reference=reference, timing=api.Timing(run_cap=run_cap),
                                    execution=api.Execution(jobs=jobs, progress=True))
-        res = api.compare(sc, options, out=out_dir, report=report_page, include=include)
+        res = api.compare(sc, options, out=out_dir, report=report_page, include=include,
+                          peers=[x.strip() for x in (peers or "").split(",") if x.strip()],
+                          peer_steps=floats(peer_steps, "--peer-steps"))
     except KeyboardInterrupt as exc:  # during the runs, or after them (scoring, figures): said, never silent
         done = getattr(exc, "table", None)
         kept = (f"{int((done['status'] != 'interrupted').sum())} of {len(done)} runs had finished; "
@@ -147,6 +156,8 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
         fail(str(exc), 1)
     except api.ParamError as exc:
         fail(str(exc))
+    except api.PeerFailed as exc:   # a peer's process failed before the runs: its own words
+        fail(str(exc), 1)
     if json_out:
         sys.stdout.write(res.as_json() + "\n")
     else:

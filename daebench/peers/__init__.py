@@ -10,7 +10,7 @@ workers (:mod:`daebench.peers.workers`) run outside daebench and import none of 
 May import: :mod:`daebench.workflows` and the layers below it.
 """
 
-from daebench.peers.base import Peer, PeerRefused, PeerRun, PeerUnavailable, run_peer
+from daebench.peers.base import Peer, PeerFailed, PeerRefused, PeerRun, PeerUnavailable, run_peer
 from daebench.peers.exudyn import EXUDYN_GA
 from daebench.peers.siconos import SICONOS_ED, SICONOS_MJ
 
@@ -25,4 +25,4 @@ def get_peer(name: str) -> Peer:
     return PEERS[name]
 
 
-__all__ = ["PEERS", "Peer", "PeerRun", "PeerRefused", "PeerUnavailable", "get_peer", "run_peer"]
+__all__ = ["PEERS", "Peer", "PeerRun", "PeerRefused", "PeerFailed", "PeerUnavailable", "get_peer", "run_peer"]

@@ -34,6 +34,10 @@ class PeerRefused(ParamError):
     """The peer does not run this case, step or method (the message says what it does)."""
 
 
+class PeerFailed(RuntimeError):
+    """The peer's process failed or ran past :data:`RUN_CAP_S` (its stderr's tail said)."""
+
+
 class PeerUnavailable(PeerRefused):
     """The peer code is not installed where its adapter looks (the message names the install
     command)."""
@@ -121,8 +125,12 @@ def default_folder(scene: Scene) -> Path:
     return results_dir() / "peers" / f"{scene.name}-{scene.hash[:8]}"
 
 
-def check_step(h: float) -> float:
-    h = float(h)
+def check_step(h: float | str) -> float:
+    """A peer's fixed step as a float; :class:`PeerRefused` for anything but a positive finite number."""
+    try:
+        h = float(h)
+    except (TypeError, ValueError):
+        raise PeerRefused(f"a peer's step must be a number, got {h!r}") from None
     if not (math.isfinite(h) and h > 0.0):
         raise PeerRefused(f"a peer's step must be positive and finite, got {h!r}")
     return h
@@ -139,7 +147,7 @@ def run_peer(peer: Peer, scene: Scene, steps: Sequence[float], out: str | Path |
         The peer code is not installed (the message names the install command).
     PeerRefused
         The peer does not run this case or step (its worker's message).
-    RuntimeError
+    PeerFailed
         The peer's process failed (its stderr's tail) or ran past :data:`RUN_CAP_S`.
     """
     hs = [check_step(h) for h in steps]
@@ -159,15 +167,15 @@ def _one(peer: Peer, exe: str, sheet: dict[str, Any], h: float, folder: Path) ->
         r = subprocess.run([exe, str(WORKERS / peer.worker)], input=json.dumps(req), capture_output=True, text=True,
                            timeout=RUN_CAP_S, env=env)
     except subprocess.TimeoutExpired as exc:
-        raise RuntimeError(f"peer '{peer.name}' at h = {h:g} s ran past {RUN_CAP_S:g} s and was ended") from exc
+        raise PeerFailed(f"peer '{peer.name}' at h = {h:g} s ran past {RUN_CAP_S:g} s and was ended") from exc
     if r.returncode == REFUSED_EXIT:
         raise PeerRefused(f"peer '{peer.name}': {r.stderr.strip()}")
     if r.returncode != 0:
         tail = "\n".join(r.stderr.strip().splitlines()[-8:])
-        raise RuntimeError(f"peer '{peer.name}' at h = {h:g} s failed (exit {r.returncode}):\n{tail}")
+        raise PeerFailed(f"peer '{peer.name}' at h = {h:g} s failed (exit {r.returncode}):\n{tail}")
     res = json.loads(r.stdout.strip().splitlines()[-1])
     cpu = float(res["cpu_s"])
     if not math.isfinite(cpu) or cpu < 0.0:
-        raise RuntimeError(f"peer '{peer.name}' reported a CPU time of {cpu!r} s")
+        raise PeerFailed(f"peer '{peer.name}' reported a CPU time of {cpu!r} s")
     imp = Path(res["impacts_file"]) if res.get("impacts_file") else None
     return PeerRun(peer.name, h, path, imp, cpu, int(res["steps"]), res["code"], res["method"])

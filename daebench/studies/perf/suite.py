@@ -55,7 +55,7 @@ from daebench.harness.sweeps.options import Execution, SweepOptions
 from daebench.models.scenes import load_scene
 from daebench.studies import event_capturing
 from daebench.studies.hht_beam_impact import study as beam_study
-from daebench.studies.perf import cold_start, friction_cost, model_floor, new_model, probes, structure
+from daebench.studies.perf import cold_start, friction_cost, model_floor, new_model, peer_cost, probes, structure
 from daebench.studies.perf.adaptive_steps import adaptive, resolution_bound
 from daebench.studies.perf.peers import compiled_plugin, exudyn_compare
 from daebench.studies.perf.report import markdown
@@ -181,6 +181,7 @@ SECTIONS = {
     "new-model": lambda out: new_model.markdown(new_model.measure()),
     "cold-start": lambda out: cold_start.markdown(cold_start.measure()),
     "friction": lambda out: friction_cost.markdown(friction_cost.friction_step_rates()),
+    "peer-cost": lambda out: peer_cost.report(),
 }
 
 
