@@ -6,7 +6,10 @@ at velocity level; impulses, no events located); ``ed`` — event-driven with LS
 1e-14, atol 1e-16: impact times to ~1e-14 s on the ball), the impact LCP at each event and the
 smooth-acceleration LCP for the contact status. Cases: the ``ball`` model (the bouncing ball
 and the spring–wall oscillator: one coordinate, a linear time-invariant Lagrangian system, the
-wall a linear relation y = x − x_w).
+wall a linear relation y = x − x_w), both methods; the ``slider-crank`` model
+(``slider-crank-clearance``, frictionless) with ``mj`` in Siconos' plugin formulation
+(:mod:`siconos_slidercrank`): one Newton–LCP loop per step, an impact per corner where its
+impulse turns positive.
 
 What the Python layer does not give: the Liu–Zhao–Brogliato multiple-impact law
 (``MultipleImpactNSL`` is wrapped, its one-step solver ``OSNSMultipleImpact`` is not), so the
@@ -115,16 +118,54 @@ def event_driven(sk, nsds, ds, inter, wall, h: float, n: int):
                                           f"impact and smooth-acceleration LCPs, output every {h!r} s")
 
 
+def slider_crank(sk, sheet: dict, p: dict, t_end: float, h: float, method: str):
+    """Moreau–Jean on the slider-crank in Siconos' plugin formulation (:mod:`siconos_slidercrank`)."""
+    import siconos_slidercrank as sc
+
+    if method != "mj":
+        raise common.Refused("the slider-crank's corners chatter (accumulating impacts): Siconos' event-driven "
+                             "scheme does not pass them; run it with siconos-mj")
+    nsds, ds, inters = sc.build(sk, np, sheet, p, t_end)
+    sim = sk.TimeStepping(nsds, sk.TimeDiscretisation(0.0, h), sk.MoreauJeanOSI(THETA), sk.LCP())
+    sim.setNewtonTolerance(1e-10)
+    sim.setNewtonMaxIteration(20)
+    rows = [(0.0, *sc.observables(ds.q(), ds.velocity(), p))]
+    impacts = []
+
+    def loop():
+        was = [False] * len(inters)
+        while sim.hasNextEvent():
+            sim.computeOneStep()
+            t = sim.nextTime()
+            rows.append((t, *sc.observables(ds.q(), ds.velocity(), p)))
+            for k, inter in enumerate(inters):
+                on = inter.lambda_(1)[0] > 0.0
+                if on and not was[k]:
+                    impacts.append((t, k))
+                was[k] = on
+            sim.nextStep()
+    _, cpu = common.timed(loop)
+    return sc.COLUMNS, rows, impacts, cpu, len(rows) - 1, (f"Moreau–Jean (θ = {THETA}, LCP per step, Newton "
+                                                            f"tolerance 1e-10, h = {h!r} s), plugin formulation")
+
+
 def run(req: dict) -> None:
     import siconos.kernel as sk
 
     sheet = req["sheet"]
-    if sheet["model"] != "ball":
-        raise common.Refused(f"the Siconos adapter runs the ball model's cases (ball, spring-wall); "
-                             f"case '{sheet['case']}' is model '{sheet['model']}'")
     p = common.values(sheet)
     t_end, h = float(sheet["time"]["t_end"]), float(req["h"])
     n = common.steps_of(t_end, h)
+    if sheet["model"] == "slider-crank":
+        columns, rows, impacts, cpu, steps, words = slider_crank(sk, sheet, p, t_end, h, req["method"])
+        common.write(req, columns, rows, impacts,
+                     {"cost_s": repr(cpu), "steps": steps, "code": f"Siconos {_version()}", "method": words,
+                      "cost": "CPU time of the simulation loop in the peer's process (time.process_time)",
+                      "h": repr(h)})
+        return
+    if sheet["model"] != "ball":
+        raise common.Refused(f"the Siconos adapter runs the ball model's cases (ball, spring-wall) and "
+                             f"slider-crank-clearance; case '{sheet['case']}' is model '{sheet['model']}'")
     scheme = {"mj": moreau_jean, "ed": event_driven}[req["method"]]
     rows, impacts, cpu, steps, words = scheme(sk, *_ball(sk, p, t_end), h, n)
     common.write(req, ["t", "x", "v", "gap"], rows, impacts,
