@@ -168,3 +168,30 @@ def test_siconos_slider_crank_agrees_with_daebench_moreau_at_the_same_step(tmp_p
     ours = api.run(sc, "moreau", h=1e-5, write=False).observables
     for col, tol in (("theta", 0.02), ("y", 1e-4)):     # measured: 6.1e-3 rad, 4.6e-5 m (chattering)
         assert np.max(np.abs(np.interp(ours["t"], d["t"], d[col]) - ours[col])) < tol, col
+
+
+@needs_exudyn
+def test_exudyn_on_the_penalty_ball_follows_an_independent_integration_of_the_same_law(tmp_path):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_ball_penalty import _truth
+
+    sc = api.load_scene("ball", ["contact.law=penalty"])
+    (run,) = base.run_peer(PEERS["exudyn-ga"], sc, [5e-5], tmp_path)
+    d = pd.read_csv(run.file, comment="#").iloc[::20]
+    assert np.max(np.abs(d["x"].to_numpy() - _truth(d["t"].to_numpy()))) < 5e-3    # measured: 1.7e-3
+    assert len(pd.read_csv(run.impacts)) == 4
+
+
+@needs_siconos
+@pytest.mark.slow
+def test_siconos_slider_crank_is_scored_over_the_trusted_span_at_three_steps(tmp_path):
+    res = api.peer("slider-crank-clearance", "siconos-mj", [2e-5, 1e-5, 5e-6], write=False, out=tmp_path)
+    rows = res.rows()
+    assert all(r["status"] == "completed" and r["trust_t"] > 0 for r in rows)
+    err = [r["err_theta_max_trusted"] for r in rows]
+    assert all(math.isfinite(e) and e > 0 for e in err)
+    pairs, fitted = res.orders("err_theta_max_trusted")
+    assert all(0.8 < p < 1.2 for p in pairs[1:]), (err, pairs)     # measured: 1.00, 0.98 (span 0 – 3.27 ms)

@@ -58,7 +58,7 @@ def write(req: dict[str, Any], columns: list[str], rows: list[tuple[float, ...]]
     path.write_text("\n".join(lines) + "\n")
     imp = impacts_path(path)
     if impacts is not None:
-        imp.write_text("t,contact\n" + "".join(f"{t!r},{c}\n" for t, c in impacts))
+        imp.write_text("t,contact\n" + "".join(f"{float(t)!r},{int(c)}\n" for t, c in impacts))
     print(json.dumps({"cpu_s": float(meta["cost_s"]), "steps": meta["steps"],
                       "impacts": None if impacts is None else len(impacts), "rows": len(rows),
                       "code": meta["code"], "method": meta["method"],
