@@ -13,7 +13,8 @@ import pytest
 PKG = Path(__file__).resolve().parents[1] / "daebench"
 
 # bottom to top; a module may import its own layer and any layer listed before it
-LAYERS = ["core", "stepping", "models", "integrators", "driver", "harness", "workflows", "studies", "api", "cli"]
+LAYERS = ["core", "stepping", "models", "integrators", "driver", "harness", "workflows", "peers", "studies", "api",
+          "cli"]
 RANK = {name: i for i, name in enumerate(LAYERS)}
 
 

@@ -25,6 +25,7 @@ below imports it, and :mod:`daebench.cli` imports nothing else.
 from daebench.api.catalogue import (IntegratorInfo, SceneInfo, cases, integrator_info, integrator_infos,
                                     integrator_refusals, load_scene, register, show)
 from daebench.api.external import ExportResult, ScoreResult, Source, export_case, score
+from daebench.api.peers import PeerFailed, PeerResult, PeerUnavailable, peer, peer_names, peer_sources
 from daebench.api.figures import plot_convergence, plot_histories, plot_work_precision
 from daebench.api.runs import reference, run
 from daebench.api.studies import (CapturePage, StudyTable, averaged_gap_chain, averaged_gap_pendulum, capture_page,
@@ -52,6 +53,7 @@ __all__ = [
     "run", "RunOutput", "Writing", "reference",
     # other codes
     "score", "ScoreResult", "Source", "export_case", "ExportResult",
+    "peer", "PeerResult", "peer_names", "peer_sources", "PeerFailed", "PeerUnavailable",
     # many runs
     "bench", "compare", "survey", "report", "effects", "stability", "error_columns", "parse_targets",
     "describe_measure",

@@ -11,6 +11,7 @@ from typing import Any, Callable, Iterable, Sequence
 import pandas as pd
 
 from daebench.api.catalogue import SceneLike, load_scene
+from daebench.api.peers import peer_sources
 from daebench.harness.analysis import costs
 from daebench.harness.files import OutputWriteError
 from daebench.harness.scoring import glossary, pipeline
@@ -80,7 +81,8 @@ def bench(scene: SceneLike, integrators: Sequence[str] | str | None = None, *, o
 def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides: Overrides = None,
             out: str | Path | None = None, report: bool = False,
             protocol: _compare.Protocol | None = None, include: Sequence[Any] = (),
-            budget: float | None = None) -> _compare.CompareResult:
+            budget: float | None = None, peers: Sequence[str] = (),
+            peer_steps: Sequence[float] | None = None) -> _compare.CompareResult:
     """Every applicable integrator at the case's protocol, scored against the reference;
     the table, the work–precision figure and (``report``) one HTML page in ``out``
     (default results/compare/<case>-<hash>). ``options``: as
@@ -88,6 +90,9 @@ def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides:
     when missing) unless given. ``include``: other codes' trajectories (paths, DataFrames or
     :class:`daebench.workflows.score.Source` values, as :func:`daebench.score` takes them),
     scored beside the runs and marked external; refused before any run when their data are.
+    ``peers``: peer codes (:func:`daebench.api.peers.peer_names`) run on the case first, in
+    this same call, at ``peer_steps`` [s] (default: each peer's own steps for the case), their
+    files included as ``include`` is.
     The result's ``ok`` is the exit rule: every run gave a verdict and every history equals
     the previous comparison's (``changed`` says which did not). ``budget``: wall time [s]
     for extending each series until its targets are decided (default
@@ -98,6 +103,8 @@ def compare(scene: SceneLike, options: SweepOptions | None = None, *, overrides:
     sources = [s if isinstance(s, Source) else Source(s) for s in include]
     if budget is not None and not (isinstance(budget, (int, float)) and math.isfinite(budget) and budget >= 0):
         raise ParamError(f"budget must be a number of seconds ≥ 0 (0: the protocol's runs only), got {budget!r}")
+    if peers:
+        sources += peer_sources(sc, list(peers), peer_steps)
     res = _compare.run_compare(sc, options or _compare.DEFAULT_OPTIONS, out, protocol, sources,
                                _converge.DEFAULT_BUDGET_S if budget is None else float(budget))
     if report:

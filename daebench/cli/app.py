@@ -14,12 +14,12 @@ import sys
 
 import typer
 
-from daebench.cli import catalogue, external, perf, plot, runs, studies, sweeps, verify
+from daebench.cli import catalogue, external, peers, perf, plot, runs, studies, sweeps, verify
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False, rich_markup_mode="markdown",
                   help="Benchmark time integrators for constrained mechanical systems with impact.")
 
-for group in (catalogue, runs, external, sweeps, studies, perf, plot, verify):
+for group in (catalogue, runs, external, peers, sweeps, studies, perf, plot, verify):
     group.register(app)
 
 

@@ -152,7 +152,14 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
             budget: float = typer.Option(DEFAULT_BUDGET_S, "--budget",
                                          help="wall time [s] for extending each method's series (h/2, tol/10) until "
                                               f"every target is decided; default {DEFAULT_BUDGET_S:g} s; 0: the "
-                                              "protocol's runs only")) -> None:
+                                              "protocol's runs only"),
+            peers: Optional[str] = typer.Option(None, "--peers",
+                                                help="peer codes run on the case in this same run and included, "
+                                                     "comma-separated: siconos-mj, siconos-ed, exudyn-ga "
+                                                     "(`daebench peer`)"),
+            peer_steps: Optional[str] = typer.Option(None, "--peer-steps",
+                                                     help="the peers' fixed steps [s], comma-separated (default: "
+                                                          "each peer's own for the case)")) -> None:
     """Run every applicable integrator at the case's protocol and score each run against the reference.
 
     The protocol is the case's own (its scene file's [compare] table), else one run each at the defaults. Prints one
@@ -165,7 +172,9 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
     try:
         options = api.SweepOptions(reference=reference, timing=api.Timing(run_cap=run_cap),
                                    execution=api.Execution(jobs=jobs, progress=True))
-        res = api.compare(sc, options, out=out_dir, report=report_page, include=include, budget=budget)
+        res = api.compare(sc, options, out=out_dir, report=report_page, include=include, budget=budget,
+                          peers=[x.strip() for x in (peers or "").split(",") if x.strip()],
+                          peer_steps=floats(peer_steps, "--peer-steps"))
     except KeyboardInterrupt as exc:  # during the runs, or after them (scoring, figures): said, never silent
         done = getattr(exc, "table", None)
         kept = (f"{int((done['status'] != 'interrupted').sum())} of {len(done)} runs had finished; "
@@ -178,6 +187,8 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
         fail(str(exc), 1)
     except api.ParamError as exc:
         fail(str(exc))
+    except api.PeerFailed as exc:   # a peer's process failed before the runs: its own words
+        fail(str(exc), 1)
     if json_out:
         sys.stdout.write(res.as_json() + "\n")
     else:

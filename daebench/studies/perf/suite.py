@@ -55,7 +55,8 @@ from daebench.harness.sweeps.options import Execution, SweepOptions
 from daebench.models.scenes import load_scene
 from daebench.studies import event_capturing
 from daebench.studies.hht_beam_impact import study as beam_study
-from daebench.studies.perf import cold_start, compile_census, friction_cost, model_floor, new_model, probes, structure
+from daebench.studies.perf import (cold_start, compile_census, friction_cost, model_floor, new_model, peer_cost,
+                                   probes, structure)
 from daebench.studies.perf.adaptive_steps import adaptive, resolution_bound
 from daebench.studies.perf.peers import compiled_plugin, exudyn_compare, pendulum_peer_markdown
 from daebench.studies.perf.report import markdown
@@ -183,6 +184,7 @@ SECTIONS = {
     "friction": lambda out: friction_cost.markdown(friction_cost.friction_step_rates()),
     "compile": lambda out: compile_census.markdown(compile_census.census([compile_census.MAIN_JOB]), top=25),
     "pendulum-peer": lambda out: pendulum_peer_markdown(PerfSettings(peer_rounds=7)),
+    "peer-cost": lambda out: peer_cost.report(),
 }
 
 
