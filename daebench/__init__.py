@@ -14,7 +14,8 @@ The package reads top-down, one layer a subpackage, each importing only those be
 (``tests/test_layers.py`` holds the order): :mod:`.core` (data and physics interfaces),
 :mod:`.stepping` (compiled steppers), :mod:`.models`, :mod:`.integrators`,
 :mod:`.driver` (the event-driven driver), :mod:`.harness` (runs, sweeps, references,
-scores), :mod:`.workflows` (what each command does), :mod:`.studies` (the reproduced
+scores), :mod:`.workflows` (what each command does), :mod:`.peers` (other codes run on a
+case: Siconos, Exudyn), :mod:`.studies` (the reproduced
 papers, the speed figures), :mod:`.api` (the only door the command line uses), :mod:`.cli`.
 """
 import os as _os

@@ -15,7 +15,7 @@ from daebench.models import build_system
 from daebench.models.scenes import load_scene
 
 # a scene of each model with contacts, and the laws it offers
-SCENES = {"ball": ("constraint", "complementarity"),
+SCENES = {"ball": ("constraint", "penalty", "complementarity"),
           "chain-impact": ("hertz", "penalty", "constraint", "complementarity"),
           "double-pendulum": ("constraint", "hertz", "penalty", "complementarity"),
           "beam-impact": ("constraint", "hertz", "penalty"),
