@@ -46,3 +46,20 @@ def test_the_truths_own_pair_is_split_to_its_limits():
     truth = pd.DataFrame({"t": [0.0, 1.0, 1.0, 2.0], "v": [0.0, -1.0, 0.8, 0.0]})
     out = split_truth_pairs(truth, [1.0])["t"].to_numpy()
     assert out[1] < 1.0 < out[2] and out[2] - out[1] < 1e-15 and np.all(np.diff(out) > 0)
+
+
+def test_against_a_reference_holding_its_own_impact_rows():
+    """Against a reference that writes two rows at each of its impacts (as an exact one holds
+    them), the file's pair one unit in the last place early meets each branch's limit."""
+    from daebench.api.catalogue import load_scene
+    from daebench.harness.scoring.pipeline import Truth
+    from daebench.workflows import score as S
+    from _closed_forms import ball_impacts
+
+    scene = load_scene("ball")
+    ref = ball_event_driven(0).drop(columns="gap")
+    tr = Truth(ref, tuple(ball_impacts()), "reference", 1e-11, trust_t=2.5, trust_impacts=4, made_by="closed form")
+    ext = S.prepare(scene, S.Source(ball_event_driven(-1)))
+    row = S.external_row(scene, ext, tr)
+    assert row["against"] == "reference" and row["status"] == "completed"
+    assert row["err_v_max"] < 1e-12 and row["err_x_max"] < 1e-12 and row["err_graph_v"] < 1e-12
