@@ -29,8 +29,8 @@ scheme's own) a contact makes no energy:
    step's, or the episode's: ``energy_loss``) is a loss, to :data:`CAPTURE_REL` of the
    record's own scale P|ġ⁻| plus :data:`CAPTURE_ENERGY_TOL` of the run's energy scale (the
    scheme's own energy error at the impact step is in it: nonsmooth generalized-α on
-   spring-wall, e = 1 and no friction, makes 1.1e-4 P|ġ⁻| at an impact, at h = 1e-4 and
-   5e-5 alike; Moreau–Jean on Housner's block with e = 1, μ = 1 up to 4.5e-4 P|ġ⁻| — within
+   spring-wall, e = 1 and no friction, makes 1.1e-4 P|ġ⁻| at an impact at h = 1e-4 and
+   1.3e-3 P|ġ⁻| at h = 1e-3 with ρ∞ = 1; Moreau–Jean on Housner's block with e = 1, μ = 1 up to 4.5e-4 P|ġ⁻| — within
    that band, so not told apart; the falling rod's 9.7 J is 0.11 P|ġ⁻|);
 6. **no energy made by contact work** — the cumulative work of the contact impulses the
    integrator books (``W_contact``, Σ P (U⁻ + U⁺)/2 with the tangential impulses: the
@@ -62,7 +62,7 @@ REL_TOL = 1e-8     # relative tolerance of the equalities and inequalities below
 ABS_VN = 1e-12     # m/s: normal velocities below this are zero
 ENERGY_ROUNDOFF = 1e-12    # energy changes below this × the run's energy scale are round-off
 MAX_LINES = 5      # violations listed in a message (the count says how many in all)
-CAPTURE_REL = 1e-3          # rule 5: energy an impact step may make, × its P|ġ⁻| ...
+CAPTURE_REL = 1e-2          # rule 5: energy an impact step may make, × its P|ġ⁻| ...
 CAPTURE_ENERGY_TOL = 1e-7   # ... plus this × the run's energy scale
 CAPTURE_WORK_TOL = 1e-3     # rule 6: rise of the booked contact work allowed, × the run's energy scale
 
