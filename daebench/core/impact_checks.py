@@ -37,7 +37,10 @@ scheme's own) a contact makes no energy:
    impulses' kinetic-energy change by Kelvin's theorem) never rises above its running
    minimum by more than :data:`CAPTURE_WORK_TOL` of the energy scale
    (:class:`ContactWork`; a persistent contact's steps let it drift: +1.6e-5 J, 3e-6 of
-   the scale, over 0.6 s of Housner's block rocking at h = 1e-4, e = 0, μ = 1).
+   the scale, over 0.6 s of Housner's block rocking at h = 1e-4, e = 0, μ = 1). Only a
+   work of impulses booked per step (Moreau–Jean, nonsmooth generalized-α); a contact force's
+   work booked with its power (lcp-avg's time-averaged gap) gives energy back within an
+   episode as the contact expands, and is held to the energy balance instead.
 
 Newton's law with Coulomb friction and e > 0 can make energy at a step of Moreau–Jean or a
 nonsmooth generalized-α (Glocker; Studer, *Numerics of Unilateral Contacts and Friction*,
