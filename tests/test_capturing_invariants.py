@@ -61,8 +61,8 @@ def test_the_contact_work_rule_names_the_largest_rise_above_the_running_minimum(
 
 
 def test_the_impact_step_rule_reads_capturing_episodes_only():
-    made = Impact(0.25, 0, -9.8, 9.8, -9.7, impulse=9.0)                  # a capturing episode (no e)
-    driver = Impact(0.25, 0, -9.8, 9.8, -9.7, impulse=9.0, restitution=1.0)  # the driver's: rule 4 decides
+    made = Impact(0.25, 0, -9.8, 9.8, -9.7, impulse=9.0, impact_impulse=9.0)   # a capturing episode (no e)
+    driver = Impact(0.25, 0, -9.8, 9.8, -9.7, impulse=9.0, impact_impulse=9.0, restitution=1.0)  # rule 4's
     assert len(impact_checks.capturing_violations([made, driver], 22.9, 1.0)) == 1
     assert impact_checks.capturing_violations([made], 22.9, None)        # no restitution: ≤ 1 by physics
     assert impact_checks.capturing_violations([made], 22.9, 1.5) == []

@@ -23,7 +23,8 @@ forces and is off Newton's law by O(h) — the oracle scores that
 (:mod:`daebench.harness.scoring.oracle`) —, but with e ≤ 1 (or no restitution of the
 scheme's own) a contact makes no energy:
 
-5. **no energy made at an impact** — for an episode that began approaching (ġ⁻ < 0; one
+5. **no energy made at an impact** — for an episode whose record states its impact step
+   (``impact_impulse``: Moreau–Jean, nonsmooth generalized-α) and that began approaching (ġ⁻ < 0; one
    that begins on a separating contact, a flexible body's vibration against it, is no
    impact), the energy change its record states (the impact
    step's, or the episode's: ``energy_loss``) is a loss, to :data:`CAPTURE_REL` of the
@@ -139,7 +140,9 @@ def capturing_violations(impacts: Iterable[Impact], energy_scale: float, restitu
     floor = CAPTURE_ENERGY_TOL * energy_scale
     out = []
     for imp in impacts:
-        own = CAPTURE_REL * abs(imp.impact_impulse * imp.vn_minus) if _finite(imp.impact_impulse) else 0.0
+        if not _finite(imp.impact_impulse):
+            continue   # no impact step recorded (lcp, lcp-avg: the episode's change, its smooth forces in it)
+        own = CAPTURE_REL * abs(imp.impact_impulse * imp.vn_minus)
         if _finite(imp.impulse) and not _finite(imp.restitution) and _finite(imp.energy_loss) \
                 and imp.vn_minus < -ABS_VN and imp.energy_loss < -floor - own:   # an impact: it approached
             out.append(f"t = {imp.t:.9g} s, contact {imp.contact}: the contact step made {-imp.energy_loss:.4g} J "
