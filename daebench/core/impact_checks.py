@@ -23,18 +23,25 @@ forces and is off Newton's law by O(h) — the oracle scores that
 (:mod:`daebench.harness.scoring.oracle`) —, but with e ≤ 1 (or no restitution of the
 scheme's own) a contact makes no energy:
 
-5. **no energy made at an impact** — the energy change its record states (the impact
+5. **no energy made at an impact** — for an episode whose record states its impact step
+   (``impact_impulse``: Moreau–Jean, nonsmooth generalized-α) and that began approaching (ġ⁻ < 0; one
+   that begins on a separating contact, a flexible body's vibration against it, is no
+   impact), the energy change its record states (the impact
    step's, or the episode's: ``energy_loss``) is a loss, to :data:`CAPTURE_REL` of the
-   record's own scale P|ġ⁻| plus :data:`CAPTURE_ENERGY_TOL` of the run's energy scale (a
-   step's smooth forces are in it; measured on Housner's block, e = 0 or 0.5: no impact step
-   below −4e-8 J, 1e-8 of the scale; with e = 1, μ = 1 thirty impact steps make up to
-   4.5e-4 P|ġ⁻|);
+   record's own scale P|ġ⁻| plus :data:`CAPTURE_ENERGY_TOL` of the run's energy scale (the
+   scheme's own energy error at the impact step is in it: nonsmooth generalized-α on
+   spring-wall, e = 1 and no friction, makes 1.1e-4 P|ġ⁻| at an impact at h = 1e-4 and
+   1.3e-3 P|ġ⁻| at h = 1e-3 with ρ∞ = 1; Moreau–Jean on Housner's block with e = 1, μ = 1 up to 4.5e-4 P|ġ⁻| — within
+   that band, so not told apart; the falling rod's 9.7 J is 0.11 P|ġ⁻|);
 6. **no energy made by contact work** — the cumulative work of the contact impulses the
    integrator books (``W_contact``, Σ P (U⁻ + U⁺)/2 with the tangential impulses: the
    impulses' kinetic-energy change by Kelvin's theorem) never rises above its running
    minimum by more than :data:`CAPTURE_WORK_TOL` of the energy scale
    (:class:`ContactWork`; a persistent contact's steps let it drift: +1.6e-5 J, 3e-6 of
-   the scale, over 0.6 s of Housner's block rocking at h = 1e-4, e = 0, μ = 1).
+   the scale, over 0.6 s of Housner's block rocking at h = 1e-4, e = 0, μ = 1). Only a
+   work of impulses booked per step (Moreau–Jean, nonsmooth generalized-α); a contact force's
+   work booked with its power (lcp-avg's time-averaged gap) gives energy back within an
+   episode as the contact expands, and is held to the energy balance instead.
 
 Newton's law with Coulomb friction and e > 0 can make energy at a step of Moreau–Jean or a
 nonsmooth generalized-α (Glocker; Studer, *Numerics of Unilateral Contacts and Friction*,
@@ -59,7 +66,7 @@ REL_TOL = 1e-8     # relative tolerance of the equalities and inequalities below
 ABS_VN = 1e-12     # m/s: normal velocities below this are zero
 ENERGY_ROUNDOFF = 1e-12    # energy changes below this × the run's energy scale are round-off
 MAX_LINES = 5      # violations listed in a message (the count says how many in all)
-CAPTURE_REL = 1e-5          # rule 5: energy an impact step may make, × its P|ġ⁻| ...
+CAPTURE_REL = 1e-2          # rule 5: energy an impact step may make, × its P|ġ⁻| ...
 CAPTURE_ENERGY_TOL = 1e-7   # ... plus this × the run's energy scale
 CAPTURE_WORK_TOL = 1e-3     # rule 6: rise of the booked contact work allowed, × the run's energy scale
 
@@ -133,9 +140,11 @@ def capturing_violations(impacts: Iterable[Impact], energy_scale: float, restitu
     floor = CAPTURE_ENERGY_TOL * energy_scale
     out = []
     for imp in impacts:
-        own = CAPTURE_REL * abs(imp.impact_impulse * imp.vn_minus) if _finite(imp.impact_impulse) else 0.0
+        if not _finite(imp.impact_impulse):
+            continue   # no impact step recorded (lcp, lcp-avg: the episode's change, its smooth forces in it)
+        own = CAPTURE_REL * abs(imp.impact_impulse * imp.vn_minus)
         if _finite(imp.impulse) and not _finite(imp.restitution) and _finite(imp.energy_loss) \
-                and imp.energy_loss < -floor - own:
+                and imp.vn_minus < -ABS_VN and imp.energy_loss < -floor - own:   # an impact: it approached
             out.append(f"t = {imp.t:.9g} s, contact {imp.contact}: the contact step made {-imp.energy_loss:.4g} J "
                        f"of energy (ġ⁻ = {imp.vn_minus:+.4g} m/s{e})")
     return out

@@ -344,7 +344,9 @@ class Driver:
             self.cmax.update(C=float(c[0]), Cdot=float(c[1]), Cddot=float(c[2]))
         cs.impacts.extend(adv.events)
         self._contact_work = adv.contact_work
-        if adv.contact_work is not None:
+        if adv.contact_work is not None and len(adv.contact_work) == 2:
+            # impulse work, booked per step (rule 6); a work booked with its power is a force's,
+            # which gives energy back within an episode as it expands (lcp-avg's averaged gap)
             self._work_book.add(adv.new.t, adv.contact_work[1])
         return adv
 
