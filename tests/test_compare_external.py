@@ -74,7 +74,7 @@ def test_compare_shows_included_rows_marked_external(tmp_path, monkeypatch):
     a = _closed_form(tmp_path / "a.csv", 1e-4, ("# label: closed-form", "# cost_s: 0.01", "# steps: 100"))
     b = _closed_form(tmp_path / "b.csv", 1e-5, ("# label: closed-form", "# cost_s: 0.02", "# steps: 200"))
     out = tmp_path / "cmp"
-    r = runner.invoke(app, ["compare", "pendulum", "--include", str(a), "--include", str(b), "--jobs", "1",
+    r = runner.invoke(app, ["compare", "pendulum", "--budget", "0", "--include", str(a), "--include", str(b), "--jobs", "1",
                             "--out", str(out), "--report"])
     assert r.exit_code == 0, r.output
     assert "closed-form [external] h=0.01" in r.output and "external: closed-form (a.csv)" in r.output
@@ -119,7 +119,7 @@ def test_an_included_file_with_a_unit_error_refuses_before_any_run(tmp_path):
     f = tmp_path / "rad.csv"
     pd.DataFrame({"t": t, "theta_deg": np.radians(pendulum_theta_deg(t))}).to_csv(f, index=False)
     out = tmp_path / "cmp"
-    r = runner.invoke(app, ["compare", "pendulum", "--include", str(f), "--jobs", "1", "--out", str(out)])
+    r = runner.invoke(app, ["compare", "pendulum", "--budget", "0", "--include", str(f), "--jobs", "1", "--out", str(out)])
     assert r.exit_code == 2 and "looks like a unit error" in r.output and "Traceback" not in r.output
     assert not (out / "table.csv").exists()
 
@@ -141,7 +141,7 @@ def test_exudyn_generalized_alpha_is_scored_and_compared(tmp_path):
     ratio = rows[0]["err_theta_max"] / rows[1]["err_theta_max"]
     assert 3.5 < ratio < 4.5, f"generalized-α is second order: halving h should quarter the error, got {ratio:.2f}"
     out = tmp_path / "cmp"
-    r = runner.invoke(app, ["compare", "pendulum", *sum((["--include", str(f)] for f in files), []),
+    r = runner.invoke(app, ["compare", "pendulum", "--budget", "0", *sum((["--include", str(f)] for f in files), []),
                             "--jobs", "1", "--out", str(out)])
     assert r.exit_code == 0, r.output
     assert r.output.count("exudyn-genalpha [external]") == 2

@@ -38,7 +38,7 @@ def test_the_shipped_reference_loads_with_require_on_an_empty_results_folder(emp
     scene = load_scene("beam-impact")
     src = references.shipped_path(scene)
     assert src.is_file(), f"no shipped reference for beam-impact's scene hash {scene.hash}; run `{REGENERATE}`"
-    assert src.stat().st_size < 2.5e6  # measured 1.9 MB (zstd, byte-stream-split floats)
+    assert src.stat().st_size < 4e6  # measured 3.5 MB (zstd, byte-stream-split floats; 1.9 MB before the state columns)
     ref = references.load_reference(scene, mode="require")
     assert ref.path == empty_results / "references" / src.name and ref.path.is_file()
     assert ref.kind == "ida" and ref.rtol == 1e-11
