@@ -7,7 +7,8 @@ steppers, ``_daebench_*``) lists the signatures it holds (``dispatcher.overloads
 machine code of a specialization loaded from the cache is read from its cache entry (the
 object file numba saved beside its bitcode: :func:`object_text_bytes`), of one compiled in
 this process from the object numba emitted. Run in a fresh process after a command, it
-counts what that command needs — deterministic counts for one numba, LLVM and CPU, which a
+counts what that command needs (on a warm cache the functions it called from Python, whose
+machine code holds every callee linked into them; on a cold one every function compiled) — deterministic counts for one numba, LLVM and CPU, which a
 test can bound (tests/test_compile_budget.py) where a compile time could not be.
 """
 
@@ -56,7 +57,11 @@ def _cached_code(disp: CPUDispatcher, sig: tuple) -> int:
     files = getattr(cache, "_cache_file", None)
     if files is None:
         return 0
-    name = files._load_index().get(cache._index_key(sig, disp.targetctx.codegen()))
+    index = files._load_index()
+    key = cache._index_key(sig, disp.targetctx.codegen())
+    name = index.get(key)
+    if name is None:   # compiled for a full signature (return type given): numba keys the entry by it
+        name = next((v for k, v in index.items() if getattr(k[0], "args", None) == sig and k[1:] == key[1:]), None)
     if name is None:
         return 0
     with open(files._data_path(name), "rb") as f:
