@@ -98,8 +98,6 @@ def test_siconos_lsodar_hits_the_closed_form_impacts_and_jumps(tmp_path):
 
 
 @needs_siconos
-@pytest.mark.xfail(strict=True, reason="the scorer pairs the pre-impact row of an event-driven file with the "
-                                       "reference's post-impact value when the impact times differ by 1e-16 s")
 def test_siconos_lsodar_scores_a_velocity_error_below_1e_9(tmp_path):
     res = api.peer("ball", "siconos-ed", [1e-2], write=False, out=tmp_path)
     assert res.rows()[0]["err_v_max"] <= 1e-9

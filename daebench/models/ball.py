@@ -38,7 +38,7 @@ DESCRIPTION = "point mass striking a wall: bouncing ball (restitution e) or spri
 
 #: the history's columns as the scorer reads them (daebench.core.observables)
 OBSERVABLES = (
-    Observable("x", "m", "position", summary=True),
+    Observable("x", "m", "position", derivative="v", summary=True),
     Observable("v", "m/s", "velocity"),
     Observable("gap", "m", "gap", height=True),
 )
