@@ -348,7 +348,7 @@ def sandbox(tmp_path, monkeypatch):
     data.mkdir()
     pd.DataFrame({"t": [0.0, 1.0], "theta": [1.0, 2.0], "energy_residual": [0.0, 0.0]}).to_csv(
         data / "history.csv", index=False)
-    pd.DataFrame({"label": ["hht", "hht"], "status": ["completed"] * 2, "wall_s": [1.0, 2.0], "h": [1e-2, 5e-3],
+    pd.DataFrame({"label": ["hht", "hht"], "status": ["completed"] * 2, "wall_s": [1.0, 2.0], "cpu_s": [0.9, 1.8], "h": [1e-2, 5e-3],
                   "err_theta_max_trusted": [1e-3, 2.5e-4], "err_pre_theta_max": [1e-3, 2.5e-4],
                   "case": ["pendulum"] * 2, "scene_set": ['{"t_end": 0.5'] * 2}).to_csv(data / "table.csv", index=False)
     (cwd / "results" / "survey" / "sv").mkdir(parents=True)

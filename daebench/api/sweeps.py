@@ -20,6 +20,9 @@ from daebench.harness.sweeps.options import Execution, Plan, SweepOptions, from_
 from daebench.core.params import ParamError
 from daebench.workflows import compare as _compare
 from daebench.workflows import converge as _converge
+
+#: compare's default budget [s] for extending its series (the workflows' constant, for the CLI's help)
+COMPARE_BUDGET_S = _converge.DEFAULT_BUDGET_S
 from daebench.workflows import effects as _effects
 from daebench.workflows import report as _report
 from daebench.workflows import stability as _stability

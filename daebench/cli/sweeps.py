@@ -14,7 +14,7 @@ import typer
 
 from daebench.cli import textout
 from daebench.cli.common import fail, floats, load_scene_or_exit, out, print_table, refusals
-from daebench.workflows.converge import DEFAULT_BUDGET_S
+from daebench.api.sweeps import COMPARE_BUDGET_S as DEFAULT_BUDGET_S
 
 
 def register(app: typer.Typer) -> None:

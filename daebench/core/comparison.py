@@ -32,8 +32,9 @@ from typing import Any, Mapping
 
 from daebench.core.params import ParamError, did_you_mean
 
-#: the survey's sets a case can be tagged with
-TAGS = ("quick", "survey")
+#: the sets a case can be tagged with: the survey's, and ``housner`` — the rocking block whose
+#: first impacts follow Housner's closed form, on which `verify` checks a friction declaration
+TAGS = ("quick", "survey", "housner")
 #: the tags of a case whose file says none: it is surveyed, not in the quick set
 DEFAULT_TAGS = ("survey",)
 #: the keys of the table and what each holds (for messages)
@@ -160,15 +161,3 @@ def parse(raw: Any, where: str = "scene") -> Comparison:
     return Comparison(**out)
 
 
-def read(path: Path | str) -> Comparison:
-    """The :class:`Comparison` of the scene file at ``path`` (its tags for the survey's
-    sets, without validating the physics).
-
-    Raises
-    ------
-    ComparisonError, SceneError
-    """
-    from daebench.core.scene import read_toml   # the scene file reader (core.scene imports this module)
-
-    p = Path(path)
-    return parse(read_toml(p).get("compare"), str(p))

@@ -22,7 +22,8 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from daebench.core.bounded_file import UnreadableFile, read_bounded
-from daebench.core.comparison import Comparison
+from daebench.core.comparison import TAGS, Comparison
+from daebench.core.comparison import parse as parse_comparison
 from daebench.core.params import Param, ParamError, did_you_mean, parse_pairs
 
 
@@ -142,12 +143,10 @@ def tagged(tag: str) -> list[str]:
     SceneError
         For a scene file whose ``[compare]`` table cannot be read (it names the file).
     """
-    from daebench.core import comparison   # its read() reads through this module
-
-    if tag not in comparison.TAGS:
-        raise SceneError(f"unknown case tag '{tag}'{did_you_mean(tag, comparison.TAGS)} "
-                         f"(tags: {', '.join(comparison.TAGS)})")
-    return [p.stem for p in sorted(cases_dir().glob("*.toml")) if tag in comparison.read(p).tags]
+    if tag not in TAGS:
+        raise SceneError(f"unknown case tag '{tag}'{did_you_mean(tag, TAGS)} (tags: {', '.join(TAGS)})")
+    return [p.stem for p in sorted(cases_dir().glob("*.toml"))
+            if tag in parse_comparison(read_toml(p).get("compare"), str(p)).tags]
 
 
 def list_scenes() -> list[tuple[str, str]]:

@@ -31,6 +31,8 @@ import numpy as np
 import pandas as pd
 
 from daebench.harness.analysis import evidence
+from daebench.harness.sweeps import sweep
+from daebench.harness.sweeps.plan import plan_sweep
 
 #: compare's default budget for extending series [s of wall time]: a user can wait for it
 DEFAULT_BUDGET_S = 600.0
@@ -219,8 +221,6 @@ def compare_extend(df: pd.DataFrame, scene: Any, entries: Sequence[Any], targets
                    options: Any, budget_s: float, first_index: int, factor: float) -> tuple[pd.DataFrame, Progress]:
     """:func:`extend` for `daebench compare`: a round's runs planned as the protocol's
     (each integrator's fixed settings from its ``entries``) and run as its sweep."""
-    from daebench.harness.sweeps import sweep
-    from daebench.harness.sweeps.plan import plan_sweep
 
     fixed = {e.integrator: dict(e.options) for e in entries}
     integrator_of = {str(r["label"]): str(r["integrator"]) for _, r in df.iterrows()}

@@ -40,6 +40,7 @@ from daebench.core.scene import Scene
 from daebench.harness.files import atomic_write, ensure_writable_dir, results_dir
 from daebench.harness.scoring import pipeline
 from daebench.models import build_system, get_model
+from daebench.models.scenes import load_scene
 
 #: the keys every scene has, which are no physics (shown apart in the sheet)
 META_KEYS = ("name", "description", "model")
@@ -255,7 +256,6 @@ def file_table(names: Sequence[str]) -> str:
     """What a file must hold for each case of ``names`` (the documentation's table, one row a
     case): the scored columns with their units, the other observables a file may give, the
     contact points and their law, how impacts are written, and the truth."""
-    from daebench.api.catalogue import load_scene   # lazy: the catalogue sits above the workflows
 
     out = ["| case | scored columns [unit] | other observables | contact points | impacts | truth |",
            "|---|---|---|---|---|---|"]

@@ -45,7 +45,7 @@ import numpy as np
 from daebench.core.energyscale import energy_scale
 from daebench.core.params import ParamError, did_you_mean
 from daebench.core.problem import Problem
-from daebench.core.scene import Scene
+from daebench.core.scene import Scene, tagged
 from daebench.core.system import State
 from daebench.core import interrupt
 from daebench.harness.running import checks, isolated
@@ -416,22 +416,26 @@ def check_contact(cls: type, settings: dict[str, Any]) -> Check:
 
 def _housner(cls: type, settings: dict[str, Any]) -> Check:
     own = cls.capabilities.contacts
-    sc = _scene("rocking-block")
+    cases = tagged("housner")
+    if not cases:
+        return Check("housner", "fail", "no case is tagged 'housner' in its [compare] table: the friction check "
+                                        "needs the rocking block of Housner's closed form")
+    sc = _scene(cases[0])
     refusal = _applies(sc, cls)
     if refusal:
-        return Check("housner", "fail", f"rocking-block (friction declared): {refusal}")
+        return Check("housner", "fail", f"{sc.name} (friction declared): {refusal}")
     h = HOUSNER_STEPS[own]
     res, found = _run(sc, cls.name, _step_settings(cls, settings, h))
     imps = [i for i in res.impacts if i.t > 0 and i.v_minus is not None][:4]
-    r = housner_ratio(0.2, 1.0)
+    r = housner_ratio(sc["body.width"], sc["body.height"])
     if res.status != "completed" or len(imps) < 4:
-        return Check("housner", "fail", f"rocking-block at h = {h:g} s: {res.status}, {len(imps)} impacts with "
+        return Check("housner", "fail", f"{sc.name} at h = {h:g} s: {res.status}, {len(imps)} impacts with "
                                         f"velocities (4 needed) — {res.message}")
     ratios = [abs(i.v_plus[2]) / abs(i.v_minus[2]) for i in imps]
     err = max(abs(x - r) for x in ratios)
     ok = err <= HOUSNER_TOL[own]
     return Check("housner", "pass" if ok else "fail",
-                 f"Housner's ω⁺/ω⁻ on rocking-block (h = {h:g} s) {_fmt(ratios)} against 1 − 1.5 sin²α = {r:.6f}, "
+                 f"Housner's ω⁺/ω⁻ on {sc.name} (h = {h:g} s) {_fmt(ratios)} against 1 − 1.5 sin²α = {r:.6f}, "
                  f"off by {err:.1e} (≤ {HOUSNER_TOL[own]:g} needed)", {"housner_ratios": ratios, "housner_error": err})
 
 

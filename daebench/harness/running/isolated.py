@@ -30,6 +30,11 @@ from typing import Any, Callable
 from daebench.core.interrupt import RunTimeout
 from daebench.harness.running.child_process import describe_exit, die_with_parent
 
+
+class RunCrashed(RuntimeError):
+    """The process a run was isolated in died without an answer (a signal, ``os._exit``): the
+    run crashed, as a sweep's worker process would have — a 'crashed' row, not an error."""
+
 KILL_AFTER_S = 5.0   # beyond the cap, the time the child gets to stop by itself before it is killed
 _HEADER = struct.Struct("!Q")
 
@@ -138,7 +143,7 @@ def call(fn: Callable[[Callable[[float], None] | None], Any], cap: float,
     _, status = os.waitpid(pid, 0)
     if answer is None:
         code = os.waitstatus_to_exitcode(status)
-        raise RuntimeError(f"the {what}'s process ended without an answer ({describe_exit(code)})")
+        raise RunCrashed(f"the {what}'s process ended without an answer ({describe_exit(code)})")
     if answer[0] == "raised":
         raise answer[1]
     return answer[1], answer[2]

@@ -171,7 +171,7 @@ def measure(run: Any, tr: Any) -> dict[str, Any]:
     the modal scores of a run of a model with a linearisation, before the truth's first
     impact and within its trusted span; NaN where the run or the truth has no state columns
     (a reference computed before they were recorded); nothing for a model without modes."""
-    from daebench.harness.scoring import metrics   # the truth's interpolation within a smooth segment
+    from daebench.harness.scoring import metrics   # lazy: metrics imports this module; the truth's interpolation within a smooth segment
 
     sys_ = run.system
     if not (callable(getattr(sys_, "linearisation", None)) and hasattr(sys_, "coordinate_names")):

@@ -77,7 +77,7 @@ def _force(hist: pd.DataFrame) -> tuple[np.ndarray | None, np.ndarray | None]:
 
 def velocity_l1(run: Any, tr: Any) -> dict[str, float]:
     """``err_<v>_l1`` of every scored velocity observable (module docstring)."""
-    from daebench.harness.scoring import metrics   # the truth's interpolation within its smooth segments
+    from daebench.harness.scoring import metrics   # lazy: metrics imports this module; the truth's interpolation within its smooth segments
 
     d = run.declared
     vel = {o.derivative for o in d.declared if o.derivative}

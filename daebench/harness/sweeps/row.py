@@ -13,6 +13,7 @@ from typing import Any
 from daebench.core.scene import Scene
 from daebench.harness.references.reference import Reference, ReferenceMissing, load_reference
 from daebench.core.interrupt import RunTimeout
+from daebench.harness.running.isolated import RunCrashed
 from daebench.harness.running.history_io import keep_history
 from daebench.harness.running.runner import run_scene
 from daebench.harness.running.timing import WARMUP_CAP_S, time_call
@@ -127,6 +128,9 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
             _nan_errors(row)
     except RunTimeout as exc:
         row.update(outcome_row(spec, scene, "timeout", str(exc) or "run exceeded its wall-time cap"))
+        _nan_errors(row)
+    except RunCrashed as exc:   # its isolated process died: as a crashed worker process is
+        row.update(outcome_row(spec, scene, "crashed", str(exc)))
         _nan_errors(row)
     except Exception as exc:  # never lose a row
         row.update(outcome_row(spec, scene, "error", f"{type(exc).__name__}: {exc}"))
