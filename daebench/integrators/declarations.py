@@ -27,7 +27,8 @@ NAME_RULE = re.compile(r"^[a-z0-9][a-z0-9_.-]*$")
 MAX_NAME = 40
 #: names a table reads as something else: 'external' marks the rows of trajectories from
 #: other codes (`daebench score`, compare --include), dropped from the recommendation
-RESERVED_NAMES = frozenset({"external"})
+EXTERNAL = "external"
+RESERVED_NAMES = frozenset({EXTERNAL})
 MAX_ORDER = 12
 INDICES = (1, 2, 3)
 SETTING_TYPES = (bool, int, float, str, list)

@@ -51,10 +51,9 @@ from daebench.harness.scoring.eventseq import default_windows
 from daebench.harness.scoring.external import grid, judge
 from daebench.harness.sweeps.row import _nan_errors as nan_errors
 from daebench.integrators.base import Counters
+from daebench.integrators.declarations import EXTERNAL   # the ``integrator`` of a row scored from another code's file
 from daebench.models import build_system
 
-#: the ``integrator`` of a row scored from another code's file
-EXTERNAL = "external"
 #: the columns an external row has beyond a sweep row's: the file's largest output spacing [s],
 #: its rows, whether it was scored on the case's output times (:mod:`daebench.harness.scoring.external.grid`)
 FILE_COLUMNS = ("file_dt_max", "file_rows", "file_resampled")
