@@ -49,7 +49,7 @@ from daebench.harness.references.reference import load_reference
 from daebench.harness.scoring import external, metrics, pipeline
 from daebench.harness.scoring.eventseq import default_windows
 from daebench.harness.scoring.external import grid, judge
-from daebench.harness.sweeps.row import _nan_errors as nan_errors
+from daebench.harness.sweeps.row import nan_errors
 from daebench.integrators.base import Counters
 from daebench.integrators.declarations import EXTERNAL   # the ``integrator`` of a row scored from another code's file
 from daebench.models import build_system

@@ -24,7 +24,7 @@ from daebench.integrators import base
 from daebench.models import build_system
 
 
-def _nan_errors(row: dict[str, Any]) -> None:
+def nan_errors(row: dict[str, Any]) -> None:
     for k in list(row):
         if k.startswith("err_"):
             row[k] = math.nan
@@ -125,17 +125,17 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
         run = pipeline.Run(sc, build_system(sc), hist, res.impacts, pipeline.declared(sc.model))
         row.update(pipeline.score(run, pipeline.truth(run, lambda: _reference(sc, reference_mode))))
         if res.status != "completed":
-            _nan_errors(row)
+            nan_errors(row)
     except RunTimeout as exc:
         row.update(outcome_row(spec, scene, "timeout", str(exc) or "run exceeded its wall-time cap"))
-        _nan_errors(row)
+        nan_errors(row)
     except RunCrashed as exc:   # its isolated process died: as a crashed worker process is
         row.update(outcome_row(spec, scene, "crashed", str(exc)))
-        _nan_errors(row)
+        nan_errors(row)
     except Exception as exc:  # never lose a row
         row.update(outcome_row(spec, scene, "error", f"{type(exc).__name__}: {exc}"))
         row["traceback"] = traceback.format_exc()   # whole: the integrator's own frames are the innermost
-        _nan_errors(row)
+        nan_errors(row)
     return row
 
 
