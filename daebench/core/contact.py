@@ -322,6 +322,10 @@ class Impact:
                                    # the rebound was too slow or too short to resolve — Zeno's accumulation)
     law: str = ""                  # the driver's impact law: "newton" or "lzb" ("": an episode an
                                    # integrator resolved itself, or a continuous-law episode)
+    impact_work: float = math.nan  # work of the contact impulses over an event-capturing episode's impact
+                                   # step, Σ P (U⁻ + U⁺)/2 (Kelvin: their kinetic-energy change; no smooth force in it)
+    u_law: float = math.nan        # the normal velocity U⁻ that step's impact law used (Moreau–Jean: g_q v_k
+                                   # with its own g_q; NaN where the stepper books no impact-alone work)
     q: np.ndarray | None = field(default=None, repr=False)        # configuration at the impact
     v_minus: np.ndarray | None = field(default=None, repr=False)  # velocities before / after
     v_plus: np.ndarray | None = field(default=None, repr=False)

@@ -16,7 +16,8 @@ impact map. :class:`CapturingIntegrator` adds to
   ``energy_loss`` the energy lost over that step (the impact step: the counterpart of
   the impact map's kinetic-energy loss; later steps of a persistent contact exchange no
   energy with an ideal constraint), ``v_minus``/``v_plus`` the velocities before and
-  after it, ``impact_impulse`` the impulse of that step; completed when the episode
+  after it, ``impact_impulse`` the impulse of that step, ``impact_work`` the work of the
+  contact impulses in it (below); completed when the episode
   ends with ``vn_plus`` (ġ after its last step),
   ``t_end``, ``impulse`` (the sum over its steps), ``min_gap`` (smallest gap at its step
   boundaries, < 0: penetration) and ``closed`` (it lasted more than one step). An
@@ -118,7 +119,7 @@ class CapturingIntegrator(CompiledIntegrator):
                 imp = Impact(float(row[_ep.L_T]), i, float(row[_ep.L_GDOT]), math.nan,
                              energy(q0, v0) - energy(q1, v1), impulse=float(row[_ep.L_IMPULSE]),
                              min_gap=float(row[_ep.L_GMIN]), impact_impulse=float(row[_ep.L_IMPULSE]),
-                             q=q0, v_minus=v0, v_plus=v1)
+                             impact_work=float(row[_ep.L_WORK]), u_law=float(row[_ep.L_ULAW]), q=q0, v_minus=v0, v_plus=v1)
                 self._episodes[i] = imp
                 self.report_contact(imp)
             elif i in self._episodes:

@@ -205,13 +205,15 @@ def impulses(model, fw, G, active, LU, piv, n, nc, q1, v1, v0, vfree, e, P):
 
 
 @njit(cache=True)
-def tangential_work(fw, active, nc, n, v0, v1):
-    """Σ_i P_T,i (U_T,i⁻ + U_T,i⁺)/2 over the active contacts (≤ 0: friction dissipates)."""
+def tangential_work(fw, active, nc, n, v0, v1, per_contact):
+    """Σ_i P_T,i (U_T,i⁻ + U_T,i⁺)/2 over the active contacts (≤ 0: friction dissipates);
+    each contact's term is added to ``per_contact[i, 0]``."""
     work = 0.0
     for i in range(nc):
         if active[i] and fw.PT[i] != 0.0:
             u = 0.0
             for r in range(n):
                 u += fw.T[i, r] * (v0[r] + v1[r])
+            per_contact[i, 0] += 0.5 * fw.PT[i] * u
             work += 0.5 * fw.PT[i] * u
     return work

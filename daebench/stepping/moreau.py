@@ -370,13 +370,18 @@ def _step(meth, ws, ph, ctl, t, h, cur, new, cnt):
             return st, 0.0
     work = 0.0
     for i in range(nc):
+        wi, um = 0.0, 0.0
         if ws.active[i] and ws.P[i] > 0.0:
             u = 0.0
             for j in range(n):
                 u += ws.G[i, j] * (v[j] + v1[j])
-            work += 0.5 * ws.P[i] * u
+                um += ws.G[i, j] * v[j]
+            wi = 0.5 * ws.P[i] * u
+        ws.ep.cwork[i, 0] = wi
+        ws.ep.cwork[i, 1] = um
+        work += wi
     if meth.friction:
-        work += _fr.tangential_work(ws.fr, ws.active, nc, n, v, v1)
+        work += _fr.tangential_work(ws.fr, ws.active, nc, n, v, v1, ws.ep.cwork)
     _ep.propose_work(ws.ep, work)
     for i in range(nc):
         ws.g1[i], _ = kernels.gap(ph.model, i, new.q, new.v, ws.gq)
