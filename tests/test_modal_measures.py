@@ -132,3 +132,45 @@ def test_hub_beam_modes_are_the_continuum_pinned_free_beams_but_the_top_one():
     assert omega[5] > 1.5 * cont[4]
     assert modal.resolved(omega, modal.modes(*sys_.finer().linearisation())[0]).tolist() == [True] * 5 + [False]
     assert abs(phi[0, 5]) > 10 * abs(phi[0, 1])   # θ carries the top mode strongly (θ·L ≈ −100)
+
+
+def test_the_window_after_the_first_impacts_is_the_first_long_free_interval():
+    """beam-impact's reference impacts: a burst of five at 0.370–0.381 s, the next at 0.788 s."""
+    imps = [0.3700, 0.3731, 0.3769, 0.3805, 0.3808, 0.7879, 0.7881, 0.7914]
+    assert modal.post_window(imps, 1.0) == (0.3808, 0.7879)
+    assert modal.post_window([0.95], 1.0) is None          # 0.05 s left: shorter than a tenth of the span
+    assert modal.post_window([], 1.0) is None
+
+
+class _StiffenedChain(_Chain):
+    """The chain whose springs stiffen with the first coordinate: K(q) = (1 + q₁) K₀, so its
+    modes keep their shapes and their frequencies scale by √(1 + q₁)."""
+
+    def linearisation(self, q=None):
+        M, K = _chain()
+        s = 1.0 if q is None else 1.0 + float(q[0])
+        return M, s * K
+
+
+def test_the_window_modes_are_those_of_the_configuration_it_starts_from():
+    """After the impacts the chain sits at q₁ = 0.44, where its frequencies are 1.2 times the
+    start's: linearised there, the scores report those frequencies, the resolved band below a
+    frequency between the window's ω₄ and ω₅, and a planted 0.1 % phase error of mode 3 in
+    that band alone."""
+    w, P = _closed_form()
+    t = np.linspace(0.0, 1.0, 1001)
+    amps = 1e-3 * np.arange(1, N + 1)[::-1]
+    fast = 1.2 * w
+    wrong = fast.copy()
+    wrong[2] *= 1.001
+    tq, tv = _motion(amps, fast, t)
+    rq, rv = _motion(amps, wrong, t)
+    about = np.zeros(N)
+    about[0] = 0.44
+    below = 0.5 * (fast[3] + fast[4])
+    out = modal.scores(_StiffenedChain(), rq, rv, tq, tv, {"x1": "x1"}, below, about=about)
+    exact = np.abs(P[0, 2] * amps[2] * (np.cos(wrong[2] * t) - np.cos(fast[2] * t))).max()
+    assert out["err_band_x1_max"] == pytest.approx(exact, rel=1e-9)
+    assert out["err_rest_x1_max"] < 1e-12 * exact
+    assert out["mode3_omega"] == pytest.approx(fast[2], rel=1e-12)
+    assert out["modes_resolved"] == 4

@@ -391,12 +391,12 @@ class HubBeam(KernelSystem):
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         return {k: float(x[0]) for k, x in self.output_rows(np.full(1, float(t)), q, v)[0].items()}
 
-    def linearisation(self) -> tuple[np.ndarray, np.ndarray]:
-        """(M, K) of the motion linearised about the initial state at rest: the mass matrix
-        there and the tangent stiffness K = −∂Q/∂q (elastic, and gravity's), symmetrised;
-        their generalized eigenvectors are the model's linearised modes
-        (:mod:`daebench.harness.scoring.modal`)."""
-        q0, _ = self.initial_state()
+    def linearisation(self, q: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(M, K) of the motion linearised about the configuration ``q`` at rest (default:
+        the initial one): the mass matrix there and the tangent stiffness K = −∂Q/∂q
+        (elastic, and gravity's), symmetrised; their generalized eigenvectors are the
+        model's linearised modes (:mod:`daebench.harness.scoring.modal`)."""
+        q0 = self.initial_state()[0] if q is None else np.asarray(q, float)
         v0 = np.zeros(self.n)
         Kq, _ = self.force_jacobian(0.0, q0, v0)
         return np.asarray(self.mass(q0), float), -0.5 * (Kq + Kq.T)

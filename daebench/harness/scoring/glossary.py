@@ -150,6 +150,11 @@ PHYSICS: dict[str, tuple[str, str, str, str, str]] = {
                             "before the first impact", _MODAL),
     "err_rest_energy_max": ("max error energy outside the resolved band", "rest E err", "J",
                             "the same over the modes outside the resolved band", _MODAL),
+    "err_postband_energy_max": ("max error energy in the resolved band after the first impacts", "band E err after",
+                                "J", "err_band_energy_max over the first free window after the truth's first "
+                                "impacts, on the modes of the linearisation where that window starts", _MODAL),
+    "err_postrest_energy_max": ("max error energy outside the resolved band after the first impacts",
+                                "rest E err after", "J", "the same over the modes outside the resolved band", _MODAL),
     "err_impulse_measure": ("distance between the cumulative contact impulses", "Λ(t) dist", "N s",
                             "(1/T)∫₀ᵀ |Λ_run(t) − Λ_truth(t)| dt, Λ(t) the impulses of the impacts up to t plus "
                             "∫λ dt of the contact forces, T the trusted span", _NONSMOOTH),
@@ -182,8 +187,14 @@ SPANS = {("", False): ("over the whole run", "whole run",
                             "linearisation at the start; Géradin & Rixen 2015 §2.3)"),
          ("rest_", False): ("outside the resolved modal band", "rest",
                             "the same, carried by the modes outside the resolved band (a discretization's "
-                            "unresolved modes)")}
-_ERROR = re.compile(r"err_(?P<where>pre_|winm_|win_|band_|rest_)?(?P<obs>.+)_(?P<norm>final|max|l2|l1)"
+                            "unresolved modes)"),
+         ("postband_", False): ("in the resolved modal band after the first impacts", "band after",
+                                "the band's part over the first free window after the truth's first impacts "
+                                "(≥ a tenth of the span without an impact), on the modes of the linearisation "
+                                "at the truth's configuration where that window starts"),
+         ("postrest_", False): ("outside the resolved modal band after the first impacts", "rest after",
+                                "the same, carried by the modes outside the resolved band")}
+_ERROR = re.compile(r"err_(?P<where>pre_|winm_|win_|postband_|postrest_|band_|rest_)?(?P<obs>.+)_(?P<norm>final|max|l2|l1)"
                     r"(?P<trusted>_trusted)?")
 _IMPACT_T = re.compile(r"err_impact(?P<k>\d+)_t")
 _ORDINAL = {1: "first", 2: "second", 3: "third"}
@@ -246,7 +257,7 @@ def describe(column: str, model: str | None = None) -> Measure:
         if key not in SPANS:    # a window error over the trusted span is not made
             return Measure(column, column, column)
         sw, ss, where = SPANS[key]
-        src = _MODAL if key[0] in ("band_", "rest_") else _NONSMOOTH if m.group("norm") == "l1" else ""
+        src = _MODAL if key[0] in ("band_", "rest_", "postband_", "postrest_") else _NONSMOOTH if m.group("norm") == "l1" else ""
         return Measure(column, f"{label} {nw} {sw}", f"{label} {ns} {ss}", unit, f"{how} of {label}, {where}", src)
     d = declared_observable(column, model)
     if d is not None:
@@ -296,7 +307,7 @@ def markdown() -> str:
         lines.append(_row(f"`{col}`", m.name, m.definition))
     lines += ["", "## Measures that mean physics", "",
               "Frame-invariant, modal and nonsmooth measures (the band columns follow the error pattern above with "
-              "`<where>` = `band_`, `rest_`; velocities take the `l1` norm).", "",
+              "`<where>` = `band_`, `rest_`, `postband_`, `postrest_`; velocities take the `l1` norm).", "",
               _row("column", "display name", "definition", "source"), _row("---", "---", "---", "---")]
     for col in (*PHYSICS, "mode<k>_omega", "mode<k>_energy", "err_mode<k>_energy_max"):
         m = describe(col.replace("<k>", "1"))

@@ -27,6 +27,14 @@ E_i = ½ (η̇_i² + max(ω_i², 0) η_i²) of the modal coordinate η = ΦᵀM 
 ``mode<k>_energy`` is the truth's largest, ``err_mode<k>_energy_max`` the largest
 |E_i,run − E_i,truth|; ``mode<k>_omega`` the frequency.
 
+**After the first impacts.** The same split over the first free window after the truth's
+first contact burst (:func:`post_window`: the first interval between successive truth
+impacts lasting ≥ :data:`POST_WINDOW_FRACTION` of the span; beam-impact: 0.381–0.788 s),
+on the modes of the linearisation at the truth's configuration where that window starts
+(the model's ``linearisation(q)``): ``err_postband_<o>_max``, ``err_postrest_<o>_max``,
+``err_postband_energy_max``, ``err_postrest_energy_max``. The run's own impacts in that
+window (a chatter the truth does not have) are in its error.
+
 References: Géradin & Rixen, *Mechanical Vibrations* (2015), §2.3 (modal decomposition,
 mass-normalised modes) and §4 (discretized continua); Hilber, Hughes & Taylor (1977) on
 integrators that damp the unresolved modes by design.
@@ -131,20 +139,25 @@ def mode_energies(eta_run: np.ndarray, etad_run: np.ndarray, eta_tr: np.ndarray,
 
 
 def columns(n_modes: int, observables: Sequence[str]) -> list[str]:
-    """The columns :func:`scores` returns for ``n_modes`` modes and these observables."""
-    out = ["modes_resolved", "err_band_energy_max", "err_rest_energy_max"]
-    out += [f"err_{p}_{o}_max" for o in observables for p in ("band", "rest")]
+    """The columns :func:`measure` returns for ``n_modes`` modes and these observables."""
+    out = ["modes_resolved"]
+    for pre in ("", "post"):
+        out += [f"err_{pre}band_energy_max", f"err_{pre}rest_energy_max"]
+        out += [f"err_{pre}{p}_{o}_max" for o in observables for p in ("band", "rest")]
     out += [c for k in range(n_modes) for c in (f"mode{k + 1}_omega", f"mode{k + 1}_energy",
                                                f"err_mode{k + 1}_energy_max")]
     return out
 
 
 def scores(system: Any, run_q: np.ndarray, run_v: np.ndarray, tr_q: np.ndarray, tr_v: np.ndarray,
-           observables: dict[str, str], below: float = math.nan) -> dict[str, float]:
+           observables: dict[str, str], below: float = math.nan, about: np.ndarray | None = None
+           ) -> dict[str, float]:
     """Every modal score of a run (rows of ``run_q``, ``run_v``: its states at its output
     times) against the truth's states at the same times (module docstring);
-    ``observables``: column → score name of the observables split by band."""
-    M, K = system.linearisation()
+    ``observables``: column → score name of the observables split by band; ``about``: the
+    configuration to linearise about (default: the start, where the mode energies are
+    measured from)."""
+    M, K = system.linearisation() if about is None else system.linearisation(about)
     omega, phi = modes(M, K)
     conv = None
     if not math.isfinite(below):
@@ -152,9 +165,10 @@ def scores(system: Any, run_q: np.ndarray, run_v: np.ndarray, tr_q: np.ndarray, 
         conv = modes(*fine.linearisation())[0]
     band = resolved(omega, conv, below)
     q0, v0 = (np.asarray(x, float) for x in system.initial_state())
+    qa = q0 if about is None else np.asarray(about, float)
     maps = {}
     for col, name in observables.items():
-        c = linear_map(lambda q: system.observables(0.0, q, np.zeros_like(q))[col], q0)
+        c = linear_map(lambda q: system.observables(0.0, q, np.zeros_like(q))[col], qa)
         if np.any(c != 0.0):
             maps[name] = c
     e, ed = decompose(run_q - tr_q, run_v - tr_v, M, phi)
@@ -171,8 +185,6 @@ def measure(run: Any, tr: Any) -> dict[str, Any]:
     the modal scores of a run of a model with a linearisation, before the truth's first
     impact and within its trusted span; NaN where the run or the truth has no state columns
     (a reference computed before they were recorded); nothing for a model without modes."""
-    from daebench.harness.scoring import metrics   # lazy: metrics imports this module; the truth's interpolation within a smooth segment
-
     sys_ = run.system
     if not (callable(getattr(sys_, "linearisation", None)) and hasattr(sys_, "coordinate_names")):
         return {}
@@ -182,22 +194,60 @@ def measure(run: Any, tr: Any) -> dict[str, Any]:
     vc = [f"v_{c}" for c in sys_.coordinate_names]
     if not all(c in run.history.columns and c in tr.history.columns for c in qc + vc):
         return nan
-    end = min([*tr.impacts[:1], tr.trust_t if math.isfinite(tr.trust_t) else math.inf,
-               float(tr.history["t"].iloc[-1])])
-    seg = metrics.smooth_rows(tr.history, -math.inf, end + 1e-12)
+    span_end = min(tr.trust_t if math.isfinite(tr.trust_t) else math.inf, float(tr.history["t"].iloc[-1]))
     h = run.history[~run.history["t"].duplicated(keep="last")]
-    t = h["t"].to_numpy(float)
+    below = float(getattr(getattr(run.scene, "comparison", None), "modes_below", math.nan))
+    out = dict(nan)
+    start = _window_states(h, tr.history, qc, vc, -math.inf, min([*tr.impacts[:1], span_end]))
+    if start is not None:
+        out.update(scores(sys_, *start, names, below))
+    post = post_window(list(tr.impacts), span_end)
+    if post is not None:
+        states = _window_states(h, tr.history, qc, vc, *post)
+        if states is not None:
+            about = states[2][0]    # the truth's configuration where the window starts
+            got = scores(sys_, *states, names, below, about=about)
+            out.update({c.replace("err_band", "err_postband").replace("err_rest", "err_postrest"): v
+                        for c, v in got.items() if c.startswith(("err_band", "err_rest"))})
+    return out
+
+
+#: the window after the first impacts: the first interval without a truth impact that lasts
+#: at least this fraction of the scored span
+POST_WINDOW_FRACTION = 0.1
+
+
+def post_window(impacts: Sequence[float], span_end: float) -> tuple[float, float] | None:
+    """(t_a, t_b): the first interval between the truth's successive impacts (the last
+    one and ``span_end``) that lasts ≥ :data:`POST_WINDOW_FRACTION` of the span — the free
+    motion after the first contact burst; None without impacts or such an interval."""
+    ts = sorted(float(t) for t in impacts if float(t) < span_end)
+    for a, b in zip(ts, [*ts[1:], span_end]):
+        if b - a >= POST_WINDOW_FRACTION * span_end:
+            return a, b
+    return None
+
+
+def _window_states(h: Any, truth: Any, qc: list[str], vc: list[str], t_a: float, t_b: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The run's states at its output times in (t_a, t_b) — open at both ends: the rows at
+    an impact time hold the state after it — and the truth's there, interpolated within
+    its smooth segment (cubic Hermite in q from q and v); None where fewer than two rows
+    are usable."""
+    from daebench.harness.scoring import metrics   # lazy: metrics imports this module
+
+    seg = metrics.smooth_rows(truth, t_a, t_b)
     if len(seg) < 2:
-        return nan
-    keep = (t <= end) & (t >= float(seg["t"].iloc[0]))
+        return None
+    t = h["t"].to_numpy(float)
+    keep = (t < t_b) & (t >= float(seg["t"].iloc[0])) & (t > t_a)
     if keep.sum() < 2:
-        return nan
+        return None
     t = t[keep]
     tq = np.column_stack([metrics.dense(seg, q, t, (v, 1.0)) for q, v in zip(qc, vc)])
     tv = np.column_stack([metrics.dense(seg, v, t) for v in vc])
     ok = np.all(np.isfinite(tq), axis=1) & np.all(np.isfinite(tv), axis=1)
     rq, rv = h[qc].to_numpy(float)[keep][ok], h[vc].to_numpy(float)[keep][ok]
     if ok.sum() < 2 or not (np.all(np.isfinite(rq)) and np.all(np.isfinite(rv))):
-        return nan
-    below = float(getattr(getattr(run.scene, "comparison", None), "modes_below", math.nan))
-    return {**nan, **scores(sys_, rq, rv, tq[ok], tv[ok], names, below)}
+        return None
+    return rq, rv, tq[ok], tv[ok]
