@@ -121,18 +121,32 @@ def reached(t, t_next, t_end):
     return output_due(t_next, t, t_end) or end_reached(t, t_end)
 
 
-@uncounted
+@njit(cache=True, inline="always")
 def events(ph, w, t, cur):
     """Whether the step that ended in ``cur`` (at t) has an event the driver must handle:
     a non-finite state, an open contact closing or changing its proximity (:func:`near`), a
     closed one whose consistent force turns tensile. Re-arms gaps that left the band (every
-    step: the driver's rule)."""
+    step: the driver's rule).
+
+    Compiled into its caller: a phase with no contact watched (no open contact, no closed
+    one) pays the finiteness test only — a call of :func:`_contact_events` passes the
+    phase's and the watch's arrays, flattened, through the stack (on the pendulum, a tenth
+    of a step's time)."""
     q, v = cur.q, cur.v
-    n = q.shape[0]
     stop = False
-    for i in range(n):
+    for i in range(q.shape[0]):
         if not (math.isfinite(q[i]) and math.isfinite(v[i])):
             stop = True
+    if w.inactive.shape[0] == 0 and w.lam_rows.shape[0] == 0:
+        return stop
+    return _contact_events(ph, w, t, cur, stop)
+
+
+@uncounted
+def _contact_events(ph, w, t, cur, stop):
+    """:func:`events` of the watched contacts, after the finiteness test (``stop``: it failed)."""
+    q, v = cur.q, cur.v
+    n = q.shape[0]
     for i in w.inactive:
         g, gam = kernels.gap(ph.model, i, q, v, ph.gq)
         closes, arms = gap_event(g, w.armed[i])
