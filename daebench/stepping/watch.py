@@ -122,31 +122,36 @@ def reached(t, t_next, t_end):
 
 
 @njit(cache=True, inline="always")
+def finite(cur):
+    """Whether the state ``cur`` is finite (q and v)."""
+    q, v = cur.q, cur.v
+    ok = True
+    for i in range(q.shape[0]):
+        if not (math.isfinite(q[i]) and math.isfinite(v[i])):
+            ok = False
+    return ok
+
+
+@njit(cache=True, inline="always")
+def step_events(ph, w, t, cur):
+    """:func:`events`, compiled into the stepping loop: a phase that watches no contact (none
+    open, none closed) pays the finiteness test only, not a call of :func:`events` (which
+    passes every array of the phase and of the watch through the stack: a tenth of a
+    pendulum step)."""
+    if w.inactive.shape[0] == 0 and w.lam_rows.shape[0] == 0:
+        return not finite(cur)
+    return events(ph, w, t, cur)
+
+
+@uncounted
 def events(ph, w, t, cur):
     """Whether the step that ended in ``cur`` (at t) has an event the driver must handle:
     a non-finite state, an open contact closing or changing its proximity (:func:`near`), a
     closed one whose consistent force turns tensile. Re-arms gaps that left the band (every
-    step: the driver's rule).
-
-    Compiled into its caller: a phase with no contact watched (no open contact, no closed
-    one) pays the finiteness test only — a call of :func:`_contact_events` passes the
-    phase's and the watch's arrays, flattened, through the stack (on the pendulum, a tenth
-    of a step's time)."""
-    q, v = cur.q, cur.v
-    stop = False
-    for i in range(q.shape[0]):
-        if not (math.isfinite(q[i]) and math.isfinite(v[i])):
-            stop = True
-    if w.inactive.shape[0] == 0 and w.lam_rows.shape[0] == 0:
-        return stop
-    return _contact_events(ph, w, t, cur, stop)
-
-
-@uncounted
-def _contact_events(ph, w, t, cur, stop):
-    """:func:`events` of the watched contacts, after the finiteness test (``stop``: it failed)."""
+    step: the driver's rule)."""
     q, v = cur.q, cur.v
     n = q.shape[0]
+    stop = not finite(cur)
     for i in w.inactive:
         g, gam = kernels.gap(ph.model, i, q, v, ph.gq)
         closes, arms = gap_event(g, w.armed[i])
