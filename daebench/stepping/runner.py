@@ -90,7 +90,7 @@ def run_phase(meth, ws, ph, ctl, w, t, t_stop, h_next, cur, new, prev, max_steps
         steps += 1
         phase.book_friction(ph, t_prev, t, cur.q, cur.v)   # a slipping phase's friction work (core.coulomb)
         # watch.quiet, with the rows of a quiet step's output times written here when t_out is given
-        if steps >= max_steps or watch.events(ph, w, t, cur):
+        if steps >= max_steps or watch.step_events(ph, w, t, cur):
             break
         if watch.reached(t, t_next, w.t_end):
             if t_out.shape[0] == 0:
