@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 START_LIMIT_S = 60.0   # a scheduler or worker that is not up by then fails the test
+SETTLE_S = 2.0         # s the scheduler is given to hear the last words of workers just frozen
 
 
 def free_port() -> int:
@@ -93,6 +94,27 @@ class Cluster:
         if p is not None and p.poll() is None:
             os.kill(p.pid, signal.SIGKILL)
             p.wait(timeout=30)
+
+    def kill9_a_worker_holding_a_run(self, workers: list[subprocess.Popen]) -> subprocess.Popen:
+        """Freeze ``workers`` (SIGSTOP: no run of theirs can finish or start any more), let the
+        scheduler settle, then SIGKILL one the scheduler says is processing a run, or else holds
+        a finished run's result, and thaw the others; the worker killed. So the kill hits a
+        run however fast the runs are (a worker killed between two runs would hold none)."""
+        from dask.distributed import Client
+
+        for w in workers:
+            os.kill(w.pid, signal.SIGSTOP)
+        time.sleep(SETTLE_S)
+        with Client(self.address, timeout=10) as c:
+            holding = [a for a, keys in c.processing().items() if keys]
+            holding += [a for where in c.who_has().values() for a in where]
+        victim = next((w for w in workers if w.address in holding), None)
+        assert victim is not None, f"no frozen worker holds a run: {holding}"
+        self.kill9(victim)
+        for w in workers:
+            if w is not victim:
+                os.kill(w.pid, signal.SIGCONT)
+        return victim
 
     def stop(self) -> None:
         for p in [*self.workers, self.scheduler]:

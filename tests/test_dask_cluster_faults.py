@@ -9,7 +9,9 @@ within the connect timeout, saying what answered there."""
 from __future__ import annotations
 
 import http.server
+import json
 import os
+import signal
 import socket
 import sqlite3
 import subprocess
@@ -126,27 +128,85 @@ def test_a_lost_scheduler_interrupts_the_runs_in_flight_and_resume_runs_them(clu
     assert (full.set_index("run").loc[sorted(done), "digest"] == kept["digest"]).all()   # finished rows kept
 
 
-@pytest.mark.xfail(strict=False, reason="open: when the runs are fast (a warm kernel cache), the worker can be "
-                                        "killed before the sweep has seen where its last run runs, and the sweep "
-                                        "then waits on it past the no-workers bound")
-def test_a_lost_worker_is_a_crashed_row_once_and_no_workers_is_reported(cluster, tmp_path):
-    res = tmp_path / "results"
+def stored_rows(results: Path, name: str) -> list[dict]:
+    db = results / "bench" / f"{name}.rows.sqlite"
+    if not db.exists():
+        return []
+    try:
+        with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=5) as con:
+            return [json.loads(r) for (r,) in con.execute("SELECT row FROM rows")]
+    except sqlite3.Error:
+        return []
+
+
+def held_on(c: Cluster, address: str) -> tuple[int, int]:
+    """(runs processing, results held) on the worker at ``address``, as the scheduler says."""
+    from dask.distributed import Client
+
+    with Client(c.address, timeout=10) as client:
+        return (len(client.processing().get(address, ())),
+                sum(address in where for where in client.who_has().values()))
+
+
+def kill9_the_worker_holding_a_result(cluster: Cluster, sweep: subprocess.Popen, worker) -> None:
+    """Freeze the sweep (SIGSTOP) until its run on ``worker`` has finished there, the result
+    unread; SIGKILL the worker, then thaw the sweep: it never saw where the run ran, nor its
+    result. (Frozen between two runs, with none on the worker, the sweep is thawed a moment.)"""
+    t0 = time.monotonic()
+    while True:
+        assert sweep.poll() is None and time.monotonic() - t0 < WAIT_S, "no run held by the worker"
+        os.kill(sweep.pid, signal.SIGSTOP)
+        while held_on(cluster, worker.address)[0]:   # a run in progress: it finishes, unread
+            time.sleep(0.2)
+        if held_on(cluster, worker.address)[1]:
+            break
+        os.kill(sweep.pid, signal.SIGCONT)
+        time.sleep(0.3)
+    cluster.kill9(worker)
+    os.kill(sweep.pid, signal.SIGCONT)
+
+
+def the_only_worker_lost_mid_sweep(cluster: Cluster, res: Path, name: str, no_workers_s: str,
+                                   holding: str = "a run"):
+    """A sweep on a cluster of one worker (--no-nanny: nothing restarts it), killed once a
+    first row is stored, while it holds ``holding``: "a run" in progress or "a result" the
+    sweep has not read; the sweep and the worker killed."""
     cluster.start_scheduler()
-    only = cluster.worker()          # --no-nanny: nothing restarts it
-    p = daebench(*BENCH, "--scheduler", cluster.address, "--name", "w", "--no-workers-timeout", "5", results=res)
-    until(lambda: stored(res, "w") >= 1, p, "a first row")
-    until(lambda: busy(cluster), p, "a run in flight")
-    time.sleep(1.0)                  # the sweep has seen where it runs (it looks every 0.25 s)
-    cluster.kill9(only)
+    only = cluster.worker()
+    p = daebench(*BENCH, "--scheduler", cluster.address, "--name", name, "--no-workers-timeout", no_workers_s,
+                 results=res)
+    until(lambda: stored(res, name) >= 1, p, "a first row")
+    if holding == "a run":
+        assert cluster.kill9_a_worker_holding_a_run([only]) is only
+    else:
+        kill9_the_worker_holding_a_result(cluster, p, only)
+    return p, only
+
+
+LOST = {"a run": "was lost while it ran", "a result": "was lost with its result, before the sweep had read it"}
+
+
+def the_crashed_row(part: pd.DataFrame, worker, holding: str = "a run") -> int:
+    """The one ``crashed`` row names the worker killed and what was lost, with no ``error``
+    among the rows; its run."""
+    crashed = part[part.status == "crashed"]
+    assert len(crashed) == 1 and "error" not in set(part.status), part[["run", "status", "message"]]
+    assert f"its Dask worker {worker.address} {LOST[holding]}" in crashed.message.iloc[0]
+    assert crashed.lost_worker.iloc[0] == worker.address
+    return int(crashed.run.iloc[0])
+
+
+@pytest.mark.parametrize("holding", ["a run", "a result"])
+def test_a_lost_worker_is_a_crashed_row_once_and_no_workers_is_reported(cluster, tmp_path, holding):
+    res = tmp_path / "results"
+    p, only = the_only_worker_lost_mid_sweep(cluster, res, "w", "5", holding)
     _, err = p.communicate(timeout=WAIT_S)
     assert p.returncode == 1, err
     one_line_no_traceback(err, f"the Dask cluster at {cluster.address} has had no workers for 5 s "
                                f"(--no-workers-timeout)")
     part = table(res, "w")
-    crashed = part[part.status == "crashed"]
-    assert len(crashed) == 1 and "its Dask worker tcp://127.0.0.1:" in crashed.message.iloc[0]
-    assert "was lost while it ran" in crashed.message.iloc[0] and "error" not in set(part.status)
-    lost_run = int(crashed.run.iloc[0])
+    lost_run = the_crashed_row(part, only, holding)
+    assert len(part) == 4 and set(part.status) <= {"completed", "crashed", "interrupted"}
 
     # the resume on a new worker runs the crashed run again (the cluster failed, not the run)
     # and the interrupted ones, each once
@@ -154,6 +214,27 @@ def test_a_lost_worker_is_a_crashed_row_once_and_no_workers_is_reported(cluster,
     full = resume_to_the_end(cluster, res, "w")
     assert "lost_worker" not in full or full.lost_worker.isna().all()
     assert lost_run in set(full.run)
+
+
+def test_a_run_lost_with_its_worker_is_not_redone_by_a_worker_that_joins(cluster, tmp_path):
+    """The only worker killed holding a run; once its ``crashed`` row is stored a new worker
+    joins within the no-workers bound: the sweep ends with the crashed row and every other
+    run completed, and the new worker ran only the runs that had no row."""
+    res = tmp_path / "results"
+    p, only = the_only_worker_lost_mid_sweep(cluster, res, "j", "120")
+    until(lambda: any(r["status"] == "crashed" for r in stored_rows(res, "j")), p, "a crashed row")
+    had_rows = len(stored_rows(res, "j"))
+    new = cluster.worker()
+    _, err = p.communicate(timeout=WAIT_S * 2)
+    assert p.returncode == 1 and "gave no verdict (crashed)" in err, err
+    full = table(res, "j")
+    the_crashed_row(full, only)
+    assert sorted(full.run) == [0, 1, 2, 3] and (full.status == "completed").sum() == 3
+    from dask.distributed import Client
+
+    with Client(cluster.address, timeout=10) as c:
+        ran = c.run(lambda dask_worker: dask_worker.state.executed_count, workers=[new.address])
+    assert ran == {new.address: 4 - had_rows}
 
 
 def processing(c: Cluster) -> dict[str, list]:
@@ -178,9 +259,7 @@ def test_a_bench_survives_kill9_of_its_scheduler_and_of_a_worker_with_a_local_ru
     workers = [cluster.worker(), cluster.worker()]
     p = daebench(*BENCH, "--scheduler", cluster.address, "--name", "k", "--resume", results=res)
     until(lambda: processing(cluster), p, "a run in flight")
-    busy_at = next(iter(processing(cluster)))
-    time.sleep(1.0)
-    cluster.kill9(next(w for w in workers if w.address == busy_at))
+    cluster.kill9_a_worker_holding_a_run(workers)
     _, err = p.communicate(timeout=WAIT_S * 2)
     statuses.append(set(table(res, "k").status))
     assert p.returncode == 1 and "gave no verdict (crashed)" in err, err    # the other worker went on

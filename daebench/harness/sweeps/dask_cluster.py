@@ -8,19 +8,29 @@
 * **A lost scheduler** stops the sweep with :class:`ClusterLost` (one line: what was lost
   and where); the runs in flight get no row (they are ``interrupted`` in the partial
   table) so that ``--resume`` on a restarted cluster runs them.
-* **A lost worker**: each run in flight is followed to the workers it was seen processing
-  on; when such a worker leaves the cluster before the run has finished (``kill -9``, out
-  of memory, its machine gone) the run becomes a ``crashed`` row naming the worker, and its
-  future is released so that no other worker silently runs it again. Such a row carries
-  ``lost_worker``: a ``--resume`` runs it again, as the cluster, not the run, failed
-  (:meth:`daebench.harness.sweeps.store.SweepStore.open`).
+* **A lost worker**: the sweep follows the scheduler's own account of each worker that
+  leaves the cluster unasked (``kill -9``, out of memory, its machine gone; the scheduler's
+  ``remove-worker`` event, to which the sweep subscribes before its first run is submitted,
+  names the runs it had on that worker). Such a run becomes a ``crashed`` row naming the
+  worker whether or not the sweep ever saw where it ran, and its future is released, so
+  that no worker — one already there, or one that joins later — runs it for the sweep
+  again (the scheduler may already have handed it to another worker: that run is
+  cancelled and its result never used; a scheduler started with
+  ``distributed.scheduler.allowed-failures: 0`` hands it to none). A run that had finished
+  on the worker but whose result went with it is ``crashed`` the same way. Such a row
+  carries ``lost_worker``: a ``--resume`` runs it again, as the cluster, not the run,
+  failed (:meth:`daebench.harness.sweeps.store.SweepStore.open`). A worker the scheduler
+  retires on purpose (``retire_workers``) hands its runs on and crashes none.
 * **No workers**: a cluster that has had no worker for ``no_workers_s`` seconds while
-  runs wait stops the sweep with :class:`ClusterLost` (the bound is ``--no-workers-timeout``).
+  runs wait stops the sweep with :class:`ClusterLost` (the bound is ``--no-workers-timeout``);
+  the runs lost with the last worker are ``crashed`` rows first, the others interrupted.
 
-Only a ``KilledWorker`` raised by the scheduler itself (the run was on several workers
-that died) is a ``crashed`` row a resume keeps. The distributed library's own log lines
-(reconnection attempts, tracebacks of a closed comm) are held back while a sweep runs on
-the cluster: the sweep says what happened, once.
+A ``KilledWorker`` raised by the scheduler itself is a ``crashed`` row too: after one
+worker's death (``allowed-failures: 0``) it is a lost worker's row as above; after several
+(the run was on that many workers that died: the run likely kills them) a row a resume
+keeps. The distributed library's own log lines (reconnection attempts, tracebacks of a
+closed comm) are held back while a sweep runs on the cluster: the sweep says what
+happened, once.
 """
 
 from __future__ import annotations
@@ -39,6 +49,9 @@ from daebench.harness.sweeps.executors import POLL_S, ExecutorError, Row
 DASK_CONNECT_TIMEOUT = 10.0   # s to reach a Dask scheduler and hear its handshake
 NO_WORKERS_TIMEOUT = 60.0     # s a cluster may have no worker while runs wait (--no-workers-timeout)
 CLOSE_TIMEOUT = 5.0           # s to close a client (its scheduler may be gone)
+RESULT_S = 1.0                # s to read a finished run's row before looking at the cluster again (doubled
+                              # on each try of the same run, up to RESULT_MAX_S)
+RESULT_MAX_S = 60.0
 HANDSHAKE_MAX_BYTES = 1 << 20  # a scheduler's handshake is some hundred bytes
 HTTP_PROBE_S = 2.0            # of the connect timeout, kept to ask a silent port whether it speaks HTTP
 DEFAULT_PORT = 8786
@@ -232,9 +245,59 @@ class _Cluster:
             info = self.ask(self.client.scheduler_info)
         return {a: int(w.get("nthreads", 1)) for a, w in info.get("workers", {}).items()}
 
-    def processing(self) -> dict[str, list[Any]]:
-        """{worker address: keys it is processing}."""
-        return {a: list(keys) for a, keys in self.ask(self.client.processing).items()}
+
+class _LostRuns:
+    """The runs each worker that left the cluster unasked had, from the scheduler's
+    ``remove-worker`` events (topic "all"): ``{key: (worker address, "ran" or "result")}``
+    ("result": it had finished there, its result not yet read). Called in the client's
+    event loop for every event; any handler that was there before is called too."""
+
+    TOPIC = "all"
+
+    def __init__(self, client: Any) -> None:
+        self.client = client
+        self.keys: dict[Any, tuple[str, str]] = {}
+        self.unnamed: str | None = None     # a worker whose event named no runs (an old distributed)
+        self.before = getattr(client, "_event_handlers", {}).get(self.TOPIC)
+        client.subscribe_topic(self.TOPIC, self)   # sent ahead of any submit on the same stream
+
+    def __call__(self, event: tuple[float, Any]) -> Any:
+        msg = event[1] if isinstance(event, tuple) and len(event) == 2 else None
+        if isinstance(msg, dict) and msg.get("action") == "remove-worker" and not msg.get("expected"):
+            worker = str(msg.get("worker"))
+            if "processing-tasks" not in msg:
+                self.unnamed = worker
+            for k in msg.get("lost-computed-tasks", ()):
+                self.keys.setdefault(k, (worker, "result"))
+            for k in msg.get("processing-tasks", ()):
+                self.keys[k] = (worker, "ran")
+        return self.before(event) if self.before is not None else None
+
+    def check(self) -> None:
+        """Raise :class:`ClusterLost` if a worker was lost and the scheduler did not say with which runs."""
+        if self.unnamed is not None:
+            import distributed
+
+            raise ClusterLost(f"the Dask worker {self.unnamed} was lost, and this distributed "
+                              f"({distributed.__version__}) does not say which runs it had, so the runs in flight "
+                              f"are interrupted; upgrade it (pip install -U 'dask[distributed]') and run the same "
+                              f"command with --resume")
+
+    def close(self) -> None:
+        if self.client.status != "running":
+            return
+        if self.before is not None:
+            self.client.subscribe_topic(self.TOPIC, self.before)
+        else:
+            self.client.unsubscribe_topic(self.TOPIC)
+
+
+def _lost_row(spec: Any, worker: str, what: str, make_row: Callable[[Any, str, str], Row]) -> Row:
+    when = "while it ran" if what == "ran" else "with its result, before the sweep had read it"
+    row = make_row(spec, "crashed", f"its Dask worker {worker} was lost {when} (killed, out of memory, or its "
+                                    f"machine gone); --resume runs it again")
+    row["lost_worker"] = worker
+    return row
 
 
 def run_dask(specs: Sequence[Any], fn: Callable[[Any], Row], client: Any, on_row: Callable[[Row], None],
@@ -255,9 +318,10 @@ def run_dask(specs: Sequence[Any], fn: Callable[[Any], Row], client: Any, on_row
     cluster = _Cluster(client)
     pending = deque(specs)
     flying: dict[Any, tuple[Any, float]] = {}
-    seen_on: dict[Any, set[str]] = {}          # future → workers it was seen processing on
+    tries: dict[Any, int] = {}                  # future → times its result was not read in time
     idle_since: float | None = None             # since when the cluster has had no worker
     with quiet_distributed():
+        lost = cluster.ask(lambda: _LostRuns(client))
         try:
             while pending or flying:
                 workers = cluster.workers()
@@ -274,32 +338,31 @@ def run_dask(specs: Sequence[Any], fn: Callable[[Any], Row], client: Any, on_row
                 while pending and len(flying) < max(1, sum(workers.values())):
                     s = pending.popleft()
                     f = cluster.ask(lambda: client.submit(fn, s, pure=False))
-                    flying[f], seen_on[f] = (s, time.monotonic()), set()
+                    flying[f] = (s, time.monotonic())
                 if on_running is not None:
                     on_running([s for s, _ in flying.values()])
                 if not any(f.done() for f in flying):
                     time.sleep(POLL_S)
-                where = {k: a for a, keys in cluster.processing().items() for k in keys}
-                workers = cluster.workers()
+                lost.check()
                 for f in list(flying):
                     spec, started = flying[f]
-                    if f.key in where:
-                        seen_on[f].add(where[f.key])
-                    gone = sorted(seen_on[f] - set(workers))
-                    if f.done():
-                        row = _finished(f, spec, make_row, cluster)
-                    elif gone:
+                    if f.key in lost.keys:    # before done(): a run another worker redid is still lost
                         f.cancel()   # released: no other worker runs it again behind the sweep's back
-                        row = make_row(spec, "crashed", f"its Dask worker {gone[0]} was lost while it ran (killed, "
-                                                        f"out of memory, or its machine gone); --resume runs it again")
-                        row["lost_worker"] = gone[0]
+                        row = _lost_row(spec, *lost.keys.pop(f.key), make_row)
+                    elif f.done():
+                        row = _finished(f, spec, make_row, cluster, min(RESULT_S * 2 ** tries.get(f, 0),
+                                                                        RESULT_MAX_S))
+                        if row is None:       # its result could not be read yet: its worker may be gone
+                            tries[f] = tries.get(f, 0) + 1
+                            continue
                     elif backstop_s is not None and time.monotonic() - started > backstop_s:
                         f.cancel()
                         row = make_row(spec, "timeout", f"run still going after {backstop_s:g} s (beyond its "
                                                         f"wall-time cap); abandoned")
                     else:
                         continue
-                    del flying[f], seen_on[f]
+                    del flying[f]
+                    tries.pop(f, None)
                     on_row(row)
         finally:
             if client.status == "running":
@@ -308,19 +371,37 @@ def run_dask(specs: Sequence[Any], fn: Callable[[Any], Row], client: Any, on_row
                         f.cancel()
                     except Exception:   # noqa: BLE001  the scheduler went meanwhile
                         pass
+                try:
+                    lost.close()
+                except Exception:   # noqa: BLE001  the scheduler went meanwhile
+                    pass
 
 
-def _finished(f: Any, spec: Any, make_row: Callable[[Any, str, str], Row], cluster: _Cluster) -> Row:
-    """The row of a future that is done: its result, or what ended it. A cancelled future
-    (the scheduler's connection lost, or someone cancelled it) stops the sweep."""
+def _finished(f: Any, spec: Any, make_row: Callable[[Any, str, str], Row], cluster: _Cluster,
+              wait_s: float) -> Row | None:
+    """The row of a future that is done: its result, or what ended it; None when it is not
+    read within ``wait_s`` (the worker holding the result may be gone: the sweep looks at
+    the cluster's losses, then tries again). A cancelled future (the scheduler's connection
+    lost, or someone cancelled it) stops the sweep."""
     if f.status == "cancelled":
         raise cluster.lost("its futures were cancelled") if cluster.client.status != "running" else ClusterLost(
             f"a run's future was cancelled on the Dask cluster at {cluster.address} (by another client or the "
             f"scheduler); the runs in flight are interrupted: run the same command with --resume")
     try:
-        return cluster.ask(f.result)
+        if f.status == "finished":
+            return cluster.ask(lambda: f.result(timeout=wait_s))
+        exc = cluster.ask(lambda: f.exception(timeout=wait_s))   # KilledWorker (the scheduler gave up), a raised run …
     except ClusterLost:
         raise
-    except BaseException as exc:  # KilledWorker (the scheduler gave up on it), a raised run …
-        status = "crashed" if type(exc).__name__ == "KilledWorker" else "error"
-        return make_row(spec, status, f"{type(exc).__name__}: {exc}")
+    except TimeoutError:      # reading a done future: only the gather, or the scheduler's answer, can time out
+        return None
+    except Exception as read:  # noqa: BLE001  the future changed state while read (its result lost): look again
+        if not f.done():
+            return None
+        exc = read             # a row or an exception that cannot be read here
+    if type(exc).__name__ == "KilledWorker":
+        worker = getattr(getattr(exc, "last_worker", None), "address", None)
+        if getattr(exc, "allowed_failures", None) == 0 and worker:   # one worker died: the cluster failed
+            return _lost_row(spec, str(worker), "ran", make_row)
+        return make_row(spec, "crashed", f"{type(exc).__name__}: {exc}")
+    return make_row(spec, "error", f"{type(exc).__name__}: {exc}")
