@@ -101,3 +101,22 @@ def test_the_command_exits_1_for_a_file_whose_physics_broke(tmp_path, monkeypatc
     r = CliRunner().invoke(app, ["score", "ball", f])
     out = " ".join(r.output.split())
     assert r.exit_code == 1 and "status: diverged: contact 0 is" in out and "inside its rigid obstacle" in out
+
+
+@pytest.mark.slow   # block-incline's capturing reference: a fine Moreau–Jean run (cached after the first)
+def test_a_block_resting_on_its_ground_holds_its_gap_at_zero_and_completes():
+    """The closed form of block-incline (daebench.models.rigid2d_exact): the corners on the
+    ground, gap 0 at every row exactly, while the reference holds it to round-off (±3e-17 m);
+    its impacts (the two corners closing at the start) carry no impulse, so the impulse
+    measure is unknown (NaN), not zero."""
+    from daebench.models.rigid2d_exact import incline_motion
+
+    t = np.linspace(0.0, 1.0, 1001)
+    x, vx = incline_motion(3.0, math.radians(30.0), 0.3, G, t)
+    df = pd.DataFrame({"t": t, "x": x, "vx": vx, "y": 0.1, "theta": 0.0, "gap": 0.0})
+    row = _row("block-incline", df, impacts=pd.DataFrame({"t": [0.0, 0.0], "contact": [0, 1]}))
+    assert row["status"] == "completed", row["verdict_reason"]
+    assert row["err_x_max_trusted"] < 1e-5 and row["err_gap_max_trusted"] < 1e-15
+    assert math.isnan(row["err_impulse_measure"])
+    # the rule still holds where the truth moves: x held at its start is no trajectory
+    _not_completed(_row("block-incline", df.assign(x=0.0)), "failed", "'x' is 0 at every row")

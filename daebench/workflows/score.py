@@ -176,7 +176,8 @@ def external_row(scene: Scene, ext: external.ExternalData, tr: pipeline.Truth, i
     notes += moved
     hist = ext.history
     t_final = float(hist["t"].iloc[-1])
-    status, why = judge.verdict(hist, tr.history, system, run.scored_columns())
+    cols = run.scored_columns()
+    status, why = judge.verdict(hist, tr.history, system, cols, {c: run.declared.get(c).unit for c in cols})
     h = float(scene.t_end) / ext.steps if math.isfinite(ext.steps) else math.nan
     row: dict[str, Any] = {
         "run": int(index), "case": scene.name, "integrator": EXTERNAL, "label": ext.label, "h": h,

@@ -4,20 +4,15 @@ coordinates q = (θ1, θ2, θ3) whose mass matrix, gyroscopic-plus-gravity force
 Jacobians are compiled C functions, and one ``LagrangianScleronomousR`` per slider corner
 (gap h(q) and its gradient, compiled too), as Siconos' own slider-crank example sets the
 system up. The functions here are written from daebench's model docstring (M, Q, g, g_q) and
-compiled once per source by the system's C++ compiler (``c++``, Debian's ``g++``) against
-nothing but libm; the scene's values reach them through the system's ``z`` vector.
+compiled once per source (:mod:`siconos_plugins`); the scene's values reach them through the
+system's ``z`` vector.
 
 Siconos' convention M q̈ + F_gyr(q, q̇) = p, so F_gyr = −Q (gravity included).
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import shutil
-import subprocess
-import tempfile
 from pathlib import Path
 
 #: z = (l1, l2, m1, m2, m3, J1, J2, J3, a, b, c, g)
@@ -103,25 +98,10 @@ CORNER(3)
 
 
 def plugin() -> Path:
-    """The compiled plugin (built once per source into the user's cache folder), its path
-    without the ``.so`` suffix that Siconos' plugin loader adds."""
-    digest = hashlib.sha256(SOURCE.encode()).hexdigest()[:12]
-    folder = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "daebench" / "siconos-plugins"
-    stem = folder / f"SliderCrankPlugin-{digest}"
-    if not stem.with_suffix(".so").exists():
-        cxx = shutil.which("c++") or shutil.which("g++")
-        if cxx is None:
-            import common
-            raise common.Refused("the Siconos slider-crank plugin needs a C++ compiler (apt-get install g++)")
-        folder.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=folder) as tmp:
-            src = Path(tmp) / "plugin.cpp"
-            src.write_text(SOURCE)
-            so = Path(tmp) / "plugin.so"
-            subprocess.run([cxx, "-O2", "-shared", "-fPIC", str(src), "-o", str(so), "-lm"], check=True,
-                           capture_output=True, timeout=300)
-            os.replace(so, stem.with_suffix(".so"))
-    return stem
+    """The compiled plugin (:func:`siconos_plugins.compiled`), its path without ``.so``."""
+    import siconos_plugins
+
+    return siconos_plugins.compiled(SOURCE, "SliderCrankPlugin")
 
 
 def build(sk, np, sheet: dict, p: dict, t_end: float):

@@ -9,7 +9,10 @@ and the spring–wall oscillator: one coordinate, a linear time-invariant Lagran
 wall a linear relation y = x − x_w), both methods; the ``slider-crank`` model
 (``slider-crank-clearance``, frictionless) with ``mj`` in Siconos' plugin formulation
 (:mod:`siconos_slidercrank`): one Newton–LCP loop per step, an impact per corner where its
-impulse turns positive.
+impulse turns positive; the ``rigid2d`` model (``block-incline``, ``rocking-block``: Coulomb
+friction) with ``mj``, compiled relations with a normal and a tangential row per contact
+point (:mod:`siconos_rigid2d`) and one 2-D friction-contact problem (Lemke) per Newton
+iteration.
 
 What the Python layer does not give: the Liu–Zhao–Brogliato multiple-impact law
 (``MultipleImpactNSL`` is wrapped, its one-step solver ``OSNSMultipleImpact`` is not), so the
@@ -28,6 +31,15 @@ import common  # noqa: E402  (the worker's own folder: it runs outside daebench)
 
 LSODAR_RTOL, LSODAR_ATOL = 1e-14, 1e-16
 THETA = 0.5
+NEWTON_TOL, NEWTON_MAX = 1e-10, 20
+#: the friction-contact solver's tolerance (Lemke's method checks its solution against it)
+FRICTION_TOL = 1e-12
+#: Moreau–Jean's activation threshold [m] on the rigid2d model: a contact whose predicted gap
+#: is at most this is in the step's problem. A resting corner's gap is zero up to rounding
+#: (~1e-17 m); at Siconos' default 0 a corner whose rounding lands positive leaves the problem
+#: for a step, falls through and drifts (measured on block-incline at h = 5e-4 s: y off by
+#: 5e-5 m, x at 1 s off by 0.10 m). 1e-10 m is below any length the cases resolve.
+ACTIVATION = 1e-10
 
 
 def _version() -> str:
@@ -118,6 +130,29 @@ def event_driven(sk, nsds, ds, inter, wall, h: float, n: int):
                                           f"impact and smooth-acceleration LCPs, output every {h!r} s")
 
 
+def _stepping(sim, ds, inters, observe, closed: list[bool]):
+    """Moreau–Jean's loop over a Newton–one-step-problem simulation: the observables at every
+    step, an impact per contact where its normal impulse turns positive (a contact closed at
+    the start is none until it has opened), the loop's CPU time."""
+    rows = [(0.0, *observe(ds.q(), ds.velocity()))]
+    impacts = []
+
+    def loop():
+        was = list(closed)
+        while sim.hasNextEvent():
+            sim.computeOneStep()
+            t = sim.nextTime()
+            rows.append((t, *observe(ds.q(), ds.velocity())))
+            for k, inter in enumerate(inters):
+                on = inter.lambda_(1)[0] > 0.0
+                if on and not was[k]:
+                    impacts.append((t, k))
+                was[k] = on
+            sim.nextStep()
+    _, cpu = common.timed(loop)
+    return rows, impacts, cpu
+
+
 def slider_crank(sk, sheet: dict, p: dict, t_end: float, h: float, method: str):
     """Moreau–Jean on the slider-crank in Siconos' plugin formulation (:mod:`siconos_slidercrank`)."""
     import siconos_slidercrank as sc
@@ -127,26 +162,35 @@ def slider_crank(sk, sheet: dict, p: dict, t_end: float, h: float, method: str):
                              "scheme does not pass them; run it with siconos-mj")
     nsds, ds, inters = sc.build(sk, np, sheet, p, t_end)
     sim = sk.TimeStepping(nsds, sk.TimeDiscretisation(0.0, h), sk.MoreauJeanOSI(THETA), sk.LCP())
-    sim.setNewtonTolerance(1e-10)
-    sim.setNewtonMaxIteration(20)
-    rows = [(0.0, *sc.observables(ds.q(), ds.velocity(), p))]
-    impacts = []
-
-    def loop():
-        was = [False] * len(inters)
-        while sim.hasNextEvent():
-            sim.computeOneStep()
-            t = sim.nextTime()
-            rows.append((t, *sc.observables(ds.q(), ds.velocity(), p)))
-            for k, inter in enumerate(inters):
-                on = inter.lambda_(1)[0] > 0.0
-                if on and not was[k]:
-                    impacts.append((t, k))
-                was[k] = on
-            sim.nextStep()
-    _, cpu = common.timed(loop)
+    sim.setNewtonTolerance(NEWTON_TOL)
+    sim.setNewtonMaxIteration(NEWTON_MAX)
+    rows, impacts, cpu = _stepping(sim, ds, inters, lambda q, v: sc.observables(q, v, p), [False] * len(inters))
     return sc.COLUMNS, rows, impacts, cpu, len(rows) - 1, (f"Moreau–Jean (θ = {THETA}, LCP per step, Newton "
-                                                            f"tolerance 1e-10, h = {h!r} s), plugin formulation")
+                                                            f"tolerance {NEWTON_TOL:g}, h = {h!r} s), plugin formulation")
+
+
+def rigid2d(sk, sheet: dict, p: dict, t_end: float, h: float, method: str):
+    """Moreau–Jean with Coulomb friction on the planar rigid body (:mod:`siconos_rigid2d`):
+    one 2-D friction-contact problem per Newton iteration, solved by Lemke's pivoting
+    method (exact to rounding, no tolerance of its own)."""
+    import siconos.numerics as sn
+    import siconos_rigid2d as rb
+
+    if method != "mj":
+        raise common.Refused("the Siconos rigid2d adapter runs Moreau–Jean (siconos-mj): Siconos' event-driven "
+                             "scheme has no Coulomb friction in its impact and acceleration problems")
+    nsds, ds, inters = rb.build(sk, np, sheet, p, t_end)
+    osnsp = sk.FrictionContact(2, sn.SICONOS_FRICTION_2D_LEMKE)
+    osnsp.numericsSolverOptions().dparam[sn.SICONOS_DPARAM_TOL] = FRICTION_TOL
+    osi = sk.MoreauJeanOSI(THETA)
+    osi.setConstraintActivationThreshold(ACTIVATION)
+    sim = sk.TimeStepping(nsds, sk.TimeDiscretisation(0.0, h), osi, osnsp)
+    sim.setNewtonTolerance(NEWTON_TOL)
+    sim.setNewtonMaxIteration(NEWTON_MAX)
+    rows, impacts, cpu = _stepping(sim, ds, inters, lambda q, v: rb.observables(q, v, p), [False] * len(inters))
+    return rb.COLUMNS, rows, impacts, cpu, len(rows) - 1, (
+        f"Moreau–Jean (θ = {THETA}, 2-D friction-contact problem per Newton iteration, Lemke, Newton tolerance "
+        f"{NEWTON_TOL:g}, h = {h!r} s), plugin relations")
 
 
 def run(req: dict) -> None:
@@ -156,16 +200,18 @@ def run(req: dict) -> None:
     p = common.values(sheet)
     t_end, h = float(sheet["time"]["t_end"]), float(req["h"])
     n = common.steps_of(t_end, h)
-    if sheet["model"] == "slider-crank":
-        columns, rows, impacts, cpu, steps, words = slider_crank(sk, sheet, p, t_end, h, req["method"])
+    if sheet["model"] in PLUGIN_MODELS:
+        columns, rows, impacts, cpu, steps, words = PLUGIN_MODELS[sheet["model"]](sk, sheet, p, t_end, h,
+                                                                                  req["method"])
         common.write(req, columns, rows, impacts,
                      {"cost_s": repr(cpu), "steps": steps, "code": f"Siconos {_version()}", "method": words,
                       "cost": "CPU time of the simulation loop in the peer's process (time.process_time)",
                       "h": repr(h)})
         return
     if sheet["model"] != "ball":
-        raise common.Refused(f"the Siconos adapter runs the ball model's cases (ball, spring-wall) and "
-                             f"slider-crank-clearance; case '{sheet['case']}' is model '{sheet['model']}'")
+        raise common.Refused(f"the Siconos adapter runs the ball model's cases (ball, spring-wall), "
+                             f"slider-crank-clearance and the rigid2d model's (block-incline, rocking-block); "
+                             f"case '{sheet['case']}' is model '{sheet['model']}'")
     scheme = {"mj": moreau_jean, "ed": event_driven}[req["method"]]
     rows, impacts, cpu, steps, words = scheme(sk, *_ball(sk, p, t_end), h, n)
     common.write(req, ["t", "x", "v", "gap"], rows, impacts,
@@ -173,6 +219,8 @@ def run(req: dict) -> None:
                   "cost": "CPU time of the simulation loop in the peer's process (time.process_time)",
                   "h": repr(h)})
 
+
+PLUGIN_MODELS = {"slider-crank": slider_crank, "rigid2d": rigid2d}
 
 if __name__ == "__main__":
     common.main(run)

@@ -18,12 +18,17 @@ did not complete):
    3 900 m on a 1 m pendulum): ``diverged``.
 5. **A trajectory that does not move** where the truth does (a constant or all-zero file):
    ``failed``.
+
+In rules 4 and 5 a truth's range counts from its round-off, :data:`ROUNDOFF` × its size
+(the largest of its values, the case's length scale for a column in metres, one radian for
+an angle): a block resting on its ground has a gap and a tilt of 0 that a reference holds to
+±1e-16, and a file holding them at 0 exactly has not failed to move.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -36,6 +41,10 @@ from daebench.harness.scoring.pipeline import restitution
 
 #: a value farther than this × the truth's range from the truth's interval is beyond the case
 BEYOND = DIVERGENCE_ENERGY
+#: relative round-off of a truth's values: a range below ROUNDOFF × their size is none
+ROUNDOFF = 1e-12
+#: the size of a column by its unit, beside its values (metres: the case's length scale)
+UNIT_SIZE = {"rad": 1.0, "deg": 180.0 / math.pi}
 
 
 def case_energy_scale(system: Any) -> float:
@@ -84,8 +93,16 @@ def _impact_energy(hist: pd.DataFrame, scale: float, e: float) -> str:
     return ""
 
 
-def _values(hist: pd.DataFrame, truth: pd.DataFrame, columns: Sequence[str]) -> str:
-    """Rules 4 and 5 (module docstring), column by column."""
+def _still(ref: np.ndarray, unit: str, length: float) -> float:
+    """The round-off of a truth's values (module docstring)."""
+    size = length if unit == "m" else UNIT_SIZE.get(unit, 0.0)
+    return ROUNDOFF * max(float(np.max(np.abs(ref))), size)
+
+
+def _values(hist: pd.DataFrame, truth: pd.DataFrame, columns: Sequence[str], units: Mapping[str, str],
+            length: float) -> str:
+    """Rules 4 and 5 (module docstring), column by column; ``units`` by column, ``length``
+    the case's length scale [m]."""
     for c in columns:
         if c not in hist.columns or c not in truth.columns:
             continue
@@ -94,20 +111,23 @@ def _values(hist: pd.DataFrame, truth: pd.DataFrame, columns: Sequence[str]) -> 
         if not ref.size:
             continue
         y, lo, hi = hist[c].to_numpy(float), float(ref.min()), float(ref.max())
-        rng = value_scale(ref)
+        still = _still(ref, units.get(c, ""), length)
+        rng = max(value_scale(ref), still)
         if ((y > hi + BEYOND * rng) | (y < lo - BEYOND * rng)).any():
             k = int(np.argmax(np.abs(y - np.clip(y, lo, hi))))
             return (f"diverged: '{c}' reaches {y[k]:.4g} at t = {hist['t'].iloc[k]:.6g} s, more than {BEYOND:g} × "
                     f"its range {rng:.3g} outside the case's values [{lo:.4g}, {hi:.4g}]")
-        if np.ptp(y) == 0.0 and hi > lo:
+        if np.ptp(y) == 0.0 and hi - lo > still:
             return (f"failed: '{c}' is {y[0]:.6g} at every row while the case's varies over [{lo:.4g}, {hi:.4g}]: "
                     f"not a trajectory of the case")
     return ""
 
 
-def verdict(hist: pd.DataFrame, truth: pd.DataFrame, system: Any, columns: Sequence[str]) -> tuple[str, str]:
+def verdict(hist: pd.DataFrame, truth: pd.DataFrame, system: Any, columns: Sequence[str],
+            units: Mapping[str, str] | None = None) -> tuple[str, str]:
     """(status, reason) of an external history against its truth (module docstring):
-    ('completed', '') or ('diverged' | 'failed', why). ``columns``: the scored observables."""
+    ('completed', '') or ('diverged' | 'failed', why). ``columns``: the scored observables,
+    ``units``: their units by column (none: sized by their values alone)."""
     scale = case_energy_scale(system)
     found = ""
     if "gap" in hist.columns and int(getattr(system, "n_contacts", 0)):
@@ -116,7 +136,7 @@ def verdict(hist: pd.DataFrame, truth: pd.DataFrame, system: Any, columns: Seque
     if not found and "E" in hist.columns:
         found = _energy(hist, scale)
     found = found or _impact_energy(hist, scale, restitution(system))
-    found = found or _values(hist, truth, columns)
+    found = found or _values(hist, truth, columns, units or {}, float(system.length_scale()))
     if not found:
         return "completed", ""
     status, _, why = found.partition(": ")

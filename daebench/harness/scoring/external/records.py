@@ -37,7 +37,8 @@ def clip(value: Any, n: int = ECHO_CHARS) -> str:
 class ExternalImpact:
     """One impact of an external trajectory, as the measures read an impact record
     (:class:`daebench.core.contact.Impact`): its time, contact (:data:`ANY` when unknown) and
-    episode; it carries no state, so the exact impact oracle and the energy per impact skip it."""
+    episode; it carries no state, so the exact impact oracle and the energy per impact skip it,
+    and no impulse, so the impulse measure is NaN for it (unknown, not zero)."""
 
     t: float
     contact: int = ANY
@@ -48,6 +49,7 @@ class ExternalImpact:
     q: Any = None
     v_minus: Any = None
     v_plus: Any = None
+    impulse: float = math.nan
 
 
 @dataclass(frozen=True)
