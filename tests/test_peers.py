@@ -14,22 +14,9 @@ import pytest
 from daebench import api
 from daebench.models.ball import ball_impacts
 from daebench.peers import PEERS, PeerRefused, PeerUnavailable, base
+from _peers import needs_exudyn, needs_siconos
 
 H0, E, G = 1.0, 0.8, 9.81   # the ball case's values (cases/ball.toml)
-
-
-def _available(name: str) -> bool:
-    try:
-        PEERS[name].python()
-    except PeerUnavailable:
-        return False
-    return True
-
-
-needs_siconos = pytest.mark.skipif(not _available("siconos-mj"),
-                                   reason="Siconos is not installed (apt-get install python3-siconos)")
-needs_exudyn = pytest.mark.skipif(not _available("exudyn-ga"),
-                                  reason="Exudyn is not installed (pip install 'daebench[exudyn]')")
 
 
 def test_a_missing_peer_is_refused_with_its_install_command(monkeypatch, tmp_path):

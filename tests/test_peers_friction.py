@@ -15,22 +15,11 @@ import pytest
 
 from daebench import api
 from daebench.models.rigid2d_exact import incline_motion, incline_stop
-from daebench.peers import PEERS, PeerRefused, PeerUnavailable, base
+from daebench.peers import PEERS, PeerRefused, base
+from _peers import needs_siconos
 from daebench.peers.siconos import BLOCK_INCLINE_STEPS
 
 G, PHI, V0 = 9.81, math.radians(30.0), 3.0     # cases/block-incline.toml
-
-
-def _available(name: str) -> bool:
-    try:
-        PEERS[name].python()
-    except PeerUnavailable:
-        return False
-    return True
-
-
-needs_siconos = pytest.mark.skipif(not _available("siconos-mj"),
-                                   reason="Siconos is not installed (apt-get install python3-siconos)")
 
 
 def _runs(tmp_path, steps, overrides=()):
