@@ -276,7 +276,7 @@ class _LostRuns:
     def check(self) -> None:
         """Raise :class:`ClusterLost` if a worker was lost and the scheduler did not say with which runs."""
         if self.unnamed is not None:
-            import distributed
+            import distributed  # lazy: its version for the message; the client has loaded it
 
             raise ClusterLost(f"the Dask worker {self.unnamed} was lost, and this distributed "
                               f"({distributed.__version__}) does not say which runs it had, so the runs in flight "
