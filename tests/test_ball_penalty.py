@@ -15,11 +15,11 @@ from daebench import api
 M, G, K, C, H0 = 1.0, 9.81, 1e5, 45.0, 1.0   # the ball's values and the penalty law's defaults
 
 
-def _truth(t_out: np.ndarray) -> np.ndarray:
+def _truth(t_out: np.ndarray, damping: float = C) -> np.ndarray:
     """x(t) of m ẍ = −m g + max(0, −k x − c ẋ)·[x < 0] (clipped, as daebench.core.contact)."""
     def rhs(t, y):
         x, v = y
-        f = max(0.0, -K * x - C * v) if x < 0.0 else 0.0
+        f = max(0.0, -K * x - damping * v) if x < 0.0 else 0.0
         return [v, -G + f / M]
     sol = solve_ivp(rhs, (0.0, float(t_out[-1])), [H0, 0.0], method="DOP853", rtol=1e-12, atol=1e-14,
                     t_eval=t_out, max_step=1e-4)
