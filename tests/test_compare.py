@@ -127,12 +127,27 @@ def test_shipped_beam_impact_reference_is_reproduced_from_scratch(tmp_path, monk
 
 
 def test_an_error_at_the_start_is_a_row_not_a_refusal():
-    """Only an IntegratorError at t = 0 means 'not applicable'; any other failure before the
-    first step (e.g. a compilation that broke) stays in the table as an error row."""
+    """Only the integrator's own refusal before its first step (an IntegratorError raised by
+    its start, flagged by the driver) means 'not applicable'; any other failure before the
+    first step (e.g. a compilation that broke) stays in the table as an error row, whatever
+    its message says."""
     import pandas as pd
 
-    refusal = pd.Series({"status": "failed", "t_final": 0.0, "steps": 0,
-                         "message": "t = 0 s: IntegratorError: integrator 'imm' runs the planar FE models"})
-    broken = pd.Series({"status": "error", "t_final": 0.0, "steps": 0,
-                        "message": "RuntimeError: no compiled object yet for <Library '_start'>"})
-    assert C._refused_at_start(refusal) and not C._refused_at_start(broken)
+    from daebench.harness.running.runner import make_integrator, run_scene
+    from daebench.integrators.hht import HHT
+    from daebench.models.scenes import load_scene
+
+    class Broken(HHT):
+        name = "broken-start"
+
+        def start(self, *args, **kwargs):
+            raise RuntimeError("IntegratorError: a message that only looks like a refusal")
+
+    _, refused = run_scene(load_scene("ball"), make_integrator("imm", {}), write=False, force=True)
+    _, broken = run_scene(load_scene("ball"), Broken(), write=False, force=True)
+    assert refused.refused and refused.t_final == 0.0 and "runs the planar FE models" in refused.message
+    assert not broken.refused and broken.status == "failed"
+    rows = [pd.Series({"status": r.status, "t_final": 0.0, "steps": 0, "message": r.message, "refused": r.refused})
+            for r in (refused, broken)]
+    assert C._refused_at_start(rows[0]) and not C._refused_at_start(rows[1])
+    assert not C._refused_at_start(pd.Series({"status": "failed", "refused": float("nan")}))   # an older row

@@ -48,7 +48,7 @@ from daebench.driver.events import (ContactState, apply_event, find_event, impac
 from daebench.driver.history import (Block, block, columns, divergence, frame, penetration, state_row,
                                      states_arrays)
 from daebench.driver.stickslip import PAINLEVE_SLIP
-from daebench.integrators.base import Advance, Integrator, StepFailure, check_capabilities
+from daebench.integrators.base import Advance, Integrator, IntegratorError, StepFailure, check_capabilities
 from daebench.core.problem import Problem
 from daebench.stepping import dense as _dense, watch as _watch
 from daebench.stepping.watch import NEAR_STEPS, Watch
@@ -82,6 +82,7 @@ class RunResult:
     states: dict[str, np.ndarray] | None = None  # with record_states: t, q, v, a, lam at the output times
     impact_law: str = ""              # the driver's impact law, e.g. "newton, simultaneous" ("": none applied)
     traceback: str = ""               # where the exception that ended the run was raised ("" if none did)
+    refused: bool = False             # the integrator refused this system before its first step (IntegratorError)
 
 
     @property
@@ -163,7 +164,7 @@ class Driver:
         self._length_scale = (sys_.length_scale() if self.integ.capabilities.contacts and sys_.n_contacts
                               and (law is None or not law.continuous) else None)
         self.out_i = 0
-        status, message = "completed", ""
+        status, message, refused = "completed", "", False
         state = State(0.0, q, v)
         phases = 0
         signals = interrupt.signal_count()
@@ -189,6 +190,8 @@ class Driver:
             if interrupt.from_signal(exc, signals):
                 raise     # Ctrl-C, SIGTERM or the wall-time cap: the caller's business
             status, message = "failed", f"t = {self._t_last:.6g} s: {interrupt.describe_raised(exc)}"
+            # not applicable: the integrator said so (its type of error) before it took a step
+            refused = isinstance(exc, IntegratorError) and self._t_last == 0.0 and not getattr(getattr(self.integ, "counters", None), "steps", 0)
             if getattr(self.integ, "failure", None) is None:
                 self.integ.failure = exc  # its traceback, for `run --traceback` and RunOutput.traceback
         failure = getattr(self.integ, "failure", None)
@@ -206,7 +209,7 @@ class Driver:
                          self.integ.counters_snapshot(), hist, cs.impacts, dict(self.cmax), res,
                          self._last_state, phases,
                          states_arrays(self._states, sys_.n, sys_.n_bilateral) if self.record_states else None,
-                         impact_law_name(cs), where)
+                         impact_law_name(cs), where, refused)
 
     _t_last = 0.0
     _last_state: State | None = None

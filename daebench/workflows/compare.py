@@ -137,10 +137,9 @@ def plan(scene: Scene, protocol: Protocol) -> tuple[list[RunSpec], dict[str, str
 
 
 def _refused_at_start(row: pd.Series) -> bool:
-    """A run that stopped at t = 0 without a step with an IntegratorError: the integrator
-    refused the model (any other error stays a row: it is a failure, not a refusal)."""
-    return row["status"] in ("failed", "error") and not (float(row.get("t_final", 0.0) or 0.0) > 0.0) \
-        and not (float(row.get("steps", 0) or 0) > 0) and "IntegratorError" in str(row.get("message", ""))
+    """The integrator refused the model before its first step (the row's ``refused``, from
+    :attr:`daebench.driver.simulate.RunResult.refused`); any other failure stays a row."""
+    return bool(row.get("refused") == True)  # noqa: E712  a missing or NaN flag is no refusal
 
 
 #: what `daebench compare` runs with unless told otherwise: two workers, the reference

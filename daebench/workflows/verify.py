@@ -185,7 +185,7 @@ def _run(scene: Scene, name: str, settings: dict[str, Any]) -> tuple[Any, dict[s
 
 
 def _refused_at_start(res: Any) -> bool:
-    return res.status != "completed" and not res.t_final > 0.0 and "IntegratorError" in res.message
+    return res.refused
 
 
 def _slope(x: Sequence[float], y: Sequence[float]) -> float:

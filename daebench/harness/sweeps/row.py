@@ -105,7 +105,7 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
             _WARMED.add(path)
         rec, res = tm.result
         row.update(status=res.status, message=res.message, wall_s=tm.wall_s, cpu_s=tm.cpu_s,
-                   cpu_spread=tm.cpu_spread, repeats=tm.repeats, t_final=res.t_final,
+                   cpu_spread=tm.cpu_spread, repeats=tm.repeats, t_final=res.t_final, refused=res.refused,
                    settings=json.dumps(rec.settings, default=str))
         row.update(res.counters)
         if res.traceback:   # the exception that ended the run, the integrator's frames included
