@@ -73,8 +73,11 @@ def test_refusal_states_the_limit_and_auto_takes_it():
     assert rec.settings["h"] == pytest.approx(checks.AUTO_FRACTION * limit, rel=1e-12)
     assert len(rec.warnings) == 1 and rec.warnings[0].startswith("h = auto: took h =")
     integ = make_integrator("central", {})
-    assert checks.check_step(sc, build_system(sc), integ)[0].startswith("the default h")
-    assert integ.settings["h"] == pytest.approx(checks.AUTO_FRACTION * limit, rel=1e-12)
+    default_h = integ.settings["h"]
+    warnings, chosen = checks.check_step(sc, build_system(sc), integ)
+    assert warnings[0].startswith("the default h") and chosen == pytest.approx(checks.AUTO_FRACTION * limit, rel=1e-12)
+    assert integ.settings["h"] == default_h           # the check changes nothing; the run takes a new integrator
+    assert integ.with_step(chosen).settings["h"] == chosen and integ.settings["h"] == default_h
     with pytest.raises(IntegratorError, match="unconditionally stable"):
         checks.check_step(sc, build_system(sc), make_integrator("hht", {"h": "auto"}))
 

@@ -136,7 +136,7 @@ class Runs:
 
 
 DEFAULT_STEP = 1e-4  # s: the default fixed step (the paper's protocol outside contact)
-AUTO_STEP = "auto"   # h = auto: the largest stable step of a conditionally stable method (Integrator.use_step)
+AUTO_STEP = "auto"   # h = auto: the largest stable step of a conditionally stable method (Integrator.with_step)
 
 # Settings every stepping integrator shares: the paper's protocol and adaptivity.
 STEP_SETTINGS = (
@@ -187,7 +187,7 @@ class Integrator:
     def __init__(self, **settings: Any) -> None:
         spec = {s.name: s for s in self.settings_spec}
         # h = auto: the largest stable step of a conditionally stable method, chosen before the
-        # first step by the harness (daebench.harness.running.checks.check_step), then use_step()
+        # first step by the harness (daebench.harness.running.checks.check_step), then with_step()
         self.auto_step = isinstance(settings.get("h"), str) and settings["h"].strip().lower() == AUTO_STEP \
             and "h" in spec
         if self.auto_step:
@@ -230,13 +230,14 @@ class Integrator:
         step checked against the scene's ω_max before the first step, and may take h = auto."""
         return None
 
-    def use_step(self, h: float) -> None:
-        """Take the fixed step ``h`` (h = auto resolved by the harness before the first step);
-        h_contact too where it is unset or larger."""
-        self.settings["h"] = float(h)
-        hc = float(self.settings.get("h_contact", 0.0) or 0.0)
-        if "h_contact" in self.settings and hc > h:
-            self.settings["h_contact"] = float(h)
+    def with_step(self, h: float) -> "Integrator":
+        """A new integrator of this class and settings at the fixed step ``h`` (h = auto, or a
+        default beyond the stable step, resolved by the harness before the first step), its
+        h_contact lowered to ``h`` where it was larger; this one is left as it is."""
+        settings = {**self.settings, "h": float(h)}
+        if float(settings.get("h_contact", 0.0) or 0.0) > h:
+            settings["h_contact"] = float(h)
+        return type(self)(**settings)
 
     def to_config(self) -> dict[str, Any]:
         return {"integrator": self.name, **self.settings}

@@ -263,10 +263,12 @@ def _fastest(scene: Any, system: Any) -> Any:
     return lin
 
 
-def check_step(scene: Any, system: Any, integ: Integrator) -> list[str]:
+def check_step(scene: Any, system: Any, integ: Integrator) -> tuple[list[str], float | None]:
     """Check the fixed step of a conditionally stable method against the scene before the
     first step (:mod:`daebench.stepping.stability`: ω_max from the assembled mass and tangent
-    stiffness at the start, the method's interval); returns the warnings for the run record.
+    stiffness at the start, the method's interval); returns the warnings for the run record
+    and the step the run must take instead of the integrator's (None: its own), which the
+    caller hands to :meth:`~daebench.integrators.base.Integrator.with_step`.
 
     * A method with a strict interval Ω (central differences: hω ≤ 2; a Newmark member with
       2β < γ) beyond it — h or h_contact above Ω/ω_max — is refused (IntegratorError, with
@@ -284,20 +286,20 @@ def check_step(scene: Any, system: Any, integ: Integrator) -> list[str]:
         if integ.auto_step:
             raise IntegratorError(f"h = auto takes the largest stable step of a conditionally stable method; "
                                   f"'{integ.name}' has no stability limit to take it from here: give h")
-        return []
+        return [], None
     strict = stability.strict_interval(model) if model.strict else 0.0
     if math.isinf(strict):   # unconditionally stable: nothing to check, no step to choose
         if integ.auto_step:
             raise IntegratorError(f"h = auto takes the largest stable step of a conditionally stable method; "
                                   f"'{integ.name}' ({model.name}) is unconditionally stable: give h")
-        return []
+        return [], None
     lin = _fastest(scene, system)
     w = float(lin.omega.max(initial=0.0))
     if w <= 0.0:
         if integ.auto_step:
             raise IntegratorError(f"h = auto: '{scene.name}' has no oscillating mode at its start to bound the "
                                   f"step of {model.name} (ω_max = 0); give h")
-        return []
+        return [], None
     h, hc = float(integ.settings["h"]), float(integ.settings.get("h_contact", 0.0) or 0.0)
     where = f"{scene.name} (ω_max = {w:.4g} rad/s from the assembled mass and stiffness at the start)"
     hard = model.strict
@@ -311,19 +313,18 @@ def check_step(scene: Any, system: Any, integ: Integrator) -> list[str]:
         rule = f"its interval over this run's {scene.t_end:g} s, h ω_max ≤ {limit * w:.3g} (daebench stability)"
     if integ.auto_step or (hard and integ.default_step and max(h, hc) > limit):
         chosen = AUTO_FRACTION * limit
-        integ.use_step(chosen)
         how = "h = auto" if integ.auto_step else f"the default h = {h:g} s is beyond it"
         return [f"{how}: took h = {chosen:.4g} s = {AUTO_FRACTION:g} × the largest stable step of {model.name} on "
-                f"{where}, {rule}"]
+                f"{where}, {rule}"], chosen
     over = [f"{k} = {x:g} s" for k, x in (("h", h), ("h_contact", hc)) if x > limit]
     if not over:
-        return []
+        return [], None
     text = (f"{' and '.join(over)} beyond the stable step of {model.name} on {where}: {rule} gives "
             f"h ≤ {limit:.4g} s")
     if hard:
         raise IntegratorError(f"{text}; give --opt h={_floor2(limit):g} (or smaller), or --opt h=auto for "
                               f"{AUTO_FRACTION:g} × the limit")
-    return [f"{text}: the run is expected to diverge (--opt h=auto takes {AUTO_FRACTION:g} × the limit)"]
+    return [f"{text}: the run is expected to diverge (--opt h=auto takes {AUTO_FRACTION:g} × the limit)"], None
 
 
 def _floor2(x: float) -> float:

@@ -113,7 +113,9 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
     checks.check_fits_system(scene, type(integ), system)
     # an explicit method's step against the scene's ω_max (h = auto resolved here); the stability
     # map's trials run beyond it on purpose (step_check=False)
-    warnings = checks.check_step(scene, system, integ) if step_check else []
+    warnings, chosen = checks.check_step(scene, system, integ) if step_check else ([], None)
+    if chosen is not None:    # h = auto (or a default beyond the limit) resolved: a new integrator takes it
+        integ = integ.with_step(chosen)
     if not force:
         checks.check_size(scene, integ)
     if write:  # the folder and the longest name written there are checked before any step

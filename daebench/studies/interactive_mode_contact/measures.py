@@ -168,4 +168,7 @@ def run(case: str, treatment: str, overrides: dict | None = None, integrator: st
     integ = make_integrator(integrator or default, settings)
     timer = PhaseTimer(integ)
     rec, res = run_scene(sc, integ, write=False, force=True)
+    if rec.settings.get("h") != integ.settings.get("h"):   # h = auto resolved: another integrator ran, untimed
+        raise ValueError(f"the phase timer needs the step given (h = {integ.settings.get('h')!r} was resolved to "
+                         f"{rec.settings.get('h')!r}): pass h explicitly")
     return rec, res, integ, timer, sc
