@@ -679,3 +679,20 @@ def test_sigterm_during_reference_and_ctrl_c_after_compares_runs_are_said(tmp_pa
     monkeypatch.setattr(api, "compare", ctrl_c)
     r = cli(["compare", "pendulum"])
     assert r.exit_code == 130 and "interrupted (Ctrl-C or SIGTERM)" in r.output, r.output
+
+
+def test_every_generated_module_runs_the_generated_text_not_the_file(tmp_path):
+    """The stepper entries of a plugin (daebench.stepping.method_handles) ran whatever file was
+    on disk, while the kernel modules were regenerated: both now load through one function, a
+    planted file is rewritten and its line does not run."""
+    from daebench.core import handles
+
+    path = tmp_path / "_daebench_method_probe_step_0123.py"
+    text = "VALUE = _GIVEN * 2\n"
+    marker = tmp_path / "planted"
+    path.write_text(f"open({str(marker)!r}, 'w').write('ran')\nVALUE = -1\n")
+    module = handles.load_generated("_daebench_method_probe_step_0123", path, text, {"_GIVEN": 21})
+    assert module.VALUE == 42 and not marker.exists() and path.read_text() == text
+    path.write_text(text[:5])                                 # truncated: written anew
+    assert handles.load_generated("_daebench_method_probe_step_0123", path, text, {"_GIVEN": 1}).VALUE == 2
+    assert path.read_text() == text

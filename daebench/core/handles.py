@@ -42,6 +42,7 @@ import os
 import stat
 import sys
 import tempfile
+import threading
 import weakref
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -248,6 +249,28 @@ def _private(d: Path) -> bool:
 _MODULES: dict[tuple, Any] = {}
 
 
+def load_generated(name: str, path: Path, text: str, namespace: dict[str, Any] | None = None) -> Any:
+    """The module ``name`` of the generated source ``text`` (its globals first filled from
+    ``namespace``), kept at ``path`` because numba's on-disk cache keys compiled code on a
+    file. What runs is ``text``, never what the file holds: a line planted in it does not
+    run, and a file that differs (planted, truncated, older) is written anew before its code
+    is cached. Every generated module of daebench loads through here."""
+    try:
+        same = path.read_bytes() == text.encode()
+    except OSError:
+        same = False
+    if not same:
+        tmp = path.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)  # concurrent workers write the same text: either copy is right
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    module.__dict__.update(namespace or {})
+    sys.modules[name] = module
+    exec(compile(text, str(path), "exec"), module.__dict__)
+    return module
+
+
 def _generated_module(layout: _Layout, expr: str) -> Any:
     from daebench.core import numba_cache
 
@@ -263,21 +286,7 @@ def _generated_module(layout: _Layout, expr: str) -> Any:
     path = _directory() / f"{name}.py"
     own = tuple(k for k, f in zip(kernels.KERNELS, impls) if _shared(k, f) is None)
     text = _source(layout, expr, own)
-    # the file exists for numba's on-disk cache (it keys compiled code on the file); what runs is
-    # the text generated here, never what the file holds: a line planted in it does not run, and
-    # a file that differs (planted, truncated, older) is written anew before its code is cached
-    try:
-        same = path.read_bytes() == text.encode()
-    except OSError:
-        same = False
-    if not same:
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # concurrent workers write the same text: either copy is right
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    exec(compile(text, str(path), "exec"), module.__dict__)
+    module = load_generated(name, path, text)
     module.__daebench_fns__ = np.array([_jit_address(getattr(module, k) if k in own else _shared(k, f), SIGNATURES[k])
                                         for k, f in zip(kernels.KERNELS, impls)], dtype=np.int64)
     module.__daebench_fns__.flags.writeable = False

@@ -26,9 +26,6 @@ integrator keeps using its own workspace tuple (contact records, carried state).
 
 from __future__ import annotations
 
-import importlib.util
-import os
-import sys
 import weakref
 from typing import Any, NamedTuple
 
@@ -151,17 +148,10 @@ def _module(layout: Any, expr: str, name: str) -> Any:
         return _MODULES[made]
     digest = code_digest.functions_digest([impl], [_LAYOUT_VERSION, numba_cache.source_stamp(), *layout.key])
     mod = f"_daebench_method_{cls.__name__.lower()}_{name}_{digest[:16]}"
-    path = handles._directory() / f"{mod}.py"
-    if not path.exists():
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(_SOURCE.format(expr=expr, name=name, args=_ARGS[name]))
-        os.replace(tmp, path)  # concurrent workers write the same text: either copy is right
-    spec = importlib.util.spec_from_file_location(mod, path)
-    module = importlib.util.module_from_spec(spec)
-    for k, c in enumerate(layout.classes):  # the classes are given, not imported: a notebook's too
-        setattr(module, f"_C{k}", c)
-    sys.modules[mod] = module
-    spec.loader.exec_module(module)
+    # the classes are given, not imported: a notebook's too
+    module = handles.load_generated(mod, handles._directory() / f"{mod}.py",
+                                    _SOURCE.format(expr=expr, name=name, args=_ARGS[name]),
+                                    {f"_C{k}": c for k, c in enumerate(layout.classes)})
     module.__daebench_fns__ = {}
     _MODULES[made] = module
     return module
