@@ -124,6 +124,34 @@ def test_an_installed_plugin_that_shadows_a_builtin_is_refused_and_said(monkeypa
         base.registry(refresh=True)
 
 
+def test_an_installed_model_that_shadows_a_builtin_is_refused_and_said_as_an_integrator_is(monkeypatch):
+    """The model registry skipped a plugin that claimed a built-in's name without a word, while the
+    integrator registry refused it and said so: one rule (daebench.core.entry_names) for both."""
+    from daebench import api, models
+
+    class EP:
+        def __init__(self, name, value, dist):
+            self.name, self.value, self.dist = name, value, type("D", (), {"name": dist})()
+
+    fake = [EP("evil", "evil.first:MODEL", "evil-one"), EP("ball", "evil.mod", "evil-pkg"),
+            EP("ball", "daebench.models.ball", "daebench"), EP("evil", "evil.second:MODEL", "evil-two")]
+    monkeypatch.setattr(models, "entry_points", lambda group: fake)
+    try:
+        found = models._scan()
+        assert found == {"ball": "daebench.models.ball", "evil": "evil.first:MODEL"}
+        assert api.model_refusals() == [
+            "model 'ball' of the installed distribution evil-pkg (evil.mod) is refused: daebench's built-in model "
+            "(daebench.models.ball) provides that name (a plugin may not shadow a built-in or another plugin; "
+            "rename its entry point)",
+            "model 'evil' of the installed distribution evil-two (evil.second:MODEL) is refused: the installed "
+            "distribution evil-one (evil.first:MODEL) provides that name (a plugin may not shadow a built-in or "
+            "another plugin; rename its entry point)"]
+    finally:
+        monkeypatch.undo()
+        models._scan()
+    assert api.model_refusals() == []
+
+
 def test_a_model_registers_too(tmp_path):
     from daebench.models import ball, register_model, unregister_model
 

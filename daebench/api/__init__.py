@@ -23,7 +23,7 @@ below imports it, and :mod:`daebench.cli` imports nothing else.
 """
 
 from daebench.api.catalogue import (IntegratorInfo, SceneInfo, cases, integrator_info, integrator_infos,
-                                    integrator_refusals, load_scene, register, show)
+                                    integrator_refusals, load_scene, model_refusals, register, show)
 from daebench.api.external import ExportResult, ScoreResult, Source, export_case, score
 from daebench.api.peers import PeerFailed, PeerResult, PeerUnavailable, peer, peer_names, peer_sources
 from daebench.api.figures import plot_convergence, plot_histories, plot_work_precision
@@ -49,7 +49,7 @@ from daebench.workflows.survey import SurveyOptions
 __all__ = [
     # catalogue, one run, references
     "load_scene", "cases", "integrator_infos", "integrator_info", "IntegratorInfo", "SceneInfo", "show",
-    "register", "integrator_refusals",
+    "register", "integrator_refusals", "model_refusals",
     "run", "RunOutput", "Writing", "reference",
     # other codes
     "score", "ScoreResult", "Source", "export_case", "ExportResult",

@@ -16,7 +16,7 @@ from daebench.harness.running import checks
 from daebench.harness.scoring import pipeline
 from daebench.integrators import base
 from daebench.integrators.base import Capabilities, IntegratorError
-from daebench.models import build_system, register_model
+from daebench.models import REFUSED as MODEL_REFUSALS, build_system, register_model
 from daebench.models.scenes import load_scene as _load_scene
 
 SceneLike = str | Path | Scene
@@ -86,8 +86,14 @@ def register(obj: Any, name: str | None = None) -> Any:
 
 
 def integrator_refusals() -> list[str]:
-    """Installed plugins refused because a built-in or another plugin provides their name."""
+    """Installed integrator plugins refused because a built-in or another plugin provides
+    their name (:mod:`daebench.core.entry_names`, the rule models follow too)."""
     return base.refusals()
+
+
+def model_refusals() -> list[str]:
+    """Installed model plugins refused because a built-in or another plugin provides their name."""
+    return list(MODEL_REFUSALS)
 
 
 def integrator_info(name: str) -> IntegratorInfo:

@@ -36,7 +36,7 @@ def list_cmd() -> None:
             cons += ", resolves contacts"
         rows.append([name, cap.order, steps, cons, info.distribution, info.description])
     print_table(["name", "order", "steps", "constraints", "from", "description"], rows, "integrators")
-    for why in api.integrator_refusals():
+    for why in api.integrator_refusals() + api.model_refusals():
         out(f"refused: {why}")
     out("settings of an integrator: daebench show NAME")
 

@@ -49,6 +49,7 @@ from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
+from daebench.core import entry_names
 from daebench.core.contact import Impact
 from daebench.core.params import Param, ParamError, did_you_mean
 from daebench.core.problem import Problem
@@ -447,18 +448,15 @@ _IN_PROCESS: dict[str, Registered] = {}   # classes registered with register(), 
 def _scan_entry_points() -> tuple[dict[str, Registered], list[str]]:
     """The entry points' integrators, and the refusals of those that shadow another."""
     found: dict[str, Registered] = {}
-    refused: list[str] = []
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
-        dist = ep.dist.name if ep.dist is not None else "?"
-        new = Registered(ep.name, None, dist, source=ep.value)
-        if ep.name in found:
-            old = found[ep.name]
-            keep, drop = (old, new) if old.distribution == "daebench" or dist != "daebench" else (new, old)
-            refused.append(f"integrator '{ep.name}' of {drop.provider} is refused: {keep.provider} provides that "
-                           f"name (a plugin may not shadow a built-in or another plugin; rename its entry point and "
-                           f"its class's name)")
-            if keep is old:
-                continue
+
+    def listed(ep: Any) -> Registered:
+        return Registered(ep.name, None, entry_names.distribution(ep), source=ep.value)
+
+    kept, refused = entry_names.one_per_name(entry_points(group=ENTRY_POINT_GROUP), "integrator",
+                                             lambda ep: listed(ep).provider,
+                                             "rename its entry point and its class's name")
+    for ep in kept.values():
+        new = listed(ep)
         try:
             cls = ep.load()
         except Exception as exc:  # a broken plugin must not take the others down

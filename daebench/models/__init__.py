@@ -25,6 +25,7 @@ from importlib.metadata import entry_points
 from types import ModuleType
 from typing import Any
 
+from daebench.core import entry_names
 from daebench.core.kernels import friction_coefficients
 from daebench.core.params import did_you_mean
 from daebench.core.scene import SceneError
@@ -37,19 +38,21 @@ PROVIDERS: dict[str, str] = {}
 _REGISTERED: dict[str, ModuleType] = {}   # models registered in this process (register_model)
 
 
+#: why installed models were refused (a name a built-in or another plugin provides)
+REFUSED: list[str] = []
+
+
 def _scan() -> dict[str, str]:
-    """name → module of every registered model; a plugin may not shadow a built-in."""
-    found: dict[str, tuple[str, str]] = {}
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
-        dist = ep.dist.name if ep.dist is not None else "?"
-        if ep.name in found and found[ep.name][1] == "daebench":
-            continue
-        found[ep.name] = (ep.value, dist)
-    PROVIDERS.update({name: dist for name, (_, dist) in found.items()})
-    return {name: value for name, (value, _) in sorted(found.items())}
-
-
-MODELS: dict[str, str] = _scan()
+    """name → module of every installed model, one per name by the registries' one rule
+    (:mod:`daebench.core.entry_names`); the refusals in :data:`REFUSED`."""
+    kept, refused = entry_names.one_per_name(
+        entry_points(group=ENTRY_POINT_GROUP), "model",
+        lambda ep: f"{_provider(entry_names.distribution(ep))} ({ep.value})", "rename its entry point")
+    REFUSED[:] = refused
+    for name in [n for n, who in PROVIDERS.items() if not who.startswith("registered")]:
+        del PROVIDERS[name]      # a rescan replaces what the last one found
+    PROVIDERS.update({name: entry_names.distribution(ep) for name, ep in kept.items()})
+    return {name: ep.value for name, ep in sorted(kept.items())}
 
 
 def get_model(name: str) -> ModuleType:
@@ -101,6 +104,9 @@ def _provider(dist: str) -> str:
     if dist.startswith("registered"):
         return f"the model {dist.removeprefix('registered ')} registered in this process"
     return f"the installed distribution {dist}"
+
+
+MODELS: dict[str, str] = _scan()
 
 
 def build_system(scene):
