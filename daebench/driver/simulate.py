@@ -42,13 +42,12 @@ import pandas as pd
 
 from daebench.core import coulomb, impact_checks, interrupt
 from daebench.core.contact import Impact
-from daebench.core.kernels import friction_coefficients
 from daebench.driver.events import (ContactState, apply_event, find_event, impact_law_name,
                                     project_resting, settle)
 from daebench.driver.history import (Block, block, columns, divergence, frame, penetration, state_row,
                                      states_arrays)
 from daebench.driver.stickslip import PAINLEVE_SLIP
-from daebench.integrators.base import Advance, Integrator, IntegratorError, StepFailure, check_capabilities
+from daebench.integrators.base import Advance, Integrator, IntegratorError, StepFailure, check_fits
 from daebench.core.problem import Problem
 from daebench.stepping import dense as _dense, watch as _watch
 from daebench.stepping.watch import NEAR_STEPS, Watch
@@ -116,13 +115,7 @@ class Driver:
         self.record_states = record_states
         self._progress_wall = 0.0
         law = system.contact_law
-        check_capabilities(type(integrator), system.n_bilateral > 0 or (law is not None and not law.continuous
-                                                                       and system.n_contacts > 0
-                                                                       and not integrator.capabilities.contacts),
-                           integrator.adaptive, contacts_by_integrator=system.contacts_by_integrator,
-                           contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
-                           friction=bool((friction_coefficients(system.kernel_handle(), system.n_contacts,
-                                                                *system.initial_state()) > 0.0).any()))
+        check_fits(type(integrator), system, integrator.adaptive)
         # contacts the driver treats (none when the integrator resolves them itself)
         mine = law is not None and system.n_contacts > 0 and not integrator.capabilities.contacts
         self._constraint_contacts = mine and not law.continuous

@@ -51,6 +51,7 @@ import numpy as np
 
 from daebench.core import entry_names
 from daebench.core.contact import Impact
+from daebench.core.kernels import friction_coefficients
 from daebench.core.params import Param, ParamError, did_you_mean
 from daebench.core.problem import Problem
 from daebench.stepping import control, dense as _dense
@@ -590,6 +591,23 @@ def _laws_hint(laws: tuple[str, ...] | None, wanted: tuple[str, ...]) -> str:
     if not fit:
         return ""
     return f" (`--set contact.law={fit[0]}`" + "".join(f" or `{w}`" for w in fit[1:]) + ")"
+
+
+def check_fits(cls: type[Integrator], system: Any, adaptive: bool = False, what: str = "this case",
+               laws: tuple[str, ...] | None = None) -> None:
+    """:func:`check_capabilities` with what ``system`` asks of an integrator: constraints
+    for bilateral joints, and for contacts under an impact law (not a continuous one) that
+    the integrator does not resolve itself; Coulomb friction where a contact's μ (its
+    ``tangent`` kernel at the start) is positive. The driver's start and the harness's
+    pre-run check both call this, so they cannot disagree."""
+    law = system.contact_law
+    needs_constraints = system.n_bilateral > 0 or (law is not None and not law.continuous and system.n_contacts > 0
+                                                   and not cls.capabilities.contacts)
+    friction = bool(system.n_contacts) and bool((friction_coefficients(
+        system.kernel_handle(), system.n_contacts, *system.initial_state()) > 0.0).any())
+    check_capabilities(cls, needs_constraints, adaptive, what, contacts_by_integrator=system.contacts_by_integrator,
+                       contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
+                       friction=friction, laws=laws)
 
 
 def check_capabilities(cls: type[Integrator], problem_needs_constraints: bool,

@@ -178,7 +178,7 @@ def _all_effects_observables(scene: Any) -> set[str]:
 def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
     """An integrator that resolves contacts itself needs a scene with contacts that are left
     to it ('complementarity') or closed by the ``constraint`` law (whose restitution it
-    applies; :func:`daebench.integrators.base.check_capabilities` is the driver's rule);
+    applies; :func:`daebench.integrators.base.check_fits` is the driver's rule);
     name a scene key value the scene accepts, or the scenes that offer one. A scene with
     Coulomb friction (``contact.friction`` > 0, contacts on) needs an integrator that applies
     it under the scene's law (:func:`daebench.integrators.base.applies_friction`)."""
@@ -216,9 +216,8 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
 def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> None:
     """Refuse, before anything runs, an integrator that cannot run this scene: the contact
     fit (:func:`check_contacts_fit`) and the capability check the driver makes at its
-    start (:func:`daebench.integrators.base.check_capabilities`, with the driver's
-    arguments: constraints are needed for bilateral joints, and for impact-law contacts
-    the integrator does not resolve itself). Refusals an integrator makes only in its own
+    start (:func:`daebench.integrators.base.check_fits`: constraints are needed for
+    bilateral joints, and for impact-law contacts the integrator does not resolve itself). Refusals an integrator makes only in its own
     start (e.g. a model type it does not support) still come at run time.
 
     Raises
@@ -231,20 +230,15 @@ def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> N
 
 def check_fits_system(scene: Any, cls: type[Integrator], system: Any) -> None:
     """The capability check the driver makes at its start
-    (:func:`daebench.integrators.base.check_capabilities`, with the driver's arguments),
-    made before any compile, its messages naming only contact laws the scene offers.
+    (:func:`daebench.integrators.base.check_fits`, the same function), made before any
+    compile, its messages naming only contact laws the scene offers.
 
     Raises
     ------
     IntegratorError
     """
-    law = system.contact_law
-    needs_constraints = system.n_bilateral > 0 or (law is not None and not law.continuous and system.n_contacts > 0
-                                                   and not cls.capabilities.contacts)
     choices = getattr(scene.schema.get("contact.law"), "choices", None)
-    base.check_capabilities(cls, needs_constraints, contacts_by_integrator=system.contacts_by_integrator,
-                            contact_law=None if law is None else law.name, n_contacts=system.n_contacts,
-                            what=f"scene '{scene.name}'", laws=tuple(choices) if choices else None)
+    base.check_fits(cls, system, what=f"scene '{scene.name}'", laws=tuple(choices) if choices else None)
 
 
 # -- the step of a conditionally stable method -----------------------------------------------------
