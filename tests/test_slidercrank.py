@@ -21,7 +21,8 @@ from scipy.integrate import solve_ivp
 from daebench.core import kernels
 from daebench.core.scene import SceneError
 from daebench.harness.running import checks as guards
-from daebench.integrators.base import IntegratorError, applies_friction, get_integrator
+from daebench.integrators.applicability import applies_friction
+from daebench.integrators.base import IntegratorError, get_integrator
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
 from daebench.models.slidercrank import SliderCrank

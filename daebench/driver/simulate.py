@@ -47,7 +47,8 @@ from daebench.driver.events import (ContactState, apply_event, find_event, impac
 from daebench.driver.history import (Block, block, columns, divergence, frame, penetration, state_row,
                                      states_arrays)
 from daebench.driver.stickslip import PAINLEVE_SLIP
-from daebench.integrators.base import Advance, Integrator, IntegratorError, StepFailure, check_fits
+from daebench.integrators.applicability import check_fits
+from daebench.integrators.base import Advance, Integrator, IntegratorError, StepFailure
 from daebench.core.problem import Problem
 from daebench.stepping import dense as _dense, watch as _watch
 from daebench.stepping.watch import NEAR_STEPS, Watch

@@ -2,7 +2,7 @@
 steppers that resolve the contacts themselves and report contact episodes.
 
 The driver leaves contacts to an integrator that declares ``capabilities.contacts``
-(:func:`daebench.integrators.base.check_capabilities`): it watches no gap and applies no
+(:func:`daebench.integrators.applicability.check_capabilities`): it watches no gap and applies no
 impact map. :class:`CapturingIntegrator` adds to
 :class:`~daebench.integrators.compiled.CompiledIntegrator`:
 
@@ -42,7 +42,8 @@ from typing import Any
 from daebench.stepping import episodes as _ep
 from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
-from daebench.integrators.base import STEP_SETTINGS, Advance, IntegratorError, Setting, friction_refusal
+from daebench.integrators.applicability import friction_refusal
+from daebench.integrators.base import STEP_SETTINGS, Advance, IntegratorError, Setting
 from daebench.integrators.compiled import CompiledIntegrator
 from daebench.core.system import State
 

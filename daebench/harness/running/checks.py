@@ -15,7 +15,7 @@ from typing import Any
 
 from daebench.core.params import ParamError, did_you_mean
 from daebench.core.scene import scene_names
-from daebench.integrators import base
+from daebench.integrators import applicability, base
 from daebench.integrators.base import Integrator, IntegratorError
 from daebench.driver.history import DIVERGENCE_ENERGY
 from daebench.models import build_system
@@ -178,13 +178,13 @@ def _all_effects_observables(scene: Any) -> set[str]:
 def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
     """An integrator that resolves contacts itself needs a scene with contacts that are left
     to it ('complementarity') or closed by the ``constraint`` law (whose restitution it
-    applies; :func:`daebench.integrators.base.check_fits` is the driver's rule);
+    applies; :func:`daebench.integrators.applicability.check_fits` is the driver's rule);
     name a scene key value the scene accepts, or the scenes that offer one. A scene with
     Coulomb friction (``contact.friction`` > 0, contacts on) needs an integrator that applies
-    it under the scene's law (:func:`daebench.integrators.base.applies_friction`)."""
+    it under the scene's law (:func:`daebench.integrators.applicability.applies_friction`)."""
     if (scene.get("contact.friction", 0.0) or 0.0) > 0.0 and scene.get("effects.contact", True) \
-            and not base.applies_friction(cls, scene.get("contact.law")):
-        raise IntegratorError(base.friction_refusal(cls.name, f"scene '{scene.name}'"))
+            and not applicability.applies_friction(cls, scene.get("contact.law")):
+        raise IntegratorError(applicability.friction_refusal(cls.name, f"scene '{scene.name}'"))
     if not cls.capabilities.contacts:
         return
     law = scene.schema.get("contact.law")
@@ -216,7 +216,7 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
 def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> None:
     """Refuse, before anything runs, an integrator that cannot run this scene: the contact
     fit (:func:`check_contacts_fit`) and the capability check the driver makes at its
-    start (:func:`daebench.integrators.base.check_fits`: constraints are needed for
+    start (:func:`daebench.integrators.applicability.check_fits`: constraints are needed for
     bilateral joints, and for impact-law contacts the integrator does not resolve itself). Refusals an integrator makes only in its own
     start (e.g. a model type it does not support) still come at run time.
 
@@ -230,7 +230,7 @@ def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> N
 
 def check_fits_system(scene: Any, cls: type[Integrator], system: Any) -> None:
     """The capability check the driver makes at its start
-    (:func:`daebench.integrators.base.check_fits`, the same function), made before any
+    (:func:`daebench.integrators.applicability.check_fits`, the same function), made before any
     compile, its messages naming only contact laws the scene offers.
 
     Raises
@@ -238,7 +238,7 @@ def check_fits_system(scene: Any, cls: type[Integrator], system: Any) -> None:
     IntegratorError
     """
     choices = getattr(scene.schema.get("contact.law"), "choices", None)
-    base.check_fits(cls, system, what=f"scene '{scene.name}'", laws=tuple(choices) if choices else None)
+    applicability.check_fits(cls, system, what=f"scene '{scene.name}'", laws=tuple(choices) if choices else None)
 
 
 # -- the step of a conditionally stable method -----------------------------------------------------
