@@ -11,8 +11,9 @@ import pandas as pd
 import pytest
 
 from daebench.harness.sweeps import options, sweep as bench
-from daebench.integrators import base
-from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+from daebench.integrators import registry as integrator_registry
+from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, State
+from daebench.integrators.registry import Registered
 from daebench.harness.references.reference import ReferenceMissing, compute_reference, load_reference, reference_tolerances
 from daebench.harness.running.runner import run_scene
 from daebench.harness.sweeps.options import Execution, SweepError, SweepOptions
@@ -63,9 +64,9 @@ class Explode(Integrator):
 
 @pytest.fixture()
 def registry(monkeypatch, tmp_path):
-    real = base.registry()
+    real = integrator_registry.registry()
     reg = {**real, "boom": Registered("boom", Boom, "tests"), "explode": Registered("explode", Explode, "tests")}
-    monkeypatch.setattr(base, "registry", lambda: dict(reg))
+    monkeypatch.setattr(integrator_registry, "registry", lambda: dict(reg))
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
     return reg
 
@@ -152,8 +153,8 @@ class Hang(Boom):
 
 
 def test_hanging_run_is_a_failed_row(registry, pendulum, monkeypatch):
-    reg = {**base.registry(), "hang": Registered("hang", Hang, "tests")}
-    monkeypatch.setattr(base, "registry", lambda: dict(reg))
+    reg = {**integrator_registry.registry(), "hang": Registered("hang", Hang, "tests")}
+    monkeypatch.setattr(integrator_registry, "registry", lambda: dict(reg))
     run_scene(pendulum, "hht", {"h": 1e-2}, write=False)  # kernels loaded (workers fork from here)
     df = sweep(pendulum, ["hang", "hht"], steps=[1e-2], reference="none", progress=False,
                write=False, run_cap=2.0)

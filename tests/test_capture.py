@@ -16,7 +16,7 @@ import pytest
 from scipy.optimize import minimize
 
 from daebench.core.lcp import lcp_work, solve_lcp
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.ball import ball_impacts, exact_motion
 from daebench.models.scenes import load_scene

@@ -61,7 +61,8 @@ def test_the_survey_sets_are_the_cases_tags():
 
 
 def test_a_plugins_own_declaration_comes_before_the_cases(monkeypatch):
-    from daebench.integrators.base import Runs, get_integrator
+    from daebench.integrators.base import Runs
+    from daebench.integrators.registry import get_integrator
 
     sc = load_scene("beam-impact")
     assert P.declared_entries(sc)["hht"].steps == sc.comparison.steps
@@ -70,7 +71,7 @@ def test_a_plugins_own_declaration_comes_before_the_cases(monkeypatch):
 
 
 def test_an_adaptive_only_method_takes_the_tolerances_and_only_named_methods_run_the_protocol():
-    from daebench.integrators.base import get_integrator
+    from daebench.integrators.registry import get_integrator
 
     c = comparison.parse({"methods": ["hht", "ida"], "steps": [1e-3, 5e-4], "tolerances": [1e-4, 1e-5, 1e-6],
                           "contact_step": 1e-6})

@@ -16,8 +16,9 @@ from typer.testing import CliRunner
 
 from daebench.harness.running import progress
 from daebench.cli.app import app
-from daebench.integrators import base
-from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+from daebench.integrators import registry as integrator_registry
+from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, State
+from daebench.integrators.registry import Registered
 from daebench.harness.running.history_io import history_label
 
 runner = CliRunner()
@@ -45,8 +46,8 @@ class SlowStart(Integrator):
 
 
 def test_compile_notice_then_a_line_every_tick_until_the_first_step(monkeypatch, tmp_path):
-    reg = {**base.registry(), "slowstart": Registered("slowstart", SlowStart, "tests")}
-    monkeypatch.setattr(base, "registry", lambda refresh=False: dict(reg))
+    reg = {**integrator_registry.registry(), "slowstart": Registered("slowstart", SlowStart, "tests")}
+    monkeypatch.setattr(integrator_registry, "registry", lambda refresh=False: dict(reg))
     monkeypatch.setattr(progress, "NOTICE_AFTER", 0.05)
     monkeypatch.setattr(progress, "TICK_S", 0.05)
     real = progress.RunProgress.line

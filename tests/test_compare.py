@@ -69,7 +69,7 @@ def test_protocols_are_the_cases_declarations():
     """compare reads the case's [compare] table (the methods it names at its steps, the
     contact step only for the event-driven ones) and runs every other integrator once at its
     defaults; the heading says what ran, grouped."""
-    from daebench.integrators.base import get_integrator
+    from daebench.integrators.registry import get_integrator
 
     sc = load_scene("rocking-block")
     assert sc.comparison.steps == (2e-3, 1e-3, 5e-4) and get_integrator("hht").protocol("rocking-block") is None

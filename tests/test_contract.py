@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 import daebench
 from daebench.cli.app import app
 from daebench.core.system import State
-from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator
 
 runner = CliRunner()
@@ -70,7 +70,7 @@ def plugins():
         daebench.register(c)
     yield
     for c in (Euler, WrongShape, Stuck, Buggy):
-        base.unregister(c.name)
+        integrator_registry.unregister(c.name)
 
 
 def test_a_wrong_shape_ends_the_run_at_that_step_naming_the_array(plugins):

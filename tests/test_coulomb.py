@@ -15,7 +15,7 @@ import numpy as np
 
 from daebench.core.problem import Problem
 from daebench.driver import simulate as driver
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.rigid2d_exact import incline_stop
 from daebench.models.scenes import load_scene

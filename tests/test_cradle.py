@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from daebench.driver.simulate import simulate
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.cradle import sequential_outcome, simultaneous_outcome
 from daebench.models.scenes import load_scene

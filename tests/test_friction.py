@@ -22,7 +22,8 @@ import pytest
 from daebench.core.lcp import LCP_RAY, lcp_work, lemke_work, solve_lcp, solve_lcp_lemke
 from daebench.driver.simulate import simulate
 from daebench.harness.running import checks as guards
-from daebench.integrators.base import IntegratorError, get_integrator
+from daebench.integrators.base import IntegratorError
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.rigid2d_exact import (housner_ratio, incline_motion, incline_stop, rocking_impact_omegas,
                                            rod_impact)

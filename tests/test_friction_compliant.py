@@ -32,7 +32,8 @@ from daebench.core.problem import Problem
 from daebench.core.scene import SceneError
 from daebench.harness.running import checks as guards
 from daebench.integrators.applicability import check_capabilities
-from daebench.integrators.base import IntegratorError, get_integrator
+from daebench.integrators.base import IntegratorError
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system, check_friction_kernel
 from daebench.models.rigid2d_exact import incline_motion, incline_stop
 from daebench.models.scenes import load_scene

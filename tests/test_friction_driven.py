@@ -22,7 +22,7 @@ import pytest
 from daebench.core.frictional_impact import LAW_NEWTON, LAW_NEWTON_COULOMB, frictional_impact
 from daebench.core.params import ParamError
 from daebench.driver.simulate import simulate
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.cradle import sequential_outcome, simultaneous_outcome
 from daebench.models.rigid2d_exact import (housner_ratio, incline_motion, incline_stop, rocking_impact_omegas,

@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 from daebench.core.params import ParamError
 from daebench.driver.simulate import simulate
 from daebench.harness.scoring import graphdist as gd
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.ball import exact_motion
 from daebench.models.scenes import load_scene

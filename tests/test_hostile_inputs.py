@@ -11,8 +11,9 @@ from typer.testing import CliRunner
 
 from daebench.harness.sweeps import dask_cluster
 from daebench.cli.app import app
-from daebench.integrators import base
-from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+from daebench.integrators import registry as integrator_registry
+from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, State
+from daebench.integrators.registry import Registered
 
 runner = CliRunner()
 
@@ -48,9 +49,9 @@ class Hang(Integrator):
 def isolated(monkeypatch, tmp_path):
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path / "results"))
     monkeypatch.chdir(tmp_path)
-    reg = {**base.registry(), "initbug": Registered("initbug", RaisesInInit, "tests"),
+    reg = {**integrator_registry.registry(), "initbug": Registered("initbug", RaisesInInit, "tests"),
            "hang": Registered("hang", Hang, "tests")}
-    monkeypatch.setattr(base, "registry", lambda refresh=False: dict(reg))
+    monkeypatch.setattr(integrator_registry, "registry", lambda refresh=False: dict(reg))
     monkeypatch.setattr(dask_cluster, "DASK_CONNECT_TIMEOUT", 1.0)
 
 

@@ -521,12 +521,12 @@ def test_one_broken_scene_file_does_not_block_the_others(odd_cases):
 
 def test_one_broken_plugin_does_not_block_a_survey_of_others(monkeypatch):
     """A plugin that fails to import made `survey` refuse even with -i naming others."""
-    from daebench.integrators import base
+    from daebench.integrators import registry as integrator_registry
     from daebench.models.scenes import load_scene
     from daebench.workflows import survey
 
-    reg = {**base.registry(), "broken": base.Registered("broken", None, "bad-plugin", "ImportError: no module x")}
-    monkeypatch.setattr(base, "registry", lambda refresh=False: dict(reg))
+    reg = {**integrator_registry.registry(), "broken": integrator_registry.Registered("broken", None, "bad-plugin", "ImportError: no module x")}
+    monkeypatch.setattr(integrator_registry, "registry", lambda refresh=False: dict(reg))
     proto = survey.survey_protocol(load_scene("pendulum"), quick=True)
     assert any(e.integrator == "broken" for e in proto.entries)
     assert any(e.integrator == "hht" and e.steps for e in proto.entries)

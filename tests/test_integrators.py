@@ -8,7 +8,8 @@ to its start after one period) and a linear oscillator.
 import numpy as np
 import pytest
 
-from daebench.integrators.base import IntegratorError, StepFailure, get_integrator
+from daebench.integrators.base import IntegratorError, StepFailure
+from daebench.integrators.registry import get_integrator
 from daebench.integrators.baumgarte import BaumgarteABM4
 from daebench.integrators.hht import HHT
 from daebench.integrators.newmark import Newmark

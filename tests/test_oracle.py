@@ -16,7 +16,7 @@ from daebench.core.contact import Impact
 from daebench.core.params import ParamError
 from daebench.driver.simulate import simulate
 from daebench.harness.scoring import oracle
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
 

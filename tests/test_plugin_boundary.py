@@ -18,6 +18,7 @@ from daebench.cli.app import app
 from daebench.core.interrupt import RunTimeout
 from daebench.core.system import State
 from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Setting
 from daebench.stepping.control import land
 
@@ -99,7 +100,7 @@ def plugins():
         daebench.register(cls)
     yield
     for cls in PLUGINS:
-        base.unregister(cls.name)
+        integrator_registry.unregister(cls.name)
 
 
 def short(**extra):
@@ -194,13 +195,13 @@ def test_registration_refuses_bad_declarations(attrs, said):
     with pytest.raises(daebench.ParamError) as err:
         daebench.register(_declared(**attrs))
     assert said in str(err.value)
-    assert "declared" not in base.registry() and "external" not in base.registry()
+    assert "declared" not in integrator_registry.registry() and "external" not in integrator_registry.registry()
 
 
 def test_every_built_in_passes_the_registration_rules():
-    for name, reg in base.registry().items():
+    for name, reg in integrator_registry.registry().items():
         if reg.distribution == "daebench":
             assert reg.cls is not None and base.declaration_problems(reg.cls) == [], name
     good = _declared(capabilities=replace(_Verlet.capabilities, order=3))
     daebench.register(good)
-    base.unregister("declared")
+    integrator_registry.unregister("declared")

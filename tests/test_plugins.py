@@ -79,17 +79,17 @@ def test_unknown_integrator_refused_with_suggestion(plugin_site):
 def test_registry_is_cached_per_sys_path_and_sees_a_plugin_added_to_it(plugin_site, monkeypatch):
     """In-process: the entry-point scan is kept while sys.path is unchanged, and a plugin
     directory added to sys.path is found without an explicit refresh."""
-    from daebench.integrators import base
+    from daebench.integrators import registry as integrator_registry
 
     calls = []
-    real = base.entry_points
-    monkeypatch.setattr(base, "entry_points", lambda **kw: calls.append(1) or real(**kw))
-    first = base.registry(refresh=True)
-    assert base.registry() == first and len(calls) == 1 and "verlet" not in first
+    real = integrator_registry.entry_points
+    monkeypatch.setattr(integrator_registry, "entry_points", lambda **kw: calls.append(1) or real(**kw))
+    first = integrator_registry.registry(refresh=True)
+    assert integrator_registry.registry() == first and len(calls) == 1 and "verlet" not in first
     monkeypatch.syspath_prepend(str(plugin_site))
-    with_plugin = base.registry()
+    with_plugin = integrator_registry.registry()
     assert len(calls) == 2 and "verlet" in with_plugin and with_plugin["verlet"].cls is not None
-    assert base.registry(refresh=True) == with_plugin and len(calls) == 3
+    assert integrator_registry.registry(refresh=True) == with_plugin and len(calls) == 3
 
 
 def test_compiled_plugin_runs_like_the_python_one(plugin_site, tmp_path):

@@ -8,7 +8,7 @@ import pytest
 
 import daebench
 from daebench.harness.references import reference as references
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 
 
 def _declared_low(name: str) -> float:

@@ -9,6 +9,7 @@ import pytest
 import daebench
 from daebench.core.system import State
 from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator
 from daebench.stepping.control import land
 
@@ -36,7 +37,7 @@ class NotebookVerlet(Integrator):
 def registered():
     daebench.register(NotebookVerlet)
     yield NotebookVerlet
-    base.unregister(NotebookVerlet.name)
+    integrator_registry.unregister(NotebookVerlet.name)
 
 
 def test_one_call_registers_and_it_runs_and_sweeps_like_an_installed_plugin(registered):
@@ -99,7 +100,7 @@ def test_declarations_are_checked_where_the_class_is_registered():
     msg = str(exc.value)
     assert "capabilities = {'order': 2}: a daebench.integrators.base.Capabilities is needed" in msg
     assert "_start() is not implemented" in msg and "_step_impl() is not implemented" in msg
-    assert "bad" not in base.registry()
+    assert "bad" not in integrator_registry.registry()
 
 
 def test_an_installed_plugin_that_shadows_a_builtin_is_refused_and_said(monkeypatch):
@@ -111,17 +112,17 @@ def test_an_installed_plugin_that_shadows_a_builtin_is_refused_and_said(monkeypa
             return NotebookVerlet
 
     fake = [EP("hht", "daebench.integrators.hht:HHT", "daebench"), EP("hht", "evil.mod:HHT", "evil-pkg")]
-    monkeypatch.setattr(base, "entry_points", lambda group: fake)
-    reg = base.registry(refresh=True)
+    monkeypatch.setattr(integrator_registry, "entry_points", lambda group: fake)
+    reg = integrator_registry.registry(refresh=True)
     try:
         assert reg["hht"].distribution == "daebench"
-        assert base.refusals() == [
+        assert integrator_registry.refusals() == [
             "integrator 'hht' of the installed distribution evil-pkg (evil.mod:HHT) is refused: daebench's built-in "
             "(daebench.integrators.hht:HHT) provides that name (a plugin may not shadow a built-in or another "
             "plugin; rename its entry point and its class's name)"]
     finally:
         monkeypatch.undo()
-        base.registry(refresh=True)
+        integrator_registry.registry(refresh=True)
 
 
 def test_an_installed_model_that_shadows_a_builtin_is_refused_and_said_as_an_integrator_is(monkeypatch):

@@ -22,7 +22,8 @@ from daebench.core import kernels
 from daebench.core.scene import SceneError
 from daebench.harness.running import checks as guards
 from daebench.integrators.applicability import applies_friction
-from daebench.integrators.base import IntegratorError, get_integrator
+from daebench.integrators.base import IntegratorError
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
 from daebench.models.slidercrank import SliderCrank

@@ -22,8 +22,9 @@ import pytest
 
 from daebench.harness.references import reference as references
 from daebench.harness.sweeps import options, sweep as bench
-from daebench.integrators import base
-from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, Registered, State
+from daebench.integrators import registry as integrator_registry
+from daebench.integrators.base import STEP_SETTINGS, Capabilities, Integrator, State
+from daebench.integrators.registry import Registered
 from daebench.models.scenes import load_scene
 
 pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
@@ -80,8 +81,8 @@ class Hang(_Stepper):
 
 @pytest.fixture()
 def plugins(monkeypatch, tmp_path):
-    reg = {**base.registry(), **{c.name: Registered(c.name, c, "tests") for c in (Segv, Exit3, CtrlC, Hang)}}
-    monkeypatch.setattr(base, "registry", lambda refresh=False: dict(reg))
+    reg = {**integrator_registry.registry(), **{c.name: Registered(c.name, c, "tests") for c in (Segv, Exit3, CtrlC, Hang)}}
+    monkeypatch.setattr(integrator_registry, "registry", lambda refresh=False: dict(reg))
     monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
     return tmp_path
 

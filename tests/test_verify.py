@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 import daebench
 from daebench.cli.app import app
-from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import Capabilities
 from tests.test_contract import Stuck, WrongShape
 from tests.test_register import NotebookVerlet
@@ -21,7 +21,7 @@ SLOW = ["nsgenalpha", "central", "lcp", "lcp-avg"]
 
 
 def test_every_builtin_is_listed_here():
-    assert set(FAST + SLOW) == {n for n, r in base.registry().items() if r.distribution == "daebench"}
+    assert set(FAST + SLOW) == {n for n, r in integrator_registry.registry().items() if r.distribution == "daebench"}
 
 
 @pytest.mark.parametrize("name", FAST + [pytest.param(n, marks=pytest.mark.slow) for n in SLOW])
@@ -62,7 +62,7 @@ def plugins():
         daebench.register(c)
     yield
     for c in classes:
-        base.unregister(c.name)
+        integrator_registry.unregister(c.name)
 
 
 def test_a_correct_python_plugin_passes(plugins):

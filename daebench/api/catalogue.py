@@ -15,6 +15,7 @@ from daebench.core.scene import Scene, SceneError, UnknownScene, list_scenes, sc
 from daebench.harness.running import checks
 from daebench.harness.scoring import pipeline
 from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import Capabilities, IntegratorError
 from daebench.models import REFUSED as MODEL_REFUSALS, build_system, register_model
 from daebench.models.scenes import load_scene as _load_scene
@@ -50,7 +51,7 @@ class IntegratorInfo:
 def integrator_infos() -> dict[str, IntegratorInfo]:
     """Every registered integrator (built-in and plugins), by name."""
     out = {}
-    for name, reg in base.registry().items():
+    for name, reg in integrator_registry.registry().items():
         cls = reg.cls
         out[name] = IntegratorInfo(name, cls.description if cls else "", reg.distribution,
                                    cls.capabilities if cls else None, tuple(cls.settings_spec) if cls else (),
@@ -78,7 +79,7 @@ def register(obj: Any, name: str | None = None) -> Any:
         if name is not None and name != obj.name:
             raise IntegratorError(f"an integrator registers under its class attribute name ('{obj.name}'), not "
                                   f"'{name}'; set name = '{name}' in the class")
-        return base.register(obj)
+        return integrator_registry.register(obj)
     if hasattr(obj, "build") and hasattr(obj, "SCHEMA"):
         return register_model(name if name is not None else getattr(obj, "NAME", None), obj)
     raise ParamError(f"register() takes an Integrator subclass or a model (a module with DESCRIPTION, SCHEMA and "
@@ -88,7 +89,7 @@ def register(obj: Any, name: str | None = None) -> Any:
 def integrator_refusals() -> list[str]:
     """Installed integrator plugins refused because a built-in or another plugin provides
     their name (:mod:`daebench.core.entry_names`, the rule models follow too)."""
-    return base.refusals()
+    return integrator_registry.refusals()
 
 
 def model_refusals() -> list[str]:

@@ -10,7 +10,8 @@ from __future__ import annotations
 from typing import Any
 
 from daebench.core.kernels import friction_coefficients
-from daebench.integrators.base import Integrator, IntegratorError, registry
+from daebench.integrators.base import Integrator, IntegratorError
+from daebench.integrators.registry import registry
 
 
 def applies_friction(cls: type[Integrator], contact_law: str | None) -> bool:

@@ -1,6 +1,6 @@
 """What an integrator class declares, checked before it is registered: its name, its
 capabilities and its settings (:func:`daebench.integrators.base.declaration_problems`
-reads these rules for entry points and :func:`daebench.integrators.base.register`).
+reads these rules for entry points and :func:`daebench.integrators.registry.register`).
 
 * **name** — lower-case letters, digits, '-', '_', '.', at most :data:`MAX_NAME` characters
   (it is a column value, a file-name part and a table cell), and none of

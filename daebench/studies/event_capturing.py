@@ -33,7 +33,7 @@ from daebench.harness.analysis import plots  # noqa: E402
 from daebench.harness.running.progress import RunProgress  # noqa: E402
 from daebench.harness.running.runner import make_integrator, run_scene  # noqa: E402
 from daebench.harness.sweeps import options, sweep  # noqa: E402
-from daebench.integrators.base import get_integrator  # noqa: E402
+from daebench.integrators.registry import get_integrator  # noqa: E402
 from daebench.models import build_system  # noqa: E402
 from daebench.models.scenes import load_scene  # noqa: E402
 

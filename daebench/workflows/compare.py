@@ -51,7 +51,7 @@ from daebench.harness.sweeps import digest, sweep
 from daebench.harness.sweeps.options import Execution, SweepOptions
 from daebench.harness.sweeps.sweep import HARNESS_FAILURES
 from daebench.harness.sweeps.plan import RunSpec, plan_sweep
-from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.workflows import converge
 from daebench.workflows import score as external
 from daebench.workflows.protocol import Entry, Protocol, declared_entries, default_protocol, protocol_for
@@ -123,7 +123,7 @@ def plan(scene: Scene, protocol: Protocol) -> tuple[list[RunSpec], dict[str, str
     refused: dict[str, str] = {}
     for e in protocol.entries:
         try:
-            cls = base.get_integrator(checks.resolve_integrator(e.integrator))
+            cls = integrator_registry.get_integrator(checks.resolve_integrator(e.integrator))
             checks.check_applicable(scene, cls)
             part = plan_sweep(scene, [cls.name], steps=list(e.steps) or None, tols=list(e.tols) or None,
                               options=dict(e.options))

@@ -24,6 +24,7 @@ from typing import Any, Mapping
 from daebench.core.comparison import Comparison
 from daebench.core.scene import Scene
 from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 
 #: the measure a case without declared measures is judged by (``{obs}``: its headline observable)
 DEFAULT_MEASURES = ("err_{obs}_max_trusted",)
@@ -84,7 +85,7 @@ def declared_entries(scene: Scene) -> dict[str, Entry]:
     a two-worker sweep then ends together), then by name; integrators with neither are not
     in it."""
     out = {}
-    for name, reg in base.registry().items():
+    for name, reg in integrator_registry.registry().items():
         if reg.cls is None:
             continue
         own = reg.cls.protocol(scene.name)
@@ -105,7 +106,7 @@ def default_protocol(scene: Scene) -> Protocol:
     """Every registered integrator, one run at its default settings, judged by the case's
     measures."""
     measures, targets, _ = case_measures(scene)
-    return Protocol(tuple(Entry(n) for n in sorted(base.registry())), measures,
+    return Protocol(tuple(Entry(n) for n in sorted(integrator_registry.registry())), measures,
                     "no protocol declared for this case: every integrator once, at its default settings", targets)
 
 
@@ -117,7 +118,7 @@ def protocol_for(scene: Scene) -> Protocol:
     if not declared:
         return default_protocol(scene)
     measures, targets, why = case_measures(scene)
-    extra = tuple(Entry(n) for n in sorted(base.registry()) if n not in declared)
+    extra = tuple(Entry(n) for n in sorted(integrator_registry.registry()) if n not in declared)
     return Protocol(tuple(declared.values()) + extra, measures,
                     "the runs declared for this case, the others once at their defaults"
                     + (f"; {why}" if why else ""), targets)

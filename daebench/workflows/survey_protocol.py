@@ -13,7 +13,7 @@ import pandas as pd
 from daebench.core.scene import Scene
 from daebench.harness.scoring import pipeline
 from daebench.harness.sweeps.plan import RunSpec
-from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.models.scenes import load_scene
 from daebench.workflows import compare
 from daebench.workflows.compare import Entry, Protocol
@@ -35,7 +35,7 @@ def _default(cls: type, key: str) -> float | None:
 def halvings(name: str, levels: int = LEVELS) -> Entry:
     """``name`` at its default step and ``levels - 1`` halvings (fixed-step), or at its
     default rtol and decades below it (adaptive only); one run at its defaults otherwise."""
-    cls = base.get_integrator(name)
+    cls = integrator_registry.get_integrator(name)
     caps = cls.capabilities
     h0 = _default(cls, "h")
     if caps.fixed_step and h0 is not None:
@@ -54,7 +54,7 @@ def survey_protocol(scene: Scene, quick: bool = False) -> Protocol:
     declared = {} if quick else compare.declared_entries(scene)
     # a plugin that cannot be loaded gets one entry, which planning lists as not applicable with the reason
     entries = list(declared.values()) + [halvings(n, levels) if r.cls is not None else Entry(n)
-                                         for n, r in sorted(base.registry().items()) if n not in declared]
+                                         for n, r in sorted(integrator_registry.registry().items()) if n not in declared]
     measures = compare.protocol_for(scene).measures if declared else compare.default_protocol(scene).measures
     why = "each integrator's declared runs for this case, the others at their defaults and two halvings" \
         if declared else f"every integrator at its defaults and {levels - 1} halving(s)"

@@ -52,6 +52,7 @@ from daebench.harness.running import checks, isolated
 from daebench.harness.running.deadline import check_run_cap, deadline
 from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import IntegratorError
 from daebench.models import build_system
 from daebench.models.ball import exact_motion
@@ -478,7 +479,7 @@ def verify(name: str, settings: dict[str, Any] | None = None, properties: Sequen
         An unknown integrator, bad settings or an unknown property — before anything runs.
     """
     run_cap = check_run_cap(run_cap)
-    cls = base.get_integrator(checks.resolve_integrator(name))
+    cls = integrator_registry.get_integrator(checks.resolve_integrator(name))
     settings = dict(settings or {})
     cls(**settings)   # the settings are checked before any run
     if isinstance(properties, str):   # "order" or "order,drift": names, not letters

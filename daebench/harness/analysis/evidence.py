@@ -60,10 +60,10 @@ def declared_order(integrator: str, kind: str) -> float:
     order for a step series (NaN for an integrator not registered here)."""
     if kind == "tol":
         return 1.0
-    from daebench.integrators import base  # lazy: the registry loads every integrator plugin
+    from daebench.integrators import registry as integrator_registry  # lazy: it loads every integrator plugin
 
     try:
-        return float(base.get_integrator(integrator).capabilities.order)
+        return float(integrator_registry.get_integrator(integrator).capabilities.order)
     except Exception:  # noqa: BLE001 - an unknown or broken plugin: no declared order to compare with
         return math.nan
 

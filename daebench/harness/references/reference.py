@@ -40,7 +40,7 @@ from daebench.harness.files import DamagedFile, atomic_write, read_json, results
 from daebench.harness.references import accuracy, capturing, modelprobe, side_runs
 from daebench.harness.running import provenance
 from daebench.harness.running.runner import make_integrator, run_scene
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 from daebench.harness.scoring import metrics
 from daebench.harness.scoring.pipeline import declared
 from daebench.integrators.odeint import IndexOneODE

@@ -16,6 +16,7 @@ from typing import Any
 from daebench.core.params import ParamError, did_you_mean
 from daebench.core.scene import scene_names
 from daebench.integrators import applicability, base
+from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import Integrator, IntegratorError
 from daebench.driver.history import DIVERGENCE_ENERGY
 from daebench.models import build_system
@@ -43,7 +44,7 @@ def resolve_integrator(name: str) -> str:
     IntegratorError
         For an unknown name, with the closest registered one.
     """
-    reg = base.registry()  # looked up on the module: tests and plugins may replace it
+    reg = integrator_registry.registry()  # looked up on the module: tests and plugins may replace it
     if not isinstance(name, str) or not name.strip():
         raise IntegratorError(f"an integrator name is needed, e.g. hht; available: {', '.join(reg)}")
     if name in reg:

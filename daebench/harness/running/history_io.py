@@ -20,7 +20,8 @@ from daebench.core.params import ParamError
 from daebench.core.scene import Scene, check_name
 from daebench.driver.simulate import RunResult
 from daebench.harness.files import DamagedFile, OutputError, atomic_write, read_json, jsonable, results_dir, under_root, write_error
-from daebench.integrators.base import Integrator, get_integrator
+from daebench.integrators.base import Integrator
+from daebench.integrators.registry import get_integrator
 
 
 def run_id(scene: Scene, integ: Integrator) -> str:

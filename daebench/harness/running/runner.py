@@ -21,7 +21,8 @@ from daebench.harness.files import OutputWriteError, ensure_writable_dir, jsonab
 from daebench.harness.running import checks, isolated
 from daebench.harness.running.deadline import deadline
 from daebench.harness.running.history_io import history_dir, history_name, write_history
-from daebench.integrators.base import Integrator, IntegratorError, get_integrator
+from daebench.integrators.base import Integrator, IntegratorError
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 
 DEFAULT_INTEGRATOR = "ida"

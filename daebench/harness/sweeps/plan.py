@@ -12,7 +12,7 @@ from daebench.core.params import ParamError, did_you_mean
 from daebench.core.scene import Scene
 from daebench.harness.running import checks
 from daebench.harness.sweeps.options import SweepError
-from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import IntegratorError
 from daebench.models import build_system
 
@@ -46,7 +46,7 @@ def _integrator_classes(names: Sequence[str]) -> dict[str, type]:
     for n in names:
         try:
             name = checks.resolve_integrator(n)
-            out[name] = base.get_integrator(name)
+            out[name] = integrator_registry.get_integrator(name)
         except IntegratorError as exc:
             raise SweepError(f"{exc} (in --integrators)") from None
     if len(out) != len(names):

@@ -20,7 +20,7 @@ from daebench.harness.running.timing import WARMUP_CAP_S, time_call
 from daebench.harness.scoring import metrics, pipeline
 from daebench.harness.sweeps.digest import history_digest
 from daebench.harness.sweeps.options import Timing
-from daebench.integrators import base
+from daebench.integrators import registry as integrator_registry
 from daebench.models import build_system
 
 
@@ -84,7 +84,7 @@ def execute(spec: Any, scene: Scene, reference_mode: str = "auto", timing: Timin
         if spec.skip:
             row.update(status="skipped", message=spec.skip, verdict="skipped", verdict_reason=spec.skip)
             return row
-        cls = base.get_integrator(spec.integrator)  # entry-point loading stays out of the timing
+        cls = integrator_registry.get_integrator(spec.integrator)  # entry-point loading stays out of the timing
 
         def one_run(cap: float | None = run_cap):
             return run_scene(sc, cls(**spec.options), write=False, force=True, run_cap=cap)

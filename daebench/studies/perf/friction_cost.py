@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from daebench.driver.simulate import simulate
-from daebench.integrators.base import get_integrator
+from daebench.integrators.registry import get_integrator
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
 
