@@ -184,7 +184,8 @@ def external_row(scene: Scene, ext: external.ExternalData, tr: pipeline.Truth, i
         "settings": json.dumps(jsonable(ext.provenance()), sort_keys=True, default=str), "overrides": "{}",
         "scene_set": json.dumps(scene.changes(), sort_keys=True, default=str), "scene_hash": scene.hash,
         "status": status, "message": "; ".join([why] * bool(why) + notes), "wall_s": ext.cost_s,
-        "cpu_s": ext.cost_s, "cpu_spread": math.nan, "repeats": 0, "t_final": t_final}
+        "cpu_s": ext.cost_s, "cpu_spread": math.nan, "repeats": 0, "t_final": t_final,
+        "refused": False}   # a file is never an integrator's refusal
     row.update(dict.fromkeys(Counters().as_dict(), math.nan))
     row["steps"] = ext.steps
     row.update(metrics.stability_verdict(status, why, t_final, scene.t_end))
