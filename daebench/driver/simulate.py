@@ -185,7 +185,8 @@ class Driver:
                 raise     # Ctrl-C, SIGTERM or the wall-time cap: the caller's business
             status, message = "failed", f"t = {self._t_last:.6g} s: {interrupt.describe_raised(exc)}"
             # not applicable: the integrator said so (its type of error) before it took a step
-            refused = isinstance(exc, IntegratorError) and self._t_last == 0.0 and not getattr(getattr(self.integ, "counters", None), "steps", 0)
+            steps = getattr(getattr(self.integ, "counters", None), "steps", 0)   # a plugin may lack counters
+            refused = isinstance(exc, IntegratorError) and self._t_last == 0.0 and not steps
             if getattr(self.integ, "failure", None) is None:
                 self.integ.failure = exc  # its traceback, for `run --traceback` and RunOutput.traceback
         failure = getattr(self.integ, "failure", None)

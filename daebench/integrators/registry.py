@@ -30,7 +30,7 @@ class Registered:
     @property
     def provider(self) -> str:
         """Who provides it, for messages naming two providers of one name."""
-        if self.distribution == "daebench":
+        if self.distribution == entry_names.BUILTIN:
             return f"daebench's built-in ({self.source})" if self.source else "daebench's built-in"
         if self.distribution.startswith(REGISTERED):
             return f"the class {self.source} registered in this process"

@@ -99,7 +99,7 @@ def unregister_model(name: str) -> None:
 
 
 def _provider(dist: str) -> str:
-    if dist == "daebench":
+    if dist == entry_names.BUILTIN:
         return "daebench's built-in model"
     if dist.startswith("registered"):
         return f"the model {dist.removeprefix('registered ')} registered in this process"

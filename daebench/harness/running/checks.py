@@ -217,9 +217,10 @@ def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
 def check_applicable(scene: Any, cls: type[Integrator], system: Any = None) -> None:
     """Refuse, before anything runs, an integrator that cannot run this scene: the contact
     fit (:func:`check_contacts_fit`) and the capability check the driver makes at its
-    start (:func:`daebench.integrators.applicability.check_fits`: constraints are needed for
-    bilateral joints, and for impact-law contacts the integrator does not resolve itself). Refusals an integrator makes only in its own
-    start (e.g. a model type it does not support) still come at run time.
+    start (:func:`daebench.integrators.applicability.check_fits`: constraints are needed
+    for bilateral joints, and for impact-law contacts the integrator does not resolve
+    itself). Refusals an integrator makes only in its own start (e.g. a model type it
+    does not support) still come at run time.
 
     Raises
     ------
