@@ -2,13 +2,14 @@
 results folder after every check a cached one passes, refused when the scene or the model
 changed (daebench.harness.references.shipped, daebench.harness.references.modelprobe)."""
 
+import json
 import shutil
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from daebench.harness.references import accuracy, fingerprints, modelprobe, reference as references
+from daebench.harness.references import accuracy, fingerprints, modelprobe, packed, reference as references
 from daebench.models.scenes import load_scene
 
 REGENERATE = "daebench reference beam-impact --force --ship"
@@ -38,7 +39,7 @@ def test_the_shipped_reference_loads_with_require_on_an_empty_results_folder(emp
     scene = load_scene("beam-impact")
     src = references.shipped_path(scene)
     assert src.is_file(), f"no shipped reference for beam-impact's scene hash {scene.hash}; run `{REGENERATE}`"
-    assert src.stat().st_size < 4e6  # measured 3.5 MB (zstd, byte-stream-split floats; 1.9 MB before the state columns)
+    assert src.stat().st_size < 2e6  # stored thin (daebench.harness.references.packed); 3.5 MB whole
     ref = references.load_reference(scene, mode="require")
     assert ref.path == empty_results / "references" / src.name and ref.path.is_file()
     assert ref.kind == "ida" and ref.rtol == 1e-11
@@ -120,10 +121,86 @@ def test_the_shipped_reference_is_what_the_code_computes_today(empty_results):
     stated tolerance; measured: identical to the last bit), the same impacts to 1e-9 s."""
     scene = load_scene("beam-impact")
     new = references.compute_reference(scene)
-    old = pd.read_parquet(references.shipped_path(scene))
+    old = references.load_reference(scene, mode="require").history   # the shipped one, installed whole
     assert list(new.history.columns) == list(old.columns) and len(new.history) == len(old)
     for c in scene["output.observables"]:
         rng = float(old[c].max() - old[c].min())
         assert np.max(np.abs(new.history[c].to_numpy() - old[c].to_numpy())) <= accuracy.TRUST_REL * rng, c
     shipped = references.validate(scene, references.shipped_path(scene))
     assert np.max(np.abs(np.subtract(new.impacts, shipped.impacts))) <= 1e-9
+
+
+def test_the_shipped_reference_is_thin_and_installs_whole(empty_results):
+    """The package stores the states, the time, the work, the energy residual and the
+    contact columns; the observables and energy terms are rebuilt on install and must be
+    the computed ones. Checked here by formulas independent of the model's kernel: θ in
+    degrees is q_theta, E is the sum of its terms, and the energy residual is
+    E − E(0) − ΣW + D_impacts row by row."""
+    scene = load_scene("beam-impact")
+    src = references.shipped_path(scene)
+    stored = pd.read_parquet(src)
+    assert {"t", "q_theta", "v_theta", "energy_residual", "D_impacts"} <= set(stored.columns)
+    assert not {"theta_deg", "tip_x", "E", "E_kinetic"} & set(stored.columns)
+    hist = references.load_reference(scene, mode="require").history
+    meta = json.loads(src.with_suffix(".json").read_text())
+    assert list(hist.columns) == meta[packed.ORDER_KEY] and len(hist) == len(stored)
+    assert set(hist.columns) - set(stored.columns) == set(meta[packed.DERIVED_KEY])
+    np.testing.assert_allclose(hist["theta_deg"], np.degrees(hist["q_theta"]), rtol=1e-15, atol=0)
+    terms = [c for c in hist.columns if c.startswith("E_")]
+    assert {"E_kinetic", "E_elastic", "E_gravity"} <= set(terms)
+    np.testing.assert_allclose(hist["E"], hist[terms].sum(axis=1), rtol=1e-14, atol=1e-15)
+    works = [c for c in hist.columns if c.startswith("W_") and c[2:].isalpha() and len(c) > 3]
+    resid = hist["E"] - hist["E"].iloc[0] - hist[works].sum(axis=1) + hist["D_impacts"]
+    assert np.max(np.abs(resid - hist["energy_residual"])) < 1e-12
+
+
+def _planted(tmp_path, monkeypatch, edit):
+    """The shipped pair copied into a fake package folder, its sidecar edited by ``edit`` and
+    sealed again (as a maintainer's mistake would be: the seal does not catch it)."""
+    scene = load_scene("beam-impact")
+    fake = tmp_path / "shipped"
+    fake.mkdir()
+    src = references.shipped_path(scene)
+    shutil.copyfile(src, fake / src.name)
+    meta = json.loads(src.with_suffix(".json").read_text())
+    edit(meta)
+    references.write_sidecar(fake / src.with_suffix(".json").name, meta)
+    monkeypatch.setattr(references, "SHIPPED_DIR", fake)
+    return scene
+
+
+def test_a_derived_column_that_does_not_rebuild_to_the_bit_is_refused(empty_results, no_compute, tmp_path,
+                                                                      monkeypatch):
+    def wrong_digest(meta):
+        meta[packed.DERIVED_KEY]["tip_x"]["sha256"] = "0" * 64
+
+    scene = _planted(tmp_path, monkeypatch, wrong_digest)
+    with pytest.raises(references.ReferenceDamaged, match="refused.*tip_x rebuilt from the states differ"):
+        references.load_reference(scene, mode="require")
+    assert not references.reference_path(scene).exists()
+    assert references.load_reference(scene, mode="auto") == "computed" and no_compute == [scene.hash]
+
+
+def test_thin_drops_only_what_the_states_rebuild():
+    """A column 1e-9 off its formula at one row (not round-off: another quantity) is kept; one
+    an ulp off is dropped, rebuilt to the formula's value, its difference recorded."""
+    from daebench.models import build_system
+
+    scene = load_scene("beam-impact")
+    system = build_system(scene)
+    q0, v0 = system.initial_state()
+    t = np.linspace(0.0, 1e-3, 4)
+    obs, terms = system.output_rows(t, np.tile(q0, (4, 1)), np.tile(v0 + 0.1, (4, 1)))
+    hist = pd.DataFrame({"t": t, **obs, **{f"E_{k}": x for k, x in terms.items()},
+                         "E": sum(terms.values()), "energy_residual": np.zeros(4)})
+    exact = hist.copy()
+    hist.loc[2, "tip_y"] *= 1 + 1e-9
+    hist.loc[1, "tip_x"] = np.nextafter(hist.loc[1, "tip_x"], np.inf)
+    kept, derived = packed.thin(system, hist)
+    assert "tip_y" in kept.columns and "tip_y" not in derived
+    assert {"theta_deg", "tip_x", "E", "E_kinetic"} <= set(derived) and "energy_residual" in kept.columns
+    assert derived["tip_x"]["max_difference"] == pytest.approx(abs(np.spacing(exact.loc[1, "tip_x"])), rel=1e-12)
+    whole = packed.rebuild(system, kept, derived, list(hist.columns))
+    assert list(whole.columns) == list(hist.columns)
+    pd.testing.assert_frame_equal(whole.drop(columns="tip_y"), exact.drop(columns="tip_y"), check_exact=True)
+    assert whole.loc[2, "tip_y"] == hist.loc[2, "tip_y"]   # kept as stored

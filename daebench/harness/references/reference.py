@@ -24,7 +24,6 @@ import json
 import math
 import os
 import shlex
-import shutil
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,10 +33,10 @@ import pandas as pd
 
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene, cases_dir
-from daebench.driver.events import CONTACT_LAW_REVISION
+from daebench.driver.contact_state import CONTACT_LAW_REVISION
 from daebench.driver.simulate import simulate
 from daebench.harness.files import DamagedFile, atomic_write, read_json, results_dir, write_error
-from daebench.harness.references import accuracy, capturing, modelprobe, side_runs
+from daebench.harness.references import accuracy, capturing, modelprobe, packed, side_runs
 from daebench.harness.running import provenance
 from daebench.harness.running.runner import make_integrator, run_scene
 from daebench.integrators.registry import get_integrator
@@ -359,8 +358,15 @@ def install_shipped(scene: Scene) -> Path | None:
         dest.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise write_error(exc, "the reference folder", dest.parent, kept) from None
-    meta = {**ref.meta, "installed_from": f"shipped with daebench ({src.name})"}
-    atomic_write(dest, lambda p: shutil.copyfile(src, p), "the reference", kept)
+    hist, meta = ref.history, {k: v for k, v in ref.meta.items() if k not in (packed.DERIVED_KEY, packed.ORDER_KEY)}
+    if ref.meta.get(packed.DERIVED_KEY):   # shipped thin: the columns the states determine rebuilt, to the bit
+        try:
+            hist = packed.rebuild(build_system(scene), hist, ref.meta[packed.DERIVED_KEY], ref.meta[packed.ORDER_KEY])
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ReferenceDamaged(f"the reference shipped for '{scene.name}' is refused: {exc}") from None
+    atomic_write(dest, lambda p: write_history(p, hist), "the reference", kept)
+    meta.update({"installed_from": f"shipped with daebench ({src.name})", "sha256": sha256(dest),
+                 "columns": list(hist.columns)})
     atomic_write(dest.with_suffix(".json"), lambda p: write_sidecar(p, meta), "the reference's sidecar", kept)
     return dest
 
@@ -548,6 +554,14 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     return _store(scene, dense_scene, integ, res, agreement, acc_meta, {"kind": "ida"})
 
 
+def write_history(path: Path, hist: pd.DataFrame) -> None:
+    """Write a reference's history as the cache keeps it (zstd, byte-stream-split floats:
+    the values bit for bit)."""
+    floats = [c for c in hist.columns if hist[c].dtype.kind == "f"]
+    hist.to_parquet(path, index=False, compression="zstd", compression_level=9, use_dictionary=False,
+                    use_byte_stream_split=floats)
+
+
 def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: dict[str, Any],
            acc_meta: dict[str, Any], extra: dict[str, Any]) -> Reference:
     """Write the reference's history and sidecar atomically (module docstring), with the
@@ -565,10 +579,7 @@ def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: di
         if f.is_dir():
             raise ReferenceDamaged(f"the cached reference {f} is a folder, not a file; remove it (`rm -r {f}`) "
                                    f"and run {_fix(scene)}")
-    floats = [c for c in hist.columns if hist[c].dtype.kind == "f"]
-    atomic_write(path, lambda p: hist.to_parquet(p, index=False, compression="zstd", compression_level=9,
-                                                  use_dictionary=False, use_byte_stream_split=floats),
-                 "the reference", kept)
+    atomic_write(path, lambda p: write_history(p, hist), "the reference", kept)
     meta = {"scene": scene.name, "scene_hash": scene.hash, "scene_values": scene.values,
             "integrator": integ.name, "settings": integ.to_config(), "wall_s": res.wall_s,
             "counters": res.counters, "impacts": impacts,

@@ -2,9 +2,10 @@
 
 The README's main job, ``daebench compare beam-impact``, needs beam-impact's reference; on a
 fresh install computing it is the longest part of the first hour. So the package ships
-it: ``daebench/data/references/<scene>-<hash>.parquet`` and ``.json``, the same pair
-:mod:`daebench.harness.references.reference` caches (zstd, byte-stream-split floats: the values are
-the computed ones, bit for bit). When a scene has no cached reference,
+it: ``daebench/data/references/<scene>-<hash>.parquet`` and ``.json``, the pair
+:mod:`daebench.harness.references.reference` caches, stored thin (:mod:`daebench.harness.references.packed`:
+the columns the states determine are dropped and rebuilt on install, each checked to the bit
+against its recorded digest). When a scene has no cached reference,
 :func:`daebench.harness.references.reference.load_reference` installs the shipped one
 (:func:`daebench.harness.references.reference.install_shipped`: a copy into ``results/references/``)
 — only after it passes every check a cached reference passes
@@ -23,12 +24,13 @@ refused, and tests/test_refship.py fails saying so), ``daebench reference beam-i
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 from daebench.core.scene import Scene
-from daebench.harness.references.reference import (SHIPPED_DIR, Reference, ReferenceDamaged, shipped_path,
-                                                    validate, write_sidecar)
+from daebench.harness.references import packed
+from daebench.harness.references.reference import (SHIPPED_DIR, Reference, ReferenceDamaged, sha256, shipped_path,
+                                                    validate, write_history, write_sidecar)
+from daebench.models import build_system
 
 
 def ship(scene: Scene, ref: Reference) -> Path:
@@ -42,8 +44,11 @@ def ship(scene: Scene, ref: Reference) -> Path:
     for old in SHIPPED_DIR.glob(f"{scene.name}-*"):
         old.unlink()  # the scene's earlier (other-hash) reference
     dest = shipped_path(scene)
-    shutil.copyfile(ref.path, dest)
+    kept, derived = packed.thin(build_system(scene), ref.history)
+    write_history(dest, kept)
     meta = json.loads(ref.path.with_suffix(".json").read_text())  # the sidecar as written (provenance too)
     meta.pop("installed_from", None)
+    meta.update({"sha256": sha256(dest), "columns": list(kept.columns), packed.DERIVED_KEY: derived,
+                 packed.ORDER_KEY: list(ref.history.columns)})
     write_sidecar(dest.with_suffix(".json"), meta)  # sealed anew without the cache's own note
     return dest
