@@ -66,6 +66,29 @@ def test_score_across_cases_known_answers():
     assert res.records["c1"][0]["ratio"] == pytest.approx(2.0, rel=1e-12)
 
 
+def test_a_case_that_declares_targets_is_judged_on_them_without_target():
+    """beam-impact's case file declares err_impact1_t = [1e-8] ([compare.targets], read here
+    with tomllib); a case that declares none ('c2', not a library case) gets the powers of
+    ten between the quartiles of the errors pooled over the cases: beam-impact's 1e-6 h and
+    c2's 1e-4 h at h = 1e-2, 5e-3, 2.5e-3 pool to 2.5e-9 … 1e-6, quartiles 6.25e-9 and
+    4.375e-7, so 1e-8 and 1e-7."""
+    import tomllib
+
+    from daebench.core.scene import cases_dir
+
+    declared = tomllib.loads((cases_dir() / "beam-impact.toml").read_text())["compare"]["targets"]
+    results = []
+    for case, k in (("beam-impact", 1e-6), ("c2", 1e-4)):
+        rows = [dict(run=i, case=case, label="a", integrator="a", h=h, status="completed", cpu_s=1e-3 / h,
+                     cpu_spread=0.01, steps=1 / h, err_impact1_t=k * h) for i, h in enumerate((1e-2, 5e-3, 2.5e-3))]
+        results.append(S.CaseResult(case, pd.DataFrame(rows), {}, ["err_impact1_t"], 1.0, 1, 1))
+    reach = S.score(results).reach
+    assert sorted(reach[reach.case == "beam-impact"].target) == declared["err_impact1_t"] == [1e-8]
+    assert sorted(reach[reach.case == "c2"].target) == pytest.approx([1e-8, 1e-7], rel=1e-12)
+    # a --target given replaces the declared ones for every case
+    assert set(S.score(results, {"err_impact1_t": [5e-9]}).reach.target) == {5e-9}
+
+
 @pytest.mark.slow
 def test_quick_case_budget_skip_then_resume(tmp_path, monkeypatch):
     """A budget too small for the second round: its runs are 'skipped-budget' rows; resumed

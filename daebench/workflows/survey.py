@@ -347,22 +347,34 @@ def score(results: Sequence[CaseResult], targets: Mapping[str, Sequence[float]] 
           most: int = 3) -> SurveyResult:
     """The survey's tables from its cases: all rows, the verdict table over the measures of
     each case (:func:`daebench.harness.analysis.evidence.verdict_table`: the CPU time at which
-    each setting qualifies for each target; targets given, else
-    :func:`daebench.harness.analysis.costs.decade_targets` of the errors pooled over the
-    cases), the profile table (CPU time) and the recommendation per case."""
+    each setting qualifies for each target; targets given, else the case's own (its
+    ``[compare] targets``, :mod:`daebench.core.comparison`) and, for a measure it declares
+    none of, :func:`daebench.harness.analysis.costs.decade_targets` of the errors pooled over
+    the cases), the profile table (CPU time) and the recommendation per case."""
     frames = [r.table for r in results if len(r.table)]
     table = pd.concat(frames, ignore_index=True, sort=False) if frames else pd.DataFrame()
     measures = list(dict.fromkeys(m for r in results for m in r.measures))
     tg = {m: list(v) for m, v in targets.items()} if targets else recommend.default_targets(table, measures, most)
     parts = []
     for r in results:
-        mine = {m: v for m, v in tg.items() if m in r.measures}
+        mine = {m: v for m, v in ({**tg, **declared_targets(r.case)} if not targets else tg).items()
+                if m in r.measures}
         if mine and len(r.table):
             parts.append(evidence.verdict_table(r.table, mine))
     reach = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
     prof = profiles.profile_table(reach, cost=evidence.COST) if len(reach) else pd.DataFrame()
     records, paras = recommend.by_case(reach, table, model_of)
     return SurveyResult("", Path("."), table, reach, prof, paras, list(results), 0.0, records=records)
+
+
+def declared_targets(case: str) -> dict[str, list[float]]:
+    """The target errors a case of the library declares (``[compare] targets``; empty for
+    one that declares none, or a name that is not a case)."""
+    try:
+        comparison = case_scene(case).comparison
+    except ParamError:
+        return {}
+    return {m: list(v) for m, v in (getattr(comparison, "targets", None) or {}).items()}
 
 
 def model_of(case: str) -> str | None:
