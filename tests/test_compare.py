@@ -151,3 +151,18 @@ def test_an_error_at_the_start_is_a_row_not_a_refusal():
             for r in (refused, broken)]
     assert C._refused_at_start(rows[0]) and not C._refused_at_start(rows[1])
     assert not C._refused_at_start(pd.Series({"status": "failed", "refused": float("nan")}))   # an older row
+
+
+def test_the_figure_title_states_what_the_answer_depends_on():
+    """beam-impact's file sets N = 5 and e = 0 over 1 s (read with tomllib); the pendulum has
+    neither key, so only its span is stated."""
+    import tomllib
+
+    from daebench.core.scene import cases_dir
+
+    raw = tomllib.loads((cases_dir() / "beam-impact.toml").read_text())
+    n, e, t = raw["discretization"]["n"], raw["contact"]["restitution"], raw["t_end"]
+    assert C.scene_label(load_scene("beam-impact")) == f"beam-impact (N = {n:g}, e = {e:g}, {t:g} s)"
+    assert C.scene_label(load_scene("beam-impact", ["discretization.n=7"])).startswith("beam-impact (N = 7,")
+    assert C.scene_label(load_scene("pendulum")).endswith(" s)") and "N =" not in C.scene_label(
+        load_scene("pendulum"))

@@ -284,6 +284,17 @@ def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
     return [m for m in measures if m in df.columns and pd.to_numeric(df[m], errors="coerce").notna().any()]
 
 
+#: the scene values a figure's title states, as (key, symbol): what sets a run's answer apart
+TITLE_KEYS = (("discretization.n", "N"), ("contact.restitution", "e"))
+
+
+def scene_label(scene: Scene) -> str:
+    """The scene's name with the values its answers depend on: ``beam-impact (N = 5, e = 0, 1 s)``."""
+    parts = [f"{sym} = {scene.get(key):g}" for key, sym in TITLE_KEYS if isinstance(scene.get(key), (int, float))
+             and not isinstance(scene.get(key), bool)]
+    return f"{scene.name} ({', '.join(parts + [f'{scene.t_end:g} s'])})"
+
+
 def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused: Mapping[str, str],
           ref: Any, recs: Sequence[Mapping[str, Any]] = (), convergence: Mapping[str, Any] | None = None
           ) -> list[Path]:
@@ -297,8 +308,8 @@ def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused
     df.to_parquet(files[1], index=False)
     ms = measures_present(df, proto.measures)
     if ms:
-        title = f"{scene.name}: work–precision ({len(df)} runs, reference {ref.describe()})" if ref is not None \
-            else f"{scene.name}: work–precision"
+        title = (f"{scene_label(scene)}: work–precision ({len(df)} runs, reference {ref.describe()})" if ref is not None
+                 else f"{scene_label(scene)}: work–precision")
         files += plots.work_precision(marked(df), evidence.COST, ms, "label", folder / f"wp-{scene.name}", prov,
                                       title=title)[1]
     side = folder / "compare.json"
