@@ -1,4 +1,4 @@
-"""The driver's contact state as a value (daebench.driver.events.ContactState): the event
+"""The driver's contact state as a value (daebench.driver.contact_state.ContactState): the event
 functions locate and apply an impact from it and the phase's Problem alone, against the
 exact free fall of a ball onto the ground."""
 
@@ -11,7 +11,9 @@ import pytest
 
 from daebench.core.problem import Problem
 from daebench.core.system import State
-from daebench.driver.events import ContactState, Event, apply_event, find_event
+from daebench.driver.contact_state import ContactState, Event
+from daebench.driver.events import find_event
+from daebench.driver.transitions import apply_event
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
 

@@ -48,7 +48,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 DAMPING_LAWS = ("lankarani-nikravesh", "hunt-crossley", "flores", "none")
 #: the driver's laws for contacts that close at the same instant (scene key contact.impact_law;
-#: daebench.driver.events): Newton's law for all at once (one LCP), one contact after another, or
+#: daebench.driver.transitions): Newton's law for all at once (one LCP), one contact after another, or
 #: the Liu–Zhao–Brogliato multiple-impact law (daebench.core.lzb: the model's contact stiffness)
 IMPACT_LAWS = ("simultaneous", "sequential", "lzb")
 #: default regularisation velocity v_ε of the compliant laws' Coulomb friction [m/s]: a held

@@ -70,7 +70,7 @@ class RunRecord:
     impacts: list[dict[str, Any]] = field(default_factory=list)
     constraint_max: dict[str, float] = field(default_factory=dict)
     t_final: float = math.nan
-    impact_law: str = ""   # the driver's impact law (daebench.driver.events.impact_law_name; "": none applied)
+    impact_law: str = ""   # the driver's impact law (daebench.driver.transitions.impact_law_name; "": none applied)
     warnings: list[str] = field(default_factory=list)   # e.g. a step beyond the method's stability limit
 
     def as_dict(self) -> dict[str, Any]:
