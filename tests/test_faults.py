@@ -26,6 +26,7 @@ from typer.testing import CliRunner
 
 from daebench.cli.app import app
 from daebench.harness.files import OutputWriteError
+from daebench.harness.references import stored
 
 runner = CliRunner()
 SMALL = ["bench", "pendulum", "-i", "hht", "--steps", "1e-2,5e-3", "--set", "t_end=0.05", "--reference", "none",
@@ -421,7 +422,7 @@ def test_a_damaged_reference_is_reported_as_damaged(cached_reference, damage, wh
     with pytest.raises(references.ReferenceDamaged, match=why) as exc:
         references.load_reference(sc, mode="require")
     assert "`daebench reference pendulum --force --set t_end=0.2`" in str(exc.value)
-    reason = references.why_no_reference(sc)
+    reason = stored.why_no_reference(sc)
     assert "is damaged" in reason and why in reason and "no cached reference" not in reason
 
 
@@ -442,7 +443,7 @@ def test_the_reference_command_carries_the_runs_overrides():
     from daebench.models.scenes import load_scene
 
     sc = load_scene("beam-impact", ["contact.law=hertz", "t_end=0.5"])
-    cmd = references.reference_command(sc)
+    cmd = stored.reference_command(sc)
     assert cmd.startswith("daebench reference beam-impact --set ")
     assert "--set contact.law=hertz" in cmd and "--set t_end=0.5" in cmd
     again = load_scene("beam-impact", [w for w in cmd.split() if "=" in w])

@@ -12,6 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from daebench.cli.app import app
+from daebench.harness.references import stored
 
 runner = CliRunner()
 
@@ -68,7 +69,7 @@ def test_a_tampered_sidecar_field_is_refused_as_damaged(pendulum_reference, key,
     _edit(ref.path, _set(key, value))
     with pytest.raises(references.ReferenceDamaged, match="checksum mismatch: a field of the sidecar changed"):
         references.load_reference(sc, mode="require")
-    assert "is damaged" in references.why_no_reference(sc)
+    assert "is damaged" in stored.why_no_reference(sc)
 
 
 @pytest.mark.parametrize("key, value, why", [

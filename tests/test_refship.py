@@ -11,6 +11,7 @@ import pytest
 
 from daebench.harness.references import accuracy, fingerprints, modelprobe, packed, reference as references
 from daebench.models.scenes import load_scene
+from daebench.harness.references import stored
 
 REGENERATE = "daebench reference beam-impact --force --ship"
 
@@ -51,7 +52,7 @@ def test_the_shipped_reference_loads_with_require_on_an_empty_results_folder(emp
     # the first impact near t ≈ 0.37 s (cases/beam-impact.toml), θ starts at 45°
     assert 0.36 < ref.impacts[0] < 0.39 and ref.history["theta_deg"].iloc[0] == 45.0
     # from now on it is an ordinary cached reference
-    assert references.why_no_reference(scene) == ""
+    assert stored.why_no_reference(scene) == ""
     from daebench.harness.sweeps import sweep as bench
 
     bench.prepare_references([], scene, "require")

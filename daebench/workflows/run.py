@@ -14,8 +14,8 @@ import pandas as pd
 
 from daebench.core.observables import Observables
 from daebench.core.scene import Scene
-from daebench.harness.references.reference import (ReferenceDamaged, ReferenceMissing, load_reference,
-                                                   why_no_reference)
+from daebench.harness.references.reference import ReferenceDamaged, ReferenceMissing, load_reference
+from daebench.harness.references.stored import why_no_reference
 from daebench.harness.running.deadline import check_run_cap
 from daebench.harness.running.inputs import mapping
 from daebench.harness.running.progress import RunProgress

@@ -9,10 +9,10 @@ against its recorded digest). When a scene has no cached reference,
 :func:`daebench.harness.references.reference.load_reference` installs the shipped one
 (:func:`daebench.harness.references.reference.install_shipped`: a copy into ``results/references/``)
 — only after it passes every check a cached reference passes
-(:func:`daebench.harness.references.reference.validate`: sidecar, SHA-256, rows, columns, time
+(:func:`daebench.harness.references.stored.validate`: sidecar, SHA-256, rows, columns, time
 span, scene hash, kind, and the model probe of :mod:`daebench.harness.references.modelprobe`, which
 a shipped reference must carry). One that fails is refused (``require``:
-:class:`daebench.harness.references.reference.ReferenceDamaged` saying why) or recomputed
+:class:`daebench.harness.references.stored.ReferenceDamaged` saying why) or recomputed
 (``compute``, ``auto``), never trusted. A changed scene has another hash: the shipped
 file is not even looked at; a changed model fails the probe.
 

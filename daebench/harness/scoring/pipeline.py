@@ -143,7 +143,7 @@ def exact_truth(run: Run) -> Truth | None:
 
 
 def reference_truth(ref: Any) -> Truth:
-    """A cached reference (:class:`daebench.harness.references.reference.Reference`) as a truth."""
+    """A cached reference (:class:`daebench.harness.references.stored.Reference`) as a truth."""
     acc = ref.meta.get("accuracy") or {}
     imp = ref.meta.get("impulses") or ()
     return Truth(ref.history, tuple(float(x) for x in ref.impacts), "reference", float(ref.rtol),
