@@ -4,7 +4,8 @@ cases with exact solutions, one pass/fail line per property with the numbers.
 Properties (each a function ``(cls, settings) -> Check``, in :data:`PROPERTIES`):
 
 * **order** — the slope of log(max position error at the step points) against log(h) over
-  :data:`ORDER_STEPS` on the first smooth case with an exact solution the integrator runs (:func:`smooth_cases`:
+  :data:`ORDER_STEPS` on the first smooth case with an exact solution the integrator runs
+  (:func:`daebench.workflows.verify_cases.smooth_cases`:
   the pendulum, index 3; a harmonic oscillator for ODE-only methods, with a wall out of
   reach for methods that resolve contacts themselves), at fixed steps; it passes when the
   measured order reaches the declared ``capabilities.order`` within :data:`ORDER_SLACK`. An
@@ -30,14 +31,15 @@ reason, never a failure; a run that fails is a failure with its message. Each pr
 a wall-time cap (``run_cap``, :data:`PROPERTY_CAP` by default): a plugin's properties are
 measured in a forked child process that is killed beyond it (code blocked where no
 cooperative stop reaches), and whatever the integrator's code raises — an exit or an
-interrupt of its own included — is that property's failure.
+interrupt of its own included — is that property's failure. The result type and the smooth
+cases, and how one run on them is made and fitted: :mod:`daebench.workflows.verify_cases`.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -50,15 +52,15 @@ from daebench.core.system import State
 from daebench.core import interrupt
 from daebench.harness.running import checks, isolated
 from daebench.harness.running.deadline import check_run_cap, deadline
-from daebench.harness.running.runner import make_integrator, run_scene
+from daebench.harness.running.runner import make_integrator
 from daebench.integrators import base
 from daebench.integrators import registry as integrator_registry
 from daebench.integrators.base import IntegratorError
 from daebench.models import build_system
 from daebench.models.ball import exact_motion
 from daebench.models.rigid2d_exact import housner_ratio
-from daebench.models.scenes import load_scene
-from daebench.workflows.run import errors
+from daebench.workflows.verify_cases import (Check, applies, fixed_settings, fmt_numbers, run_exact, scene_of, slope,
+                                             smooth_case, smooth_cases)
 
 ORDER_STEPS = (8e-3, 4e-3, 2e-3, 1e-3)   # s: the fixed steps of the order fit (8× larger above order 2)
 ORDER_SLACK = 0.3        # the measured order may fall this far below the declared one
@@ -77,21 +79,6 @@ IMPACT_TOL = 1e-6        # s: event-driven impact times (the driver locates the 
 HOUSNER_STEPS = {False: 1e-3, True: 2.5e-4}   # event-driven, resolved by the integrator (first order)
 HOUSNER_TOL = {False: 1e-6, True: 3e-3}
 PROPERTY_CAP = 600.0     # s: the default wall-time cap of one property (verify --run-cap)
-
-
-@dataclass(frozen=True)
-class Check:
-    """One property: ``status`` 'pass', 'fail' or 'n/a', the line that says what was
-    measured against what was declared, and the numbers."""
-
-    property: str
-    status: str
-    text: str
-    numbers: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def line(self) -> str:
-        return f"{self.status.upper():4s}  {self.property:8s}  {self.text}"
 
 
 @dataclass
@@ -120,81 +107,9 @@ class VerifyResult:
                            "ok": self.ok, "checks": [asdict(c) for c in self.checks]}, default=str)
 
 
-# ---- the cases -------------------------------------------------------------------------------------
-def _scene(name: str, overrides: dict[str, Any] | None = None) -> Scene:
-    sc = load_scene(name)
-    return sc.with_overrides(overrides) if overrides else sc
-
-
-def own_law(cls: type) -> str:
-    """The contact law a contact-resolving integrator is given: the constraint law (with its
-    restitution) when it takes that, else its own ('complementarity'); the driver's otherwise."""
-    return "constraint" if not cls.capabilities.contacts or "constraint" in cls.contact_laws else "complementarity"
-
-
-def smooth_cases(cls: type) -> tuple[tuple[str, str, dict[str, Any], str, str], ...]:
-    """Smooth cases with exact solutions, in order of preference: (label, scene, overrides,
-    error column, unit) — the pendulum (index 3); a harmonic oscillator (spring-wall without
-    its wall) for ODE-only methods; the same with the wall out of reach, for methods that
-    resolve contacts themselves (they refuse a system without contacts)."""
-    return (("pendulum (index 3, exact θ(t))", "pendulum", {}, "err_pos_max", "m"),
-            ("harmonic oscillator (spring-wall without its wall)", "spring-wall",
-             {"effects.contact": False, "t_end": 1.0}, "err_x_max", "m"),
-            ("harmonic oscillator (spring-wall, its wall out of reach)", "spring-wall",
-             {"contact.law": own_law(cls), "contact.wall": -1.0, "t_end": 1.0}, "err_x_max", "m"))
-
-
-def _applies(scene: Scene, cls: type) -> str:
-    """'' when ``cls`` may run ``scene``, else the refusal."""
-    try:
-        checks.check_applicable(scene, cls)
-    except ParamError as exc:
-        return str(exc)
-    return ""
-
-
-def smooth_case(cls: type) -> tuple[tuple, Scene] | tuple[None, str]:
-    """The first of :func:`smooth_cases` that ``cls`` runs, or (None, why none)."""
-    why = []
-    for case in smooth_cases(cls):
-        sc = _scene(case[1], case[2])
-        refusal = _applies(sc, cls)
-        if not refusal:
-            return case, sc
-        why.append(f"{case[1]}: {refusal}")
-    return None, "no smooth case with an exact solution it runs (" + " | ".join(why) + ")"
-
-
 def order_steps(order: int) -> tuple[float, ...]:
     """The fixed steps of the order fit: larger for a high order (its errors reach round-off sooner)."""
     return ORDER_STEPS if order <= 2 else tuple(8 * h for h in ORDER_STEPS[::-1])[::-1]
-
-
-def _fixed(cls: type, settings: dict[str, Any], h: float) -> dict[str, Any]:
-    """``settings`` at the fixed step h (adaptivity off where the integrator has it)."""
-    names = {s.name for s in cls.settings_spec}
-    out = {**settings, "h": h}
-    if "adaptive" in names:
-        out["adaptive"] = False
-    return out
-
-
-def _run(scene: Scene, name: str, settings: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
-    """One driver run: its result and its errors against the exact solution."""
-    _, res = run_scene(scene, make_integrator(name, settings), write=False, force=True)
-    return res, (errors(scene, res.history, res.impacts) if len(res.history) else {})
-
-
-def _refused_at_start(res: Any) -> bool:
-    return res.refused
-
-
-def _slope(x: Sequence[float], y: Sequence[float]) -> float:
-    return float(np.polyfit(np.log(np.asarray(x, float)), np.log(np.asarray(y, float)), 1)[0])
-
-
-def _fmt(xs: Sequence[float]) -> str:
-    return ", ".join(f"{x:.3g}" for x in xs)
 
 
 # ---- the properties -----------------------------------------------------------------------------------
@@ -213,8 +128,8 @@ def check_order(cls: type, settings: dict[str, Any]) -> Check:
         return _tolerance_check(cls, settings, sc, label, col, unit)
     errs, hs = [], []
     for h in steps:
-        res, found = _run(sc, cls.name, _fixed(cls, settings, h))
-        if _refused_at_start(res):
+        res, found = run_exact(sc, cls.name, fixed_settings(cls, settings, h))
+        if res.refused:
             return Check("order", "n/a", f"{label}: refused at its start: {res.message}")
         if res.status != "completed":
             return Check("order", "fail", f"{label} at h = {h:g} s did not complete: {res.status} — {res.message}",
@@ -224,15 +139,16 @@ def check_order(cls: type, settings: dict[str, Any]) -> Check:
     use = [(h, e) for h, e in zip(hs, errs) if math.isfinite(e) and e > ORDER_FLOOR]
     nums = {"h": hs, "errors": errs, "declared": declared}
     if len(use) < 2:
-        return Check("order", "n/a", f"{label}: errors {_fmt(errs)} {unit} are at round-off over h = {_fmt(hs)} s "
+        return Check("order", "n/a", f"{label}: errors {fmt_numbers(errs)} {unit} are at round-off over "
+                                     f"h = {fmt_numbers(hs)} s "
                                      f"(exact for this case); declared {declared}", nums)
-    p = _slope(*zip(*use))
+    p = slope(*zip(*use))
     nums["measured"] = p
     ok = p >= declared - ORDER_SLACK
     above = " (above the declared order)" if p > declared + 0.5 else ""
     return Check("order", "pass" if ok else "fail",
                  f"measured {p:.2f}{above}, declared {declared}: slope of log max error against log h on {label} "
-                 f"(h = {_fmt(hs)} s: errors {_fmt(errs)} {unit})", nums)
+                 f"(h = {fmt_numbers(hs)} s: errors {fmt_numbers(errs)} {unit})", nums)
 
 
 def _tolerance_check(cls: type, settings: dict[str, Any], sc: Scene, label: str, col: str, unit: str) -> Check:
@@ -242,23 +158,24 @@ def _tolerance_check(cls: type, settings: dict[str, Any], sc: Scene, label: str,
                                      f"steps; declared {cls.capabilities.order}")
     errs = []
     for r in ORDER_TOLS:
-        res, found = _run(sc, cls.name, {**settings, "rtol": r, **({"atol": r / 100} if "atol" in names else {})})
+        res, found = run_exact(sc, cls.name, {**settings, "rtol": r, **({"atol": r / 100} if "atol" in names else {})})
         if res.status != "completed":
             return Check("order", "fail", f"{label} at rtol = {r:g} did not complete: {res.status} — {res.message}")
         errs.append(float(found.get(col, math.nan)))
     use = [(r, e) for r, e in zip(ORDER_TOLS, errs) if math.isfinite(e) and e > ORDER_FLOOR]
     nums = {"rtol": list(ORDER_TOLS), "errors": errs, "declared": cls.capabilities.order}
-    slope = _slope(*zip(*use)) if len(use) >= 2 else math.nan
-    nums["tolerance_slope"] = slope
-    ok = math.isfinite(slope) and slope >= TOL_SLOPE
+    fitted = slope(*zip(*use)) if len(use) >= 2 else math.nan
+    nums["tolerance_slope"] = fitted
+    ok = math.isfinite(fitted) and fitted >= TOL_SLOPE
     return Check("order", "pass" if ok else "fail",
-                 f"adaptive only: error falls like rtol^{slope:.2f} (≥ {TOL_SLOPE} needed) on {label} (rtol = "
-                 f"{_fmt(ORDER_TOLS)}: errors {_fmt(errs)} {unit}); the declared order {cls.capabilities.order} is "
+                 f"adaptive only: error falls like rtol^{fitted:.2f} (≥ {TOL_SLOPE} needed) on {label} (rtol = "
+                 f"{fmt_numbers(ORDER_TOLS)}: errors {fmt_numbers(errs)} {unit}); the declared order "
+                 f"{cls.capabilities.order} is "
                  f"not measurable at fixed steps", nums)
 
 
 def _step_settings(cls: type, settings: dict[str, Any], h: float) -> dict[str, Any]:
-    return _fixed(cls, settings, h) if cls.capabilities.fixed_step else dict(settings)
+    return fixed_settings(cls, settings, h) if cls.capabilities.fixed_step else dict(settings)
 
 
 def check_drift(cls: type, settings: dict[str, Any]) -> Check:
@@ -266,11 +183,11 @@ def check_drift(cls: type, settings: dict[str, Any]) -> Check:
     cap = cls.capabilities
     if not cap.constraints:
         return Check("drift", "n/a", "ODE only (declares no constraints): nothing to hold")
-    sc = _scene("pendulum")
-    refusal = _applies(sc, cls)
+    sc = scene_of("pendulum")
+    refusal = applies(sc, cls)
     if refusal:
         return Check("drift", "n/a", f"pendulum: {refusal}")
-    res, found = _run(sc, cls.name, _step_settings(cls, settings, DRIFT_STEP))
+    res, found = run_exact(sc, cls.name, _step_settings(cls, settings, DRIFT_STEP))
     if res.status != "completed":
         return Check("drift", "fail", f"pendulum did not complete: {res.status} — {res.message}")
     C, Cd = float(res.constraint_max["C"]), float(res.constraint_max["Cdot"])
@@ -287,10 +204,10 @@ def check_drift(cls: type, settings: dict[str, Any]) -> Check:
 
 
 def _undamped_case(cls: type) -> tuple[str, Scene] | tuple[None, str]:
-    """The first smooth case (:func:`smooth_cases`) ``cls`` runs, over ENERGY_T_END."""
+    """The first smooth case (:func:`daebench.workflows.verify_cases.smooth_cases`) ``cls`` runs, over ENERGY_T_END."""
     for label, name, over, _, _ in smooth_cases(cls):
-        sc = _scene(name, {**over, "t_end": ENERGY_T_END})
-        if not _applies(sc, cls):
+        sc = scene_of(name, {**over, "t_end": ENERGY_T_END})
+        if not applies(sc, cls):
             return label, sc
     return None, "no undamped case it runs"
 
@@ -300,8 +217,8 @@ def check_energy(cls: type, settings: dict[str, Any]) -> Check:
     label, sc = _undamped_case(cls)
     if label is None:
         return Check("energy", "n/a", sc)
-    res, found = _run(sc, cls.name, _step_settings(cls, settings, ENERGY_STEP))
-    if _refused_at_start(res):
+    res, found = run_exact(sc, cls.name, _step_settings(cls, settings, ENERGY_STEP))
+    if res.refused:
         return Check("energy", "n/a", f"{label}: refused at its start: {res.message}")
     if res.status != "completed":
         return Check("energy", "fail", f"{label} did not complete: {res.status} — {res.message}")
@@ -383,12 +300,12 @@ def check_contact(cls: type, settings: dict[str, Any]) -> Check:
     """Impact times on the ball; Housner's ratio when friction is declared (module docstring)."""
     own = cls.capabilities.contacts
     law = "constraint" if not own or "constraint" in cls.contact_laws else "complementarity"
-    sc = _scene("ball", {"contact.law": law})
-    refusal = _applies(sc, cls)
+    sc = scene_of("ball", {"contact.law": law})
+    refusal = applies(sc, cls)
     if refusal:
         return Check("contact", "n/a", f"ball: {refusal}")
-    res, found = _run(sc, cls.name, _step_settings(cls, settings, IMPACT_STEP))
-    if _refused_at_start(res):
+    res, found = run_exact(sc, cls.name, _step_settings(cls, settings, IMPACT_STEP))
+    if res.refused:
         return Check("contact", "n/a", f"ball: refused at its start: {res.message}")
     if res.status != "completed":
         return Check("contact", "fail", f"ball did not complete: {res.status} — {res.message}")
@@ -421,12 +338,12 @@ def _housner(cls: type, settings: dict[str, Any]) -> Check:
     if not cases:
         return Check("housner", "fail", "no case is tagged 'housner' in its [compare] table: the friction check "
                                         "needs the rocking block of Housner's closed form")
-    sc = _scene(cases[0])
-    refusal = _applies(sc, cls)
+    sc = scene_of(cases[0])
+    refusal = applies(sc, cls)
     if refusal:
         return Check("housner", "fail", f"{sc.name} (friction declared): {refusal}")
     h = HOUSNER_STEPS[own]
-    res, found = _run(sc, cls.name, _step_settings(cls, settings, h))
+    res, found = run_exact(sc, cls.name, _step_settings(cls, settings, h))
     imps = [i for i in res.impacts if i.t > 0 and i.v_minus is not None][:4]
     r = housner_ratio(sc["body.width"], sc["body.height"])
     if res.status != "completed" or len(imps) < 4:
@@ -436,7 +353,7 @@ def _housner(cls: type, settings: dict[str, Any]) -> Check:
     err = max(abs(x - r) for x in ratios)
     ok = err <= HOUSNER_TOL[own]
     return Check("housner", "pass" if ok else "fail",
-                 f"Housner's ω⁺/ω⁻ on {sc.name} (h = {h:g} s) {_fmt(ratios)} against 1 − 1.5 sin²α = {r:.6f}, "
+                 f"Housner's ω⁺/ω⁻ on {sc.name} (h = {h:g} s) {fmt_numbers(ratios)} against 1 − 1.5 sin²α = {r:.6f}, "
                  f"off by {err:.1e} (≤ {HOUSNER_TOL[own]:g} needed)", {"housner_ratios": ratios, "housner_error": err})
 
 

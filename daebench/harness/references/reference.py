@@ -7,7 +7,8 @@ provenance, and what makes the pair verifiable: the SHA-256 of the parquet file,
 count, columns and time span). Both are written atomically (temporary file, then
 ``os.replace``), the parquet first, so a reader sees either the old pair, or a new
 parquet whose checksum does not match the old sidecar — which :func:`load_reference`
-reports as damaged. Every read (:func:`daebench.harness.references.stored.validate`) checks the sidecar, the checksum, the columns, the time
+reports as damaged. Every read (:func:`daebench.harness.references.stored.validate`)
+checks the sidecar, the checksum, the columns, the time
 span against the scene's ``t_end``, the scene hash and the kind of reference the scene
 needs (IDA, or a fine event-capturing run for friction and complementarity contacts:
 :mod:`daebench.harness.references.capturing`), and the model probe (the model's physics at a few
