@@ -57,7 +57,13 @@ def test_hertz_stiffness_zero_means_the_model_rule_only_where_there_is_one():
 
 
 def test_no_checks_when_contact_is_off():
-    load_scene("chain-impact", {"effects.contact": False, "contact.law": "penalty", "contact.penalty_stiffness": 0.0})
+    """The same values refused with contact on (above) load with it off, and the system
+    built from them has no contact law."""
+    bad = {"contact.law": "penalty", "contact.penalty_stiffness": 0.0}
+    with pytest.raises(SceneError, match=r"contact\.penalty_stiffness"):
+        load_scene("chain-impact", bad)
+    sc = load_scene("chain-impact", {"effects.contact": False, **bad})
+    assert sc["contact.penalty_stiffness"] == 0.0 and build_system(sc).contact_law is None
 
 
 @pytest.mark.parametrize("law, e", [("complementarity", 0.8), ("constraint", 0.3), ("hertz", 0.5)])

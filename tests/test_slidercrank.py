@@ -126,7 +126,7 @@ def test_scene_start_and_refusals():
     q, v = s.initial_state()
     assert np.allclose(v, [150.0, -75.0, 0.0]) and np.allclose(s.corner_gaps(q), 1e-3, atol=1e-15)
     assert s.total_energy(q, v) == pytest.approx(0.5 * v @ _mass(s, q) @ v, rel=1e-14)
-    assert s.total_energy(q, v) == pytest.approx(7.49554875, rel=1e-9)
+    assert s.total_energy(q, v) == pytest.approx(7.4955, abs=5e-5)   # the source states 4 digits
     s30 = build_system(load_scene(CASE, {"start.theta": 30.0}))
     q, v = s30.initial_state()
     assert s30.l1 * math.sin(q[0]) + s30.l2 * math.sin(q[1]) == pytest.approx(0.0, abs=1e-15)
