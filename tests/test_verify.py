@@ -31,6 +31,15 @@ def test_builtins_pass(name):
     assert [c.property for c in res.checks] == ["order", "drift", "energy", "contract", "contact"]
     if name != "imm":   # planar FE models only: nothing with an exact solution to measure it on
         assert {c.property for c in res.checks if c.status == "pass"} >= {"order", "energy", "contract"}
+    # the numbers behind the verdict, read here against the declaration: the slope of the
+    # step sweep's errors (or, adaptive only, of the tolerance sweep's) — not the pass flag
+    order = next(c for c in res.checks if c.property == "order")
+    if "measured" in order.numbers:
+        errs = order.numbers["errors"]
+        assert all(b < a for a, b in zip(errs, errs[1:])), errs   # falling with h
+        assert order.numbers["measured"] >= order.numbers["declared"] - 0.3
+    elif "tolerance_slope" in order.numbers:
+        assert order.numbers["tolerance_slope"] >= 0.5
 
 
 def test_verify_hht_prints_its_measured_order():
