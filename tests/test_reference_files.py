@@ -9,19 +9,9 @@ import math
 from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
 
-from daebench.cli.app import app
 from daebench.harness.references import stored
-
-runner = CliRunner()
-
-
-def cli(args: list[str]):
-    r = runner.invoke(app, args)
-    assert "Traceback" not in r.output, r.output
-    assert r.exception is None or isinstance(r.exception, SystemExit), (args, r.exception, r.output)
-    return r
+from tests._cli import cli
 
 
 @pytest.fixture()

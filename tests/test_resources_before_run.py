@@ -2,19 +2,7 @@
 
 from __future__ import annotations
 
-
-from typer.testing import CliRunner
-
-from daebench.cli.app import app
-
-runner = CliRunner()
-
-
-def cli(args: list[str]):
-    r = runner.invoke(app, args)
-    assert "Traceback" not in r.output, r.output
-    assert r.exception is None or isinstance(r.exception, SystemExit), (args, r.exception, r.output)
-    return r
+from tests._cli import cli
 
 
 def test_a_scene_too_large_for_the_machine_is_refused_before_the_run(tmp_path, monkeypatch):

@@ -3,20 +3,9 @@ plugin blocks only itself."""
 
 from __future__ import annotations
 
-
 import pytest
-from typer.testing import CliRunner
 
-from daebench.cli.app import app
-
-runner = CliRunner()
-
-
-def cli(args: list[str]):
-    r = runner.invoke(app, args)
-    assert "Traceback" not in r.output, r.output
-    assert r.exception is None or isinstance(r.exception, SystemExit), (args, r.exception, r.output)
-    return r
+from tests._cli import cli
 
 
 @pytest.fixture()

@@ -2,20 +2,9 @@
 
 from __future__ import annotations
 
-
 import pytest
-from typer.testing import CliRunner
 
-from daebench.cli.app import app
-
-runner = CliRunner()
-
-
-def cli(args: list[str]):
-    r = runner.invoke(app, args)
-    assert "Traceback" not in r.output, r.output
-    assert r.exception is None or isinstance(r.exception, SystemExit), (args, r.exception, r.output)
-    return r
+from tests._cli import cli
 
 
 def test_a_diverged_run_summary_says_where_it_stopped(tmp_path, monkeypatch):
