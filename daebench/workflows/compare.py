@@ -290,8 +290,8 @@ TITLE_KEYS = (("discretization.n", "N"), ("contact.restitution", "e"))
 
 def scene_label(scene: Scene) -> str:
     """The scene's name with the values its answers depend on: ``beam-impact (N = 5, e = 0, 1 s)``."""
-    parts = [f"{sym} = {scene.get(key):g}" for key, sym in TITLE_KEYS if isinstance(scene.get(key), (int, float))
-             and not isinstance(scene.get(key), bool)]
+    values = [(sym, scene.get(key)) for key, sym in TITLE_KEYS]
+    parts = [f"{sym} = {x:g}" for sym, x in values if isinstance(x, (int, float)) and not isinstance(x, bool)]
     return f"{scene.name} ({', '.join(parts + [f'{scene.t_end:g} s'])})"
 
 

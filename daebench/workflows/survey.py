@@ -357,8 +357,8 @@ def score(results: Sequence[CaseResult], targets: Mapping[str, Sequence[float]] 
     tg = {m: list(v) for m, v in targets.items()} if targets else recommend.default_targets(table, measures, most)
     parts = []
     for r in results:
-        mine = {m: v for m, v in ({**tg, **declared_targets(r.case)} if not targets else tg).items()
-                if m in r.measures}
+        own = tg if targets else {**tg, **declared_targets(r.case)}
+        mine = {m: v for m, v in own.items() if m in r.measures}
         if mine and len(r.table):
             parts.append(evidence.verdict_table(r.table, mine))
     reach = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
@@ -374,7 +374,7 @@ def declared_targets(case: str) -> dict[str, list[float]]:
         comparison = case_scene(case).comparison
     except ParamError:
         return {}
-    return {m: list(v) for m, v in (getattr(comparison, "targets", None) or {}).items()}
+    return {m: list(v) for m, v in comparison.targets.items()}
 
 
 def model_of(case: str) -> str | None:

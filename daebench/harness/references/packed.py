@@ -70,10 +70,10 @@ def thin(system: Any, hist: pd.DataFrame) -> tuple[pd.DataFrame, dict[str, dict[
             continue
         stored = hist[c].to_numpy(float)
         same_nan = np.array_equal(np.isnan(stored), np.isnan(v))
-        diff = np.abs(np.nan_to_num(v - stored))
+        worst = float(np.abs(np.nan_to_num(v - stored)).max(initial=0.0))
         scale = float(np.nanmax(np.abs(stored))) if np.isfinite(stored).any() else 0.0
-        if same_nan and float(diff.max(initial=0.0)) <= REBUILD_RTOL * scale:
-            derived[c] = {"sha256": digest(v), "max_difference": float(diff.max(initial=0.0))}
+        if same_nan and worst <= REBUILD_RTOL * scale:
+            derived[c] = {"sha256": digest(v), "max_difference": worst}
     return hist.drop(columns=list(derived)), derived
 
 
