@@ -175,16 +175,16 @@ def test_friction_is_refused_where_it_cannot_act():
     constraint = sc.with_overrides({"contact.law": "constraint"})
     for name in ("hht", "newmark", "genalpha", "baumgarte"):
         cls = get_integrator(name)
-        guards.check_contacts_fit(sc, cls)
+        guards.check_applicable(sc, cls)
         check_capabilities(cls, False, contact_law="penalty", n_contacts=4, friction=True)
         check_capabilities(cls, False, contact_law="hertz", n_contacts=4, friction=True)
         if not cls.capabilities.friction:
             with pytest.raises(IntegratorError, match=r"friction.*contact\.law=penalty"):
-                guards.check_contacts_fit(constraint, cls)
+                guards.check_applicable(constraint, cls)
             with pytest.raises(IntegratorError, match="friction"):
                 check_capabilities(cls, True, contact_law="constraint", n_contacts=4, friction=True)
     with pytest.raises(IntegratorError, match="resolves contacts itself"):   # capturing: the law, not friction
-        guards.check_contacts_fit(sc, get_integrator("moreau"))
+        guards.check_applicable(sc, get_integrator("moreau"))
     for bad in (0.0, -1e-3, float("nan"), float("inf")):
         with pytest.raises(ParamError, match=r"contact\.friction_velocity"):
             load_scene("block-incline", {**PENALTY, "contact.friction_velocity": bad})

@@ -12,7 +12,6 @@ import pandas as pd
 
 from daebench.core.params import Param, ParamError, did_you_mean
 from daebench.core.scene import Scene, SceneError, UnknownScene, list_scenes, scene_names
-from daebench.harness.running import checks
 from daebench.harness.scoring import pipeline
 from daebench.integrators import base
 from daebench.integrators import registry as integrator_registry
@@ -99,7 +98,7 @@ def model_refusals() -> list[str]:
 
 def integrator_info(name: str) -> IntegratorInfo:
     """One integrator's declaration; ``name`` is case-insensitive (did-you-mean on a typo)."""
-    return integrator_infos()[checks.resolve_integrator(name)]
+    return integrator_infos()[integrator_registry.resolve_name(name)]
 
 
 def cases() -> pd.DataFrame:
@@ -141,7 +140,7 @@ def show(name: str, overrides: Iterable[str] | dict[str, Any] | None = None,
         Neither an integrator nor a scene (with the closest names), or a bad override.
     """
     try:
-        checks.resolve_integrator(name)
+        integrator_registry.resolve_name(name)
         is_integrator = not overrides and not keys and name.lower() not in {n.lower() for n in scene_names()}
     except IntegratorError:
         is_integrator = False

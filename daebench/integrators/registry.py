@@ -123,13 +123,30 @@ def unregister(name: str) -> None:
     _IN_PROCESS.pop(name, None)
 
 
-def get_integrator(name: str) -> type[Integrator]:
+def resolve_name(name: str) -> str:
+    """The registered name of an integrator, matched case-insensitively (the one lookup).
+
+    Raises
+    ------
+    IntegratorError
+        For an unknown name, with the closest registered one.
+    """
     reg = registry()
-    if name not in reg:
-        raise IntegratorError(
-            f"unknown integrator '{name}'{did_you_mean(name, reg)} Available: {', '.join(reg)} "
-            f"(see `daebench list`)."
-        )
+    if not isinstance(name, str) or not name.strip():
+        raise IntegratorError(f"an integrator name is needed, e.g. hht; available: {', '.join(reg)}")
+    if name in reg:
+        return name
+    lower = {n.lower(): n for n in reg}
+    if name.strip().lower() in lower:
+        return lower[name.strip().lower()]
+    raise IntegratorError(f"unknown integrator '{name}'{did_you_mean(name.lower(), reg)} "
+                          f"Available: {', '.join(reg)} (see `daebench list`).")
+
+
+def get_integrator(name: str) -> type[Integrator]:
+    """The class registered under ``name`` (:func:`resolve_name`); refused when it cannot be loaded."""
+    name = resolve_name(name)
+    reg = registry()
     if reg[name].cls is None:
         raise IntegratorError(f"integrator '{name}' (from {reg[name].distribution}) cannot be loaded: "
                               f"{reg[name].error}")

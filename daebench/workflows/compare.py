@@ -123,7 +123,7 @@ def plan(scene: Scene, protocol: Protocol) -> tuple[list[RunSpec], dict[str, str
     refused: dict[str, str] = {}
     for e in protocol.entries:
         try:
-            cls = integrator_registry.get_integrator(checks.resolve_integrator(e.integrator))
+            cls = integrator_registry.get_integrator(e.integrator)
             checks.check_applicable(scene, cls)
             part = plan_sweep(scene, [cls.name], steps=list(e.steps) or None, tols=list(e.tols) or None,
                               options=dict(e.options))

@@ -55,7 +55,8 @@ from daebench.harness.analysis import costs, evidence, profiles, recommend
 from daebench.harness.files import atomic_write, jsonable, results_dir
 from daebench.harness.references import fingerprints
 from daebench.harness.references.reference import load_reference
-from daebench.harness.running import checks, provenance
+from daebench.harness.running import provenance
+from daebench.integrators import registry as integrator_registry
 from daebench.harness.running.progress import run_progress_factory
 from daebench.harness.sweeps import dask_cluster, executors, sweep
 from daebench.harness.sweeps.row import execute, outcome_row
@@ -309,7 +310,7 @@ def run_survey(opts: SurveyOptions) -> SurveyResult:
     """
     cases = select_cases(opts)
     for i in opts.integrators:
-        checks.resolve_integrator(i)   # an unknown name is refused (with did-you-mean) before anything runs
+        integrator_registry.resolve_name(i)   # an unknown name is refused (with did-you-mean) before anything runs
     opts.budget  # noqa: B018  (validated before anything runs)
     name = check_name(opts.name) if opts.name else unique_name("survey" + ("-quick" if opts.quick else ""))
     folder = Path(opts.folder) if opts.folder is not None else results_dir() / "survey" / name

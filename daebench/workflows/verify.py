@@ -50,7 +50,7 @@ from daebench.core.problem import Problem
 from daebench.core.scene import Scene, tagged
 from daebench.core.system import State
 from daebench.core import interrupt
-from daebench.harness.running import checks, isolated
+from daebench.harness.running import isolated
 from daebench.harness.running.deadline import check_run_cap, deadline
 from daebench.harness.running.runner import make_integrator
 from daebench.integrators import base
@@ -396,7 +396,7 @@ def verify(name: str, settings: dict[str, Any] | None = None, properties: Sequen
         An unknown integrator, bad settings or an unknown property — before anything runs.
     """
     run_cap = check_run_cap(run_cap)
-    cls = integrator_registry.get_integrator(checks.resolve_integrator(name))
+    cls = integrator_registry.get_integrator(name)
     settings = dict(settings or {})
     cls(**settings)   # the settings are checked before any run
     if isinstance(properties, str):   # "order" or "order,drift": names, not letters

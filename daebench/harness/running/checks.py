@@ -15,8 +15,7 @@ from typing import Any
 
 from daebench.core.params import ParamError, did_you_mean
 from daebench.core.scene import scene_names
-from daebench.integrators import applicability, base
-from daebench.integrators import registry as integrator_registry
+from daebench.integrators import applicability
 from daebench.integrators.base import Integrator, IntegratorError
 from daebench.driver.history import DIVERGENCE_ENERGY
 from daebench.models import build_system
@@ -34,26 +33,6 @@ MEMORY_FRACTION = 0.5
 
 class GuardError(ParamError):
     """A run refused before its first step; the message says what to change."""
-
-
-def resolve_integrator(name: str) -> str:
-    """The registered name of an integrator, matched case-insensitively.
-
-    Raises
-    ------
-    IntegratorError
-        For an unknown name, with the closest registered one.
-    """
-    reg = integrator_registry.registry()  # looked up on the module: tests and plugins may replace it
-    if not isinstance(name, str) or not name.strip():
-        raise IntegratorError(f"an integrator name is needed, e.g. hht; available: {', '.join(reg)}")
-    if name in reg:
-        return name
-    lower = {n.lower(): n for n in reg}
-    if name.strip().lower() in lower:
-        return lower[name.strip().lower()]
-    raise IntegratorError(f"unknown integrator '{name}'{did_you_mean(name.lower(), reg)} "
-                          f"Available: {', '.join(reg)} (see `daebench list`).")
 
 
 def estimated_steps(scene: Any, integ: Integrator) -> float:
@@ -179,13 +158,9 @@ def _all_effects_observables(scene: Any) -> set[str]:
 def check_contacts_fit(scene: Any, cls: type[Integrator]) -> None:
     """An integrator that resolves contacts itself needs a scene with contacts that are left
     to it ('complementarity') or closed by the ``constraint`` law (whose restitution it
-    applies; :func:`daebench.integrators.applicability.check_fits` is the driver's rule);
-    name a scene key value the scene accepts, or the scenes that offer one. A scene with
-    Coulomb friction (``contact.friction`` > 0, contacts on) needs an integrator that applies
-    it under the scene's law (:func:`daebench.integrators.applicability.applies_friction`)."""
-    if (scene.get("contact.friction", 0.0) or 0.0) > 0.0 and scene.get("effects.contact", True) \
-            and not applicability.applies_friction(cls, scene.get("contact.law")):
-        raise IntegratorError(applicability.friction_refusal(cls.name, f"scene '{scene.name}'"))
+    applies); name a scene key value the scene accepts, or the scenes that offer one. Whether
+    the system asks for constraints or friction is the driver's rule, applied to the built
+    system (:func:`check_fits_system`)."""
     if not cls.capabilities.contacts:
         return
     law = scene.schema.get("contact.law")

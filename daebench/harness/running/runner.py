@@ -37,7 +37,7 @@ def make_integrator(name: str, options: Iterable[str] | dict[str, Any] = ()) -> 
     IntegratorError
         For an unknown name or setting, a bad value, or a plugin whose constructor raises.
     """
-    cls = get_integrator(checks.resolve_integrator(name))
+    cls = get_integrator(name)
     if isinstance(options, dict):
         opts = dict(options)
     else:

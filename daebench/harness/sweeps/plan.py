@@ -45,7 +45,7 @@ def _integrator_classes(names: Sequence[str]) -> dict[str, type]:
     out = {}
     for n in names:
         try:
-            name = checks.resolve_integrator(n)
+            name = integrator_registry.resolve_name(n)
             out[name] = integrator_registry.get_integrator(name)
         except IntegratorError as exc:
             raise SweepError(f"{exc} (in --integrators)") from None
@@ -105,12 +105,12 @@ def plan_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequenc
             raise SweepError(f"--opt '{k}' is not a setting of any of {', '.join(classes)}")
     # validate every scene variant now (bad values fail before running)
     scene_combos = [dict(zip(scene_keys, combo)) for combo in itertools.product(*scene_keys.values())]
-    variants = {}
+    variants, systems = {}, {}
     for i, sc in enumerate(scene_combos):
         variants[i] = scene.with_overrides(sc)
-        system = build_system(variants[i])
-        checks.check_memory(variants[i], system)
-        checks.check_observables(variants[i], system)
+        systems[i] = build_system(variants[i])
+        checks.check_memory(variants[i], systems[i])
+        checks.check_observables(variants[i], systems[i])
     specs: list[RunSpec] = []
     for name, cls in classes.items():
         spec_names = {s.name for s in cls.settings_spec}
@@ -141,7 +141,7 @@ def plan_sweep(scene: Scene, integrators: Sequence[str], grid: dict[str, Sequenc
                     if not skip:
                         try:
                             integ = cls(**opts)  # validate settings now
-                            checks.check_contacts_fit(variants[i], cls)
+                            checks.check_applicable(variants[i], cls, systems[i])
                             if not force:
                                 checks.check_size(variants[i], integ)
                         except ParamError as exc:
