@@ -55,7 +55,7 @@ integrates a smooth right-hand side. Accuracy: the error of v⁺ (relative to |�
 as N⁻⁴; :func:`steps_for` chooses N = :data:`STEP_CONSTANT` × accuracy^(−1/4), a constant
 measured on two-ball impacts and chains of 10 and 100 balls (equal, tapered, e = 0.5 … 1:
 errors at N = 50 — the default accuracy 1e-8 — between 1.7e-9 and 6.9e-9 m/s for a 1 m/s
-striker; tests/test_lzb.py checks the order). Compiled with numba: a ten-ball chain at
+striker; tests/core/test_lzb.py checks the order). Compiled with numba: a ten-ball chain at
 the default accuracy takes about 1 200 steps and 4 ms.
 
 A simultaneous impact of two bodies reduces to Newton's law with restitution e (the

@@ -63,7 +63,7 @@ over many steps per call, with each quiet step checked by one compiled call
 (:func:`daebench.stepping.watch.quiet`). Measured on beam-impact (t_end 0.5 s, default
 tolerances, 87.6e3 steps): 17.5 s → 9.5 s (compiled residual, cheaper driver checks) →
 5.9 s (advance); SUNDIALS' own step is now about half of the time; advance() takes exactly
-the steps of the one-step loop (tests/test_ida.py).
+the steps of the one-step loop (tests/integrators/test_ida.py).
 
 Backends
 --------
@@ -72,7 +72,7 @@ directly (:mod:`daebench.stepping.ida_native`): the residual and the Jacobian ar
 compiled C callbacks and :meth:`IDA.advance` runs its quiet steps in one compiled loop;
 ``backend = "sksundae"`` goes through scikit-sundae's Python interface (Python callbacks,
 one Python call per step). Both make the same SUNDIALS calls with the same residual and
-Jacobian entries, so their histories agree to the last digit (tests/test_ida_native.py);
+Jacobian entries, so their histories agree to the last digit (tests/stepping/test_ida_native.py);
 the run record names the backend among the settings. A model written in Python (its
 kernels call Python through ``numba.objmode``: :class:`daebench.core.kernels.PyModel`)
 always runs through scikit-sundae: inside a C callback numba cannot hand an exception the
@@ -85,7 +85,7 @@ Dense output
 ------------
 :meth:`IDA.dense` calls IDA in ``normal`` mode with t inside the last internal
 step, which only evaluates IDA's interpolating polynomial (``IDAGetSolution``)
-and takes no step (verified in tests/test_ida.py against direct solves to t).
+and takes no step (verified in tests/integrators/test_ida.py against direct solves to t).
 Its error is of the size of the step error (pendulum, rtol 1e-8: 4.5e-8 both).
 
 Step size

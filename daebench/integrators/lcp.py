@@ -36,7 +36,7 @@ a positive P gives g₁ = 0 and E₁ − E₀ = −P g₀/h ≤ 0: dissipative, 
 restitution below 1 that depends on where the step ends fall. With θ = ½ a positive
 P gives g₁ = −g₀, so the gap zig-zags about zero (|g| = O(h |ġ⁻|), not O(h²)) and
 E₁ − E₀ = −2 P g₀ / h changes sign from step to step; the run's energy-balance
-residual measures what is left at the end (see tests/test_chain.py and the case
+residual measures what is left at the end (see tests/models/test_chain.py and the case
 report). The rigid contact has no restitution parameter; its effective restitution
 follows from the scheme.
 

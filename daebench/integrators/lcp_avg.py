@@ -49,7 +49,7 @@ g + (h/2)ġ = 0, i.e. **g = h v₀/2, h/2 before contact**. From there, with ω_
 and the force f = −m(6/h²)(g + (h/2)ġ) returns to zero (the switch-off) after
 **1.622 h**; its peak is **1.209 m v₀/h**, the deepest penetration **0.0726 v₀ h**, and the
 mass leaves at ġ⁺ = 0.0877 v₀ (**e = 0.0877**): nearly plastic. (Numbers: the roots of
-these expressions, computed in tests/test_lcp_avg.py and compared with the runs.)
+these expressions, computed in tests/integrators/test_lcp_avg.py and compared with the runs.)
 
 Capabilities and output
 -----------------------

@@ -36,7 +36,7 @@ kinetic energy ½ vᵀMv, M⁻¹ free for explicit methods — and a node touchi
 foundation has its own mass, which is how node-to-surface contact is posed (a consistent
 cubic co-rotational mass is configuration dependent, Le, Battini & Hjiaj 2011). The cost
 is the convergence order of the frequencies: 2 instead of 4 for the consistent mass
-(measured in tests/test_corotational.py). Gravity and dead loads are constant nodal forces
+(measured in tests/models/test_corotational.py). Gravity and dead loads are constant nodal forces
 (gravity: −m_i g on each node's y, consistent with the lumped mass).
 
 Coordinates: a node's translations may be held (a pinned or clamped support) and an end

@@ -34,7 +34,7 @@ Contact with the plane Y = −h0 at material point x_P: g = e_Yᵀ R p(x_P) + h0
 g_q = e_Yᵀ R G(x_P), and since g̈ = g_q q̈ + e_Yᵀ R c(x_P), γ_g = −e_Yᵀ R c(x_P).
 
 Energy: T = ½ q̇ᵀMq̇, U, V_g, and the continuous contact potential; with gravity alone
-dE/dt = 0 along the motion (tests/test_hubbeam.py checks this numerically).
+dE/dt = 0 along the motion (tests/models/test_hubbeam.py checks this numerically).
 
 Discretizations (tables from :mod:`daebench.models.shapes`): clamped–free cantilever
 modes (N per direction, normalized ∫Φy_iΦy_j dx = L δ_ij, evaluated cancellation-free)

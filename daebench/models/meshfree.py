@@ -133,7 +133,7 @@ class MeshfreeBasis:
     smooth (rational) integrand; ``cell_gauss`` Gauss points per cell. With the default
     influence 2.5 the knots split each node interval into four cells. The two end cells
     are further graded toward the ends (boundary layer of the MLS shapes, see
-    ``breakpoints``). Measured on the clamped-beam frequencies (tests/test_meshfree.py):
+    ``breakpoints``). Measured on the clamped-beam frequencies (tests/models/test_meshfree.py):
     with cells = node intervals, as usual in EFG, the quadrature error (integrand kinks
     inside cells) stalls the frequency error at ~1e-3; with these cells the frequencies
     converge at the h⁴ rate of cubic Hermite elements.

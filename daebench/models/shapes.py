@@ -50,7 +50,7 @@ import numpy as np
 MAX_MODES = 12
 MAX_ELEMENTS = 200
 # Global modes: composite Gauss–Legendre on a fixed grid, independent of N, chosen so
-# that mode-12 mass and stiffness integrals are exact to ~1e-14 (tests/test_shapes.py).
+# that mode-12 mass and stiffness integrals are exact to ~1e-14 (tests/models/test_shapes.py).
 MODE_PANELS = 5
 MODE_POINTS_PER_PANEL = 16
 # Hermite cubics: integrands are polynomials of degree ≤ 10 per element (with the

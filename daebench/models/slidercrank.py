@@ -49,7 +49,7 @@ kernel); the integrators that apply it declare ``capabilities.friction``. Laws:
 schemes), ``complementarity`` (left to an integrator that resolves contacts, e = 0).
 
 ``clearance.c = 0`` squeezes the slider in the slot: y3 = 0 and θ3 = 0 are then held by
-the contacts, the classic rigid slider-crank (1 DOF; tests/test_slidercrank.py checks it
+the contacts, the classic rigid slider-crank (1 DOF; tests/models/test_slidercrank.py checks it
 against that equation solved by scipy).
 """
 

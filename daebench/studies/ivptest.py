@@ -44,7 +44,7 @@ class Reference:
 REFERENCES: dict[str, Reference] = {
     # andrews.f, subroutine solut (andsoln): PSIDE at rtol = atol = 1e-14 on a Cray C90,
     # t = 0.03; the seven angles (the positions; the velocities agree with every solver to
-    # 7.3–10 digits only, tests/test_andrews.py).
+    # 7.3–10 digits only, tests/models/test_andrews.py).
     "andrews": Reference(
         "andrews", 0.03, ("beta", "theta", "gamma", "phi", "delta", "omega", "epsilon"),
         np.array([0.1581077119629904e+2, -0.1575637105984298e+2, 0.4082224013073101e-1,

@@ -16,7 +16,7 @@ over the run):
   output times (the loose run interpolated linearly there; NaN where it stopped early):
   the loose run's difference scaled by the tolerance ratio (a tolerance-proportional
   error). Measured against runs 100× tighter it is right to ±0.6 digit (andrews, caraxis:
-  tests/test_reference_accuracy.py);
+  tests/harness/test_reference_accuracy.py);
 * sensitivity p_c(t) = |y_perturbed(t) − y(t)|: where a start moved by 10 × rtol ends up.
   It is not an error estimate — on a smooth, neutrally stable run it stays at the size of
   the perturbation (caraxis: 10.1 digits where the reference has 11.1–13.7) — but after an

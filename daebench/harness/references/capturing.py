@@ -26,7 +26,7 @@ Fixed-step event capturing is first order through impacts and stick–slip switc
   step, and a switch time commensurate with both h and 2h gives both runs the same error —
   the block on the incline (stop at 0.4025 s) at h = 5e-5 s: 2h agrees to 12.7 digits of
   vx's range where the reference is right to 5.0; with r = 2.1 the estimate says 4.8
-  (tests/test_refcapture.py);
+  (tests/harness/test_refcapture.py);
 * a run at h from a start perturbed by :data:`PERTURB_REL` relative (the sensitivity:
   where the chattering's bounce sequence changes, the two runs part);
 

@@ -8,7 +8,7 @@ energy terms, observables, mass matrix, applied force, gaps and bilateral constr
 its initial state and at two states moved from it (:func:`probe`); a reference is refused
 when today's model gives other values (beyond :data:`PROBE_RTOL` of each quantity's
 largest entry: the round-off of a reordered sum passes, a physics change does not).
-Changes to the solver or the driver are not probed (tests/test_refship.py recomputes the
+Changes to the solver or the driver are not probed (tests/harness/test_refship.py recomputes the
 shipped reference and compares).
 """
 

@@ -17,7 +17,7 @@ a shipped reference must carry). One that fails is refused (``require``:
 file is not even looked at; a changed model fails the probe.
 
 Maintainers: after a change of beam-impact's scene or model (the shipped reference is then
-refused, and tests/test_refship.py fails saying so), ``daebench reference beam-impact --force
+refused, and tests/harness/test_refship.py fails saying so), ``daebench reference beam-impact --force
 --ship`` recomputes its reference and ships it (without ``--force``: ships the cached one).
 """
 

@@ -9,7 +9,7 @@ object file numba saved beside its bitcode: :func:`object_text_bytes`), of one c
 this process from the object numba emitted. Run in a fresh process after a command, it
 counts what that command needs (on a warm cache the functions it called from Python, whose
 machine code holds every callee linked into them; on a cold one every function compiled) — deterministic counts for one numba, LLVM and CPU, which a
-test can bound (tests/test_compile_budget.py) where a compile time could not be.
+test can bound (tests/stepping/test_compile_budget.py) where a compile time could not be.
 """
 
 from __future__ import annotations

@@ -43,4 +43,4 @@ class PerfSettings:
         return cls(jobs=1, table=False, scaling_Ns=(3, 5), scaling_t_end=0.01, pendulum_T=0.1, peer_rounds=2, beam_T=0.01,
                    beam_hs=(2e-4, 1e-4), beam_ref_h=2.5e-5, ancf_elements=2, adaptive_tols=(1e-6,),
                    adaptive_t_end=0.02, rates_t_end=0.005, bound_min_window=0.01,
-                   capture=False, fe_elements=(10, 20), fe_t_end=2e-5)  # capture rates: tests/test_capture_beam.py (slow)
+                   capture=False, fe_elements=(10, 20), fe_t_end=2e-5)  # capture rates: tests/integrators/test_capture_beam.py (slow)
