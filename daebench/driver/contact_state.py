@@ -8,6 +8,7 @@ they see the system like every integrator does.
 
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -35,18 +36,71 @@ MAX_HALVINGS = 10        # an approach not resolved at 2⁻¹⁰ of the contact 
 FLIGHT_SAMPLES = 40      # a rebound's return is searched down to 2⁻⁴⁰ of a step (≈ 1e-16 s at h = 1e-4)
 
 
+class EventKind(enum.Enum):
+    """What happens at an event (the transition of each: :data:`daebench.driver.transitions.TRANSITIONS`)."""
+
+    CLOSE = "close"         # a contact reaches its surface (an impact, or a continuous-law first touch)
+    OPEN = "open"           # a closed contact's force crosses zero
+    SEPARATE = "separate"   # a continuous-law contact stops penetrating
+    STOP = "stop"           # a slipping contact comes to rest
+    SLIDE = "slide"         # a sticking group leaves its friction cone
+    NEAR = "near"           # an open contact comes near its surface (the contact step begins)
+    FAR = "far"             # … and leaves it again
+    REFINE = "refine"       # an approach the step did not resolve: halve it
+
+
 class Event(NamedTuple):
-    """An event located in a step: its time, its kind (close | open | separate | stop | slide |
-    near | far | refine) and contact."""
+    """An event located in a step: its time, its kind and contact."""
 
     t: float
-    kind: str
+    kind: EventKind
     contact: int
 
 
 @dataclass
+class Friction:
+    """Coulomb friction at the closed contacts: μ per contact, the sticking contacts (their
+    anchor q*), the slipping ones (their slip direction s) and the stick rows kept (each
+    one's parallel group, :func:`daebench.driver.stickslip.stick_groups`)."""
+
+    mu: np.ndarray
+    stick: dict[int, np.ndarray] = field(default_factory=dict)
+    slip: dict[int, float] = field(default_factory=dict)
+    groups: dict[int, list[int]] = field(default_factory=dict)
+
+
+@dataclass
+class EventMemory:
+    """What the event rules remember of each contact's past: when it last impacted, was
+    released, was released where its force crossed zero, and changed at all (the Zeno and
+    re-impact rules compare against these); the continuous-law episodes' approach speed and
+    contact work at first touch; the step halvings spent on unresolved approaches."""
+
+    last_impact_t: np.ndarray
+    last_release_t: np.ndarray
+    force_release_t: np.ndarray
+    changed_t: np.ndarray
+    approach_speed: np.ndarray
+    episode_start_W: dict[int, float] = field(default_factory=dict)
+    halvings: int = 0
+
+
+@dataclass
+class ContactRules:
+    """The contact rules of the run: the impact law (``contact.impact_law``), the fixed step
+    in force (the Zeno rule's time scale; 0: adaptive) and the proximity time of the contact
+    step (NEAR_STEPS free steps; 0: no contact step)."""
+
+    impact_law: str = "simultaneous"
+    step: float = 0.0
+    near_h: float = 0.0
+
+
+@dataclass
 class ContactState:
-    """The driver's contacts: which are closed or penetrating, and their episodes.
+    """The driver's contacts: which are closed, penetrating or near their surface, whether
+    armed, the impacts booked — with the friction state, the event memory and the rules
+    apart (:class:`Friction`, :class:`EventMemory`, :class:`ContactRules`).
 
     ``constraint`` / ``continuous``: the driver closes contacts as constraints (the
     ``constraint`` law) / books continuous-law episodes; neither when the integrator
@@ -54,31 +108,18 @@ class ContactState:
 
     constraint: bool
     continuous: bool
+    base: Problem                           # the model's own problem (no contact closed)
     armed: np.ndarray                       # bool per contact: closing detected at g = 0 (else −GAP_BAND)
-    last_impact_t: np.ndarray               # per contact
-    last_release_t: np.ndarray              # per contact
-    approach_speed: np.ndarray              # v₀ of each continuous-law episode
+    memory: EventMemory
+    friction: Friction
+    rules: ContactRules = field(default_factory=ContactRules)
     active: list[int] = field(default_factory=list)        # closed (constraint law), in row order
     penetrating: set[int] = field(default_factory=set)     # continuous law: g < 0
-    episode_start_W: dict[int, float] = field(default_factory=dict)  # contact work at first touch
+    near: set[int] = field(default_factory=set)  # open contacts near their surface (stepping.watch.near)
     impacts: list[Impact] = field(default_factory=list)
     d_impacts: float = 0.0                  # kinetic energy removed by impact maps
     gap_cache: tuple | None = None          # (q, t, g(q)) of the last step's new state
     force_cache: tuple | None = None        # (q, t, λ) of the last step's new state (consistent multipliers)
-    near_h: float = 0.0                     # proximity time: NEAR_STEPS free steps (0: no contact step)
-    near: set[int] = field(default_factory=set)  # open contacts near their surface (stepping.watch.near)
-    halvings: int = 0                       # the step halved this often (unresolved approaches)
-    step: float = 0.0                       # the fixed step in force (the Zeno rule's time scale; 0: adaptive)
-    force_release_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per contact: its last
-                                            # release located where its consistent force crossed zero
-    changed_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per contact: when it last
-                                            # opened or closed
-    impact_law: str = "simultaneous"        # contact.impact_law (constraint law)
-    base: Problem | None = None             # the model's own problem (no contact closed)
-    mu: np.ndarray = field(default_factory=lambda: np.zeros(0))   # Coulomb μ per contact
-    stick: dict[int, np.ndarray] = field(default_factory=dict)    # sticking closed contacts: anchor q*
-    slip: dict[int, float] = field(default_factory=dict)          # slipping closed contacts: direction s
-    groups: dict[int, list[int]] = field(default_factory=dict)    # stick rows kept: their parallel groups
 
     @classmethod
     def start(cls, problem: Problem, q: np.ndarray, constraint: bool, continuous: bool,
@@ -86,17 +127,15 @@ class ContactState:
         """The contacts at t = 0 (continuous law: those already penetrating are engaged)."""
         nc = problem.n_contacts
         g = problem.gap(q) if nc else np.zeros(0)
-        cs = cls(constraint, continuous, g > GAP_BAND if nc else np.zeros(0, bool),
-                 np.full(max(nc, 1), -np.inf), np.full(max(nc, 1), -np.inf), np.full(nc, np.nan))
+        never = np.full(max(nc, 1), -np.inf)
+        memory = EventMemory(never.copy(), never.copy(), never.copy(), never.copy(), np.full(nc, np.nan))
+        mu = friction_coefficients(problem.kernel.model, nc, q, np.zeros_like(q) if v is None else v) \
+            if constraint else np.zeros(nc)
+        rules = ContactRules(getattr(problem.contact_law, "impact_law", "simultaneous"))
+        cs = cls(constraint, continuous, problem, g > GAP_BAND if nc else np.zeros(0, bool), memory, Friction(mu),
+                 rules)
         if continuous:
             cs.penetrating = {int(i) for i in np.flatnonzero(g < 0.0)}
-        cs.base = problem
-        cs.force_release_t = np.full(max(nc, 1), -np.inf)
-        cs.changed_t = np.full(max(nc, 1), -np.inf)
-        law = problem.contact_law
-        cs.impact_law = getattr(law, "impact_law", "simultaneous")
-        cs.mu = friction_coefficients(problem.kernel.model, nc, q, np.zeros_like(q) if v is None else v) \
-            if constraint else np.zeros(nc)
         return cs
 
     # -- stick and slip (daebench.driver.stickslip) ---------------------------------------------
@@ -105,24 +144,24 @@ class ContactState:
         else slip in its direction; open ones leave both sets."""
         md = self.base.kernel.model
         for c in contacts:
-            self.stick.pop(c, None)
-            self.slip.pop(c, None)
-            if c in self.active and self.mu[c] > 0.0:
+            self.friction.stick.pop(c, None)
+            self.friction.slip.pop(c, None)
+            if c in self.active and self.friction.mu[c] > 0.0:
                 ut = slip_velocity(md, c, q, v)
                 if abs(ut) < SLIP_MIN:
-                    self.stick[c] = q.copy()
+                    self.friction.stick[c] = q.copy()
                 else:
-                    self.slip[c] = math.copysign(1.0, ut)
+                    self.friction.slip[c] = math.copysign(1.0, ut)
         self.regroup(t, q)
 
     def regroup(self, t: float, q: np.ndarray) -> None:
         """The stick rows kept and their parallel groups (stickslip.stick_groups)."""
-        for c in [c for c in list(self.stick) + list(self.slip) if c not in self.active]:
-            self.stick.pop(c, None)
-            self.slip.pop(c, None)
+        for c in [c for c in list(self.friction.stick) + list(self.friction.slip) if c not in self.active]:
+            self.friction.stick.pop(c, None)
+            self.friction.slip.pop(c, None)
         try:
-            self.groups = stick_groups(self.base, self.base.kernel.model, t, q, self.active, list(self.stick)) \
-                if self.stick else {}
+            self.friction.groups = stick_groups(self.base, self.base.kernel.model, t, q, self.active, list(self.friction.stick)) \
+                if self.friction.stick else {}
         except ValueError as exc:
             raise StepFailure(str(exc), t) from None
 
@@ -130,10 +169,10 @@ class ContactState:
         """{kept stick contact: (μ Σ λ_N − |λ_T|, λ_T)} of each stick group at multipliers λ."""
         nb0, k = self.base.n_bilateral, problem.n_bilateral
         out = {}
-        for r, (c, members) in enumerate(self.groups.items()):
+        for r, (c, members) in enumerate(self.friction.groups.items()):
             lam_t = float(lam[nb0 + r])
             lam_n = sum(float(lam[k + self.active.index(m)]) for m in members)
-            mu = min(float(self.mu[m]) for m in members)
+            mu = min(float(self.friction.mu[m]) for m in members)
             out[c] = (float(cone_margin(mu, lam_n, lam_t)), lam_t)
         return out
 
@@ -151,31 +190,31 @@ class ContactState:
     def update_near(self, problem: Problem, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> None:
         """The open contacts near their surface at (q, v) with acceleration a
         (:func:`daebench.stepping.watch.near`)."""
-        if self.near_h <= 0.0 or not self.watched:
+        if self.rules.near_h <= 0.0 or not self.watched:
             return
         rows = problem.gap_rows(q, v)
         self.near = {i for i in range(problem.n_contacts) if i not in self.active and i not in self.penetrating
-                     and is_near(problem, q, v, a, i, self.near_h, rows)}
+                     and is_near(problem, q, v, a, i, self.rules.near_h, rows)}
 
     def close(self, contacts: list[int], t: float) -> None:
         """Close open contacts at t (they join the phase's constraints)."""
         self.active += contacts
         self.armed[contacts] = False
-        self.changed_t[contacts] = t
+        self.memory.changed_t[contacts] = t
 
     def release(self, contacts: list[int], t: float, q: np.ndarray | None = None) -> None:
         """Open closed contacts at t; their closed episodes end there."""
         self.active = [c for c in self.active if c not in contacts]
         self.armed[contacts] = False
-        self.last_release_t[contacts] = t
-        self.changed_t[contacts] = t
+        self.memory.last_release_t[contacts] = t
+        self.memory.changed_t[contacts] = t
         for c in contacts:
             for imp in reversed(self.impacts):  # the closed episode of contact c ends here
                 if imp.contact == c:
                     if imp.closed and math.isnan(imp.t_end):
                         imp.t_end = t
                     break
-        if q is not None and (self.stick or self.slip):
+        if q is not None and (self.friction.stick or self.friction.slip):
             self.regroup(t, q)
 
     def phase(self, system: MechanicalSystem) -> Problem:
@@ -185,9 +224,9 @@ class ContactState:
         chi = np.zeros(nc)
         if self.continuous:
             engaged[list(self.penetrating)] = 1.0
-            chi = system.contact_law.chi(self.approach_speed)
+            chi = system.contact_law.chi(self.memory.approach_speed)
         return Problem(system, tuple(self.active), engaged, chi,
-                       phase_friction(self.active, self.stick, self.groups, self.slip, self.mu))
+                       phase_friction(self.active, self.friction.stick, self.friction.groups, self.friction.slip, self.friction.mu))
 
 
 def is_near(problem: Problem, q: np.ndarray, v: np.ndarray, a: np.ndarray, i: int, near_h: float,

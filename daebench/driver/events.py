@@ -21,7 +21,7 @@ from daebench.core import phase as _phase
 from daebench.core.problem import Problem
 from daebench.core.system import State
 from daebench.driver.contact_state import (EVENT_TOL, FLIGHT_SAMPLES, MAX_HALVINGS, REBOUND_MIN, ContactState,
-                                           Event, is_near)
+                                           Event, EventKind, is_near)
 from daebench.driver.stickslip import slip_velocity
 from daebench.integrators.base import StepFailure
 from daebench.stepping.watch import GAP_BAND, GAP_ROUNDOFF, gap_event
@@ -43,7 +43,7 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
                 continue
             if cs.continuous and i in cs.penetrating:
                 if g1[i] > 0.0:
-                    cands.append(Event(_root(lambda t: problem.gap(dense(t).q)[i], prev, new), "separate", i))
+                    cands.append(Event(_root(lambda t: problem.gap(dense(t).q)[i], prev, new), EventKind.SEPARATE, i))
                 continue
             closes, arms = gap_event(g1[i], cs.armed[i])
             off = 0.0 if cs.armed[i] else GAP_BAND
@@ -55,24 +55,24 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
                 if tc < new.t and _normal_velocity(problem, dense(tc), i) > REBOUND_MIN:
                     # the dense output's root separates: the step does not resolve where the gap
                     # closed (a motion faster than the step). Take it again, finer (ContactState.halvings)
-                    if cs.halvings < MAX_HALVINGS:
-                        cands.append(Event(prev.t, "refine", i))
+                    if cs.memory.halvings < MAX_HALVINGS:
+                        cands.append(Event(prev.t, EventKind.REFINE, i))
                         continue
                     tc = new.t  # unresolved at the finest step: the closing is the step's end
-                cands.append(Event(tc, "close", i))
+                cands.append(Event(tc, EventKind.CLOSE, i))
             elif closes:
                 # the step started already (numerically) closed — e.g. a grazing re-contact
                 # right after a separation: contact at its start
-                cands.append(Event(prev.t, "close", i))
+                cands.append(Event(prev.t, EventKind.CLOSE, i))
             elif arms:
                 cs.armed[i] = True
-        if cs.near_h > 0.0 and not cands:
+        if cs.rules.near_h > 0.0 and not cands:
             # proximity changes, at the step's end (only where no event came first)
             rows = problem.gap_rows(new.q, new.v)
             for i in range(problem.n_contacts):
                 if i not in cs.active and i not in cs.penetrating and \
-                        is_near(problem, new.q, new.v, new.a, i, cs.near_h, rows) != (i in cs.near):
-                    cands.append(Event(new.t, "far" if i in cs.near else "near", i))
+                        is_near(problem, new.q, new.v, new.a, i, cs.rules.near_h, rows) != (i in cs.near):
+                    cands.append(Event(new.t, EventKind.FAR if i in cs.near else EventKind.NEAR, i))
     if cs.constraint and cs.active:
         fc = cs.force_cache
         lam0 = fc[2] if fc is not None and fc[0] is prev.q and fc[1] == prev.t else consistent_multipliers(problem, prev)
@@ -83,13 +83,13 @@ def find_event(cs: ContactState, prev: State, new: State, problem: Problem,
         for j, c in enumerate(cs.active):
             if f1[j] < 0.0:
                 at = _root(lambda t: contact_forces(problem, dense(t))[j], prev, new) if f0[j] >= 0.0 else prev.t
-                cands.append(Event(at, "open", c))
+                cands.append(Event(at, EventKind.OPEN, c))
         cands += _friction_events(cs, prev, new, problem, dense, lam0, lam1)
     # a contact's status changes once an instant: an event that would undo at the phase's start
     # what was decided there (the state is degenerate: force and gap acceleration both zero)
     # waits one step, so that every such cycle advances time
-    cands = [c for c in cands if not (c.t <= prev.t and cs.changed_t[c.contact] == prev.t
-                                      and c.kind in ("close", "open"))]
+    cands = [c for c in cands if not (c.t <= prev.t and cs.memory.changed_t[c.contact] == prev.t
+                                      and c.kind in (EventKind.CLOSE, EventKind.OPEN))]
     return min(cands, key=lambda c: c.t) if cands else None
 
 
@@ -124,19 +124,19 @@ def _friction_events(cs: ContactState, prev: State, new: State, problem: Problem
     leaving the cone (slide); ``lam0``, ``lam1``: the consistent multipliers at prev and new."""
     out = []
     md = cs.base.kernel.model
-    for c, s in cs.slip.items():
+    for c, s in cs.friction.slip.items():
         def ut(t: float, c: int = c, s: float = s) -> float:
             st = dense(t)
             return s * slip_velocity(md, c, st.q, st.v)
         u0, u1 = s * slip_velocity(md, c, prev.q, prev.v), s * slip_velocity(md, c, new.q, new.v)
         if u1 < 0.0:
-            out.append(Event(_root(ut, prev, new) if u0 > 0.0 else prev.t, "stop", c))
-    if cs.groups:
+            out.append(Event(_root(ut, prev, new) if u0 > 0.0 else prev.t, EventKind.STOP, c))
+    if cs.friction.groups:
         m0, m1 = cs.cone_margins(problem, lam0), cs.cone_margins(problem, lam1)
-        for c in cs.groups:
+        for c in cs.friction.groups:
             if m1[c][0] < 0.0:
                 f = (lambda t, c=c: cs.cone_margins(problem, consistent_multipliers(problem, dense(t)))[c][0])
-                out.append(Event(_root(f, prev, new) if m0[c][0] >= 0.0 else prev.t, "slide", c))
+                out.append(Event(_root(f, prev, new) if m0[c][0] >= 0.0 else prev.t, EventKind.SLIDE, c))
     return out
 
 

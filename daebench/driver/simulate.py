@@ -31,6 +31,7 @@ The energy-balance residual is  E(t) − E(0) − W_nc(t) + D_impacts(t).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import traceback
@@ -42,7 +43,7 @@ import pandas as pd
 
 from daebench.core import coulomb, impact_checks, interrupt
 from daebench.core.contact import Impact
-from daebench.driver.contact_state import ContactState
+from daebench.driver.contact_state import ContactState, Friction
 from daebench.driver.events import find_event
 from daebench.driver.transitions import apply_event, impact_law_name, project_resting, settle
 from daebench.driver.books import Books, Diverged
@@ -132,7 +133,7 @@ class Driver(Books):
         cs = self.contacts = ContactState.start(Problem(sys_), q, self._constraint_contacts,
                                                 self._continuous_contacts, v)
         if self.integ.step_size(True) < self.integ.step_size(False):
-            cs.near_h = NEAR_STEPS * self.integ.step_size(False)
+            cs.rules.near_h = NEAR_STEPS * self.integ.step_size(False)
         self.rows: list[dict[str, float] | Block] = []
         self._states: list[tuple] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
@@ -140,7 +141,7 @@ class Driver(Books):
         self.work: dict[str, float] = {k: 0.0 for k in self._power_terms(0.0, q, v)}  # W(0) = 0, not NaN
         if self.integ.capabilities.contacts:
             self.work["contact"] = 0.0  # booked from Advance.contact_work; the t = 0 row too
-        if cs.mu.any():
+        if cs.friction.mu.any():
             self.work["friction"] = 0.0  # slip friction at closed contacts (the t = 0 row too)
         self._contact_work: tuple[float, ...] | None = None
         self._work_book = impact_checks.ContactWork()   # rule 6 of core.impact_checks
@@ -208,7 +209,7 @@ class Driver(Books):
     # -- one smooth phase ----------------------------------------------------------
     def _phase(self, state: State) -> State:
         cs = self.contacts
-        if cs.constraint and not cs.mu.any() and settle(cs, state.t, state.q, state.v):
+        if cs.constraint and not cs.friction.mu.any() and settle(cs, state.t, state.q, state.v):
             # the acceleration-level contact law changed the closed set: start that phase
             q, v = project_resting(cs, cs.phase(self.system), state.t, state.q, state.v)
             return State(state.t, q, v)
@@ -216,26 +217,26 @@ class Driver(Books):
         a, lam = problem.acceleration(state.t, state.q, state.v)
         cs.update_near(problem, state.q, state.v, a)
         state = State(state.t, state.q, state.v, a, lam)
-        if cs.constraint and cs.active and cs.mu.any():
+        if cs.constraint and cs.active and cs.friction.mu.any():
             # frictional contacts: a closed contact that would pull (λ < 0) opens before the phase starts
             k = problem.n_bilateral
             tensile = [c for j, c in enumerate(cs.active) if lam[k + j] < 0.0]
             if tensile:
-                if cs.slip:
-                    self._painleve(state, [c for c in tensile if c in cs.slip])
+                if cs.friction.slip:
+                    self._painleve(state, [c for c in tensile if c in cs.friction.slip])
                 cs.release(tensile, state.t, state.q)
                 return state
             # a stick group whose force is outside the cone slips (the direction its force fails)
             failing = [(c, lt) for c, (margin, lt) in cs.cone_margins(problem, lam).items() if margin < 0.0]
             if failing:
                 for c, lam_t in failing:
-                    for m in cs.groups[c]:
-                        del cs.stick[m]
-                        cs.slip[m] = math.copysign(1.0, lam_t)
+                    for m in cs.friction.groups[c]:
+                        del cs.friction.stick[m]
+                        cs.friction.slip[m] = math.copysign(1.0, lam_t)
                 cs.regroup(state.t, state.q)
                 return state
-        h = self.integ.step_size(cs.in_contact) * 0.5 ** cs.halvings
-        cs.step = 0.0 if self.integ.adaptive else h  # an adaptive step resolves what it must itself
+        h = self.integ.step_size(cs.in_contact) * 0.5 ** cs.memory.halvings
+        cs.rules.step = 0.0 if self.integ.adaptive else h  # an adaptive step resolves what it must itself
         self.integ.start(problem, state, h)
         if self.out_i == 0 and state.t == 0.0:
             self._record_until(state, state, problem, 0.0)
@@ -273,10 +274,9 @@ class Driver(Books):
         """A slipping contact that pulls, and would penetrate when opened: Painlevé's paradox."""
         cs = self.contacts
         rest = [c for c in cs.active if c not in pulling]
-        trial = ContactState(cs.constraint, cs.continuous, cs.armed, cs.last_impact_t, cs.last_release_t,
-                             cs.approach_speed, rest, base=cs.base, mu=cs.mu,
-                             stick={c: a for c, a in cs.stick.items() if c in rest},
-                             slip={c: s for c, s in cs.slip.items() if c in rest})
+        kept = Friction(cs.friction.mu, {c: a for c, a in cs.friction.stick.items() if c in rest},
+                        {c: s for c, s in cs.friction.slip.items() if c in rest})
+        trial = dataclasses.replace(cs, active=rest, penetrating=set(), near=set(), impacts=[], friction=kept)
         trial.regroup(state.t, state.q)
         a, _ = trial.phase(self.system).acceleration(state.t, state.q, state.v)
         g, G, gam = cs.base.gap_rows(state.q, state.v)
@@ -316,7 +316,7 @@ class Driver(Books):
         near = np.zeros(armed.size, dtype=bool)
         near[list(cs.near)] = True
         return _watch.make(problem.n, problem.m, inactive, lam_rows, armed.copy(), problem.m > 0, cmax,
-                           float(self.t_out[self.out_i]), self.t_end, cs.near_h, near)
+                           float(self.t_out[self.out_i]), self.t_end, cs.rules.near_h, near)
 
     def _advance(self, watch: Watch | None) -> Advance:
         """One call of the integrator; adopt its quiet steps' bookkeeping and the contact
@@ -326,7 +326,7 @@ class Driver(Books):
         try:
             adv = self.integ.advance(self.t_end, watch, **({"outputs": self.t_out[self.out_i:]} if recording else {}))
         except StepFailure as exc:  # the rows of the quiet steps before the failing one are kept
-            self._rows(getattr(exc, "outputs", ()), self._current)
+            self._rows(exc.outputs, self._current)
             raise
         # rows of the output times its quiet steps passed (integrators with records_outputs, e.g. IDA;
         # a power-free phase: the work is unchanged)

@@ -51,7 +51,7 @@ from daebench.core.problem import Problem
 from daebench.core.resting_contacts import failure_message as resting_failure, resting_lcp
 from daebench.core.system import MechanicalSystem, State
 from daebench.driver.contact_state import (PROJECTION_ITERS, REBOUND_MIN, REIMPACT_MIN_DT, ZENO_FLIGHT,
-                                           ContactState, Event)
+                                           ContactState, Event, EventKind)
 from daebench.driver.events import consistent_multipliers
 from daebench.driver.stickslip import SLIP_MIN, slip_velocity, tangent_row
 from daebench.integrators.base import StepFailure
@@ -62,72 +62,117 @@ def apply_event(cs: ContactState, event: Event, state: State, problem: Problem, 
     """Apply ``event`` to the contacts and to the state (on the dense output at the event
     time) of the phase ``problem`` that it ends; ``contact_work``: the continuous laws'
     work booked so far. Which contacts then stay closed is decided at the start of the
-    next phase (:func:`settle`)."""
+    next phase (:func:`settle`). Each kind of event has its transition (:data:`TRANSITIONS`)."""
     t, kind, i = event
     # the event state comes from the dense output: put it back on the constraints of
     # the phase it ends (closed contacts: g = 0, ġ = 0) before switching
     q, v = project(problem, t, state.q, state.v)
-    system = cs.base.system if cs.base is not None else problem.system
-    if kind != "refine":
-        cs.halvings = 0  # any other event: the step the phase calls for again
-    if kind == "close" and cs.constraint:
-        v, lifted = _impact(cs, problem, t, i, q, v)
-        if lifted:  # open contacts found below their surface: a position drift, not an impact
-            q = lift(cs, system, t, q, lifted)
-        if cs.active:
-            # the impact was located on g = 0 (or −GAP_BAND): start the closed phase on it
-            q, v = project_resting(cs, cs.phase(system), t, q, v)
-        cs.armed[i] = False
-    elif kind == "stop":
-        # the contact and every other slipping one at rest with it stick here
-        md = cs.base.kernel.model
-        stopped = {c: s for c, s in cs.slip.items() if c == i or abs(slip_velocity(md, c, q, v)) < SLIP_MIN}
-        for c in stopped:
-            del cs.slip[c]
-            cs.stick[c] = q.copy()
-        cs.regroup(t, q)
-        try:
-            phase = cs.phase(system)
-            q1, v1 = project(phase, t, q, v)
-            phase.acceleration(t, q1, v1)
-            q, v = q1, v1
-        except np.linalg.LinAlgError:
-            # sticking would lock the system (the stick rows singular there, e.g. a slider at
-            # its crank's dead centre): the slip velocity passes through zero, the slip reverses
-            for c, s in stopped.items():
-                del cs.stick[c]
-                cs.slip[c] = -s
-            cs.regroup(t, q)
-    elif kind == "slide":
-        lam_t = cs.cone_margins(problem, consistent_multipliers(problem, State(t, q, v)))[i][1]
-        for c in cs.groups[i]:
-            del cs.stick[c]
-            cs.slip[c] = math.copysign(1.0, lam_t)
-        cs.regroup(t, q)
-    elif kind == "open":
-        cs.release([i], t, q)
-        cs.force_release_t[i] = t
-    elif kind == "refine":
-        cs.halvings += 1  # the phase restarts here, at half the step that did not resolve the approach
-    elif kind in ("near", "far"):
-        cs.near.symmetric_difference_update({i})  # the phase restarts here, at the contact step or the free one
-    elif kind == "close":  # continuous law: first touch
-        vn = float(problem.gap_jacobian(q)[i] @ v)
-        cs.approach_speed[i] = max(-vn, 1e-12)
-        cs.penetrating.add(i)
-        cs.episode_start_W[i] = contact_work
-        cs.impacts.append(Impact(t, i, vn, math.nan, math.nan))
-    elif kind == "separate":
-        cs.penetrating.discard(i)
-        cs.armed[i] = False  # a release like any other: re-closing goes by the band rule
-        vn = float(problem.gap_jacobian(q)[i] @ v)
-        for imp in reversed(cs.impacts):
-            if imp.contact == i and math.isnan(imp.vn_plus):
-                imp.vn_plus = vn
-                imp.energy_loss = cs.episode_start_W.pop(i, math.nan) - contact_work
-                imp.t_end = t
-                break
+    if kind is not EventKind.REFINE:
+        cs.memory.halvings = 0  # any other event: the step the phase calls for again
+    q, v = TRANSITIONS[kind](cs, problem, t, i, q, v, contact_work)
     return State(t, q, v)
+
+
+def _close(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray,
+           contact_work: float) -> tuple[np.ndarray, np.ndarray]:
+    """A contact closes: an impact under the constraint law, the first touch of a
+    continuous-law episode otherwise."""
+    if not cs.constraint:
+        vn = float(problem.gap_jacobian(q)[i] @ v)
+        cs.memory.approach_speed[i] = max(-vn, 1e-12)
+        cs.penetrating.add(i)
+        cs.memory.episode_start_W[i] = contact_work
+        cs.impacts.append(Impact(t, i, vn, math.nan, math.nan))
+        return q, v
+    system = cs.base.system
+    v, lifted = _impact(cs, problem, t, i, q, v)
+    if lifted:  # open contacts found below their surface: a position drift, not an impact
+        q = lift(cs, system, t, q, lifted)
+    if cs.active:
+        # the impact was located on g = 0 (or −GAP_BAND): start the closed phase on it
+        q, v = project_resting(cs, cs.phase(system), t, q, v)
+    cs.armed[i] = False
+    return q, v
+
+
+def _stop(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray,
+          contact_work: float) -> tuple[np.ndarray, np.ndarray]:
+    """A slipping contact comes to rest: it and every other slipping one at rest with it stick."""
+    system = cs.base.system
+    md = cs.base.kernel.model
+    stopped = {c: s for c, s in cs.friction.slip.items() if c == i or abs(slip_velocity(md, c, q, v)) < SLIP_MIN}
+    for c in stopped:
+        del cs.friction.slip[c]
+        cs.friction.stick[c] = q.copy()
+    cs.regroup(t, q)
+    try:
+        phase = cs.phase(system)
+        q1, v1 = project(phase, t, q, v)
+        phase.acceleration(t, q1, v1)
+        return q1, v1
+    except np.linalg.LinAlgError:
+        # sticking would lock the system (the stick rows singular there, e.g. a slider at
+        # its crank's dead centre): the slip velocity passes through zero, the slip reverses
+        for c, s in stopped.items():
+            del cs.friction.stick[c]
+            cs.friction.slip[c] = -s
+        cs.regroup(t, q)
+        return q, v
+
+
+def _slide(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray,
+           contact_work: float) -> tuple[np.ndarray, np.ndarray]:
+    """A sticking group leaves its friction cone: it slips along its tangential force."""
+    lam_t = cs.cone_margins(problem, consistent_multipliers(problem, State(t, q, v)))[i][1]
+    for c in cs.friction.groups[i]:
+        del cs.friction.stick[c]
+        cs.friction.slip[c] = math.copysign(1.0, lam_t)
+    cs.regroup(t, q)
+    return q, v
+
+
+def _open(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray,
+          contact_work: float) -> tuple[np.ndarray, np.ndarray]:
+    """A closed contact's force crosses zero: it opens there."""
+    cs.release([i], t, q)
+    cs.memory.force_release_t[i] = t
+    return q, v
+
+
+def _refine(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray,
+            contact_work: float) -> tuple[np.ndarray, np.ndarray]:
+    """An approach the step did not resolve: the phase restarts here at half that step."""
+    cs.memory.halvings += 1
+    return q, v
+
+
+def _near_or_far(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray,
+                 contact_work: float) -> tuple[np.ndarray, np.ndarray]:
+    """An open contact comes near its surface or leaves it: the phase restarts here at the
+    contact step or the free one."""
+    cs.near.symmetric_difference_update({i})
+    return q, v
+
+
+def _separate(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray,
+              contact_work: float) -> tuple[np.ndarray, np.ndarray]:
+    """A continuous-law contact stops penetrating: its episode ends, booked as one impact."""
+    cs.penetrating.discard(i)
+    cs.armed[i] = False  # a release like any other: re-closing goes by the band rule
+    vn = float(problem.gap_jacobian(q)[i] @ v)
+    for imp in reversed(cs.impacts):
+        if imp.contact == i and math.isnan(imp.vn_plus):
+            imp.vn_plus = vn
+            imp.energy_loss = cs.memory.episode_start_W.pop(i, math.nan) - contact_work
+            imp.t_end = t
+            break
+    return q, v
+
+
+#: the transition of each kind of event
+TRANSITIONS = {EventKind.CLOSE: _close, EventKind.STOP: _stop, EventKind.SLIDE: _slide, EventKind.OPEN: _open,
+               EventKind.REFINE: _refine, EventKind.NEAR: _near_or_far, EventKind.FAR: _near_or_far,
+               EventKind.SEPARATE: _separate}
 
 
 def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray, v: np.ndarray
@@ -144,26 +189,26 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
     B = base.constraint_jacobian(t, q)[:base.n_bilateral]
     e = problem.contact_law.restitution
     # a re-impact within REIMPACT_MIN_DT (Zeno chatter) closes plastically
-    zeno = t - cs.last_impact_t[i] < REIMPACT_MIN_DT
+    zeno = t - cs.memory.last_impact_t[i] < REIMPACT_MIN_DT
     md = base.kernel.model
-    T = np.array([tangent_row(md, c, q) for c in range(len(g))]) if cs.mu.any() else np.zeros_like(Gq)
-    if cs.impact_law != "sequential":  # simultaneous, lzb: every contact of the event at once
+    T = np.array([tangent_row(md, c, q) for c in range(len(g))]) if cs.friction.mu.any() else np.zeros_like(Gq)
+    if cs.rules.impact_law != "sequential":  # simultaneous, lzb: every contact of the event at once
         part = sorted({i, *cs.active} | {c for c in range(len(g)) if g[c] <= GAP_BAND and Gq[c] @ v <= 0.0
                                           and not (cs.continuous and c in cs.penetrating)})
         held = B
     else:
         part = [i]
         held = np.vstack([B] + [Gq[[c]] for c in cs.active])
-    mu = cs.mu[part] if cs.mu.size else np.zeros(len(part))
+    mu = cs.friction.mu[part] if cs.friction.mu.size else np.zeros(len(part))
     e_c = np.full(len(part), 0.0 if zeno else e)
-    lzb = lzb_law(base.system, part) if cs.impact_law == "lzb" else None
+    lzb = lzb_law(base.system, part) if cs.rules.impact_law == "lzb" else None
     law = "lzb" if lzb is not None else "newton"
     res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i, lzb)
     if e_c.any() and lzb is None:
         # a rebound too slow, or whose Zeno accumulation of ever shorter bounces (2ġ⁺/((1 − e)|g̈|)
         # long in all) ends within the step in force, is plastic: taken as instantaneous (not under
         # LZB, where a contact's e shapes the whole wave: its slow rebounds rest, below)
-        short = _unresolvable_rebounds(base, t, q, part, res, e, cs.step)
+        short = _unresolvable_rebounds(base, t, q, part, res, e, cs.rules.step)
         if short.any():
             e_c[short] = 0.0
             res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i, lzb)
@@ -171,21 +216,21 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
     if lzb is None:   # contacts of the event that the impact lifts off only briefly rest with the others
         resting += _lifted_briefly(base, t, q, res.v_plus, resting,
                                    [c for r, c in enumerate(part) if c not in resting and res.impulse_n[r] <= 0.0
-                                    and g[c] <= GAP_BAND], cs.step)
+                                    and g[c] <= GAP_BAND], cs.rules.step)
     cs.release([c for c in part if c in cs.active and c not in resting], t)
     cs.d_impacts += res.energy_loss
     loss = res.energy_loss  # booked on the first contact that takes an impulse (the impacting one if it does)
     for r in sorted(range(len(part)), key=lambda r: part[r] != i):
         c = part[r]
         if res.impulse_n[r] > 0.0:
-            cs.last_impact_t[c] = t
+            cs.memory.last_impact_t[c] = t
             cs.impacts.append(Impact(t, c, float(res.vn_minus[r]), float(res.vn_plus[r]), loss,
                                      c in resting, float(res.impulse_n[r]),
                                      restitution=float(e_c[r]) if lzb is None else math.nan, law=law,
                                      q=q.copy(), v_minus=v.copy(), v_plus=res.v_plus.copy()))
             loss = 0.0
     cs.close([c for c in resting if c not in cs.active], t)
-    if cs.mu.any():
+    if cs.friction.mu.any():
         cs.set_friction_state(part, t, q, res.v_plus)
     # below the band (where a rebound from −GAP_BAND lives) a gap is the integrator's drift
     return res.v_plus, [c for c in part if c not in resting and g[c] < -GAP_BAND - GAP_ROUNDOFF]
@@ -278,14 +323,14 @@ def settle(cs: ContactState, t: float, q: np.ndarray, v: np.ndarray) -> bool:
     g, G, gam = base.gap_rows(q, v)
     vn = G @ v
     touching = [c for c in range(nc) if c not in cs.active and abs(g[c]) <= GAP_BAND]
-    drifting = [c for c in touching if vn[c] > REBOUND_MIN and cs.last_impact_t[c] != t]  # not a rebound
+    drifting = [c for c in touching if vn[c] > REBOUND_MIN and cs.memory.last_impact_t[c] != t]  # not a rebound
     cand = sorted(set(cs.active) | {c for c in touching if abs(vn[c]) <= REBOUND_MIN}
-                  | set(_lifted_briefly(base, t, q, v, cs.active, drifting, cs.step)))
+                  | set(_lifted_briefly(base, t, q, v, cs.active, drifting, cs.rules.step)))
     if not cand:
         return False
     a_free, _ = base.acceleration(t, q, v)
     B = base.constraint_jacobian(t, q)[:base.n_bilateral]
-    sol = resting_lcp(base.mass(q), B, G[cand], a_free, gam[cand], cs.force_release_t[cand] == t)
+    sol = resting_lcp(base.mass(q), B, G[cand], a_free, gam[cand], cs.memory.force_release_t[cand] == t)
     if not sol.ok:
         raise StepFailure(f"{resting_failure(sol.status)} (contacts {cand})", t)
     closed = [c for c, shut in zip(cand, sol.closed) if shut]
@@ -307,7 +352,7 @@ def impact_law_name(cs: ContactState) -> str:
     """The impact law of the run record: e.g. ``newton-coulomb (Pfeiffer–Glocker LCP), simultaneous``."""
     if not cs.constraint:
         return ""
-    return LZB_NAME if cs.impact_law == "lzb" else f"{law_name(cs.mu)}, {cs.impact_law}"
+    return LZB_NAME if cs.rules.impact_law == "lzb" else f"{law_name(cs.friction.mu)}, {cs.rules.impact_law}"
 
 
 def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -11,7 +11,7 @@ import pytest
 
 from daebench.core.problem import Problem
 from daebench.core.system import State
-from daebench.driver.contact_state import ContactState, Event
+from daebench.driver.contact_state import ContactState, Event, EventKind
 from daebench.driver.events import find_event
 from daebench.driver.transitions import apply_event
 from daebench.models import build_system
@@ -37,7 +37,7 @@ def test_impact_located_and_applied_from_the_state_value(e):
     assert cs.armed.tolist() == [True] and cs.active == [] and not cs.in_contact
     t_hit = math.sqrt(2.0 / G)
     ev = find_event(cs, fall(0.4), fall(0.5), problem, fall)
-    assert ev.kind == "close" and ev.contact == 0 and ev.t == pytest.approx(t_hit, abs=1e-12)
+    assert ev.kind is EventKind.CLOSE and ev.contact == 0 and ev.t == pytest.approx(t_hit, abs=1e-12)
     after = apply_event(cs, ev, fall(ev.t), problem, 0.0)
     v_minus = G * t_hit
     assert after.v[0] == pytest.approx(e * v_minus, rel=1e-9)
@@ -56,7 +56,7 @@ def test_release_reads_the_consistent_force_not_the_integrators_multiplier():
     integrator's step returned (here −1 N: what an index-3 step's position correction can
     produce); the open event of the old rule (λ of the step turning negative) must not come."""
     system, problem, cs = ball(0.0)
-    apply_event(cs, Event(0.45, "close", 0), fall(0.45), problem, 0.0)
+    apply_event(cs, Event(0.45, EventKind.CLOSE, 0), fall(0.45), problem, 0.0)
     assert cs.active == [0]
     closed = cs.phase(system)
     rest = lambda t, lam: State(t, np.zeros(1), np.zeros(1), np.zeros(1), np.array([lam]))
@@ -68,5 +68,5 @@ def test_states_are_independent_values():
     _, problem, a = ball(0.8)
     _, _, b = ball(0.8)
     find_event(a, fall(0.4), fall(0.5), problem, fall)
-    apply_event(a, Event(math.sqrt(2.0 / G), "close", 0), fall(math.sqrt(2.0 / G)), problem, 0.0)
+    apply_event(a, Event(math.sqrt(2.0 / G), EventKind.CLOSE, 0), fall(math.sqrt(2.0 / G)), problem, 0.0)
     assert len(a.impacts) == 1 and b.impacts == [] and b.armed[0]
