@@ -41,7 +41,7 @@ def _no_workers(seconds: Optional[float]) -> dict[str, float]:
 
 def _cluster_lost(exc: Any, name: Optional[str], resume: bool) -> None:
     """A lost Dask scheduler or a cluster without workers: one line, what was kept, how to go on; exit 1."""
-    table = getattr(exc, "table", None)
+    table = exc.table
     kept = ""
     if table is not None and len(table):
         done = int((table["status"] != "interrupted").sum())
@@ -176,13 +176,13 @@ def compare(case: str = typer.Argument(..., help="scene name or path to a .toml 
                           peers=[x.strip() for x in (peers or "").split(",") if x.strip()],
                           peer_steps=floats(peer_steps, "--peer-steps"))
     except KeyboardInterrupt as exc:  # during the runs, or after them (scoring, figures): said, never silent
-        done = getattr(exc, "table", None)
+        done = exc.table if isinstance(exc, api.SweepInterrupted) else None
         kept = (f"{int((done['status'] != 'interrupted').sum())} of {len(done)} runs had finished; "
                 if done is not None else "")
         fail(f"interrupted (Ctrl-C or SIGTERM); {kept}the comparison's table and figures were not written: "
              f"run the command again", 130)
     except api.OutputWriteError as exc:  # the work is done: show it, say what was not saved, exit 1
-        if getattr(exc, "result", None) is not None:
+        if exc.result is not None:
             _compare_table(exc.result, sc)
         fail(str(exc), 1)
     except api.ParamError as exc:

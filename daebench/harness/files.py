@@ -38,7 +38,11 @@ class OutputError(ParamError):
 class OutputWriteError(OutputError):
     """A result that was computed but could not be written (full disk, a folder removed
     or made read-only meanwhile); the message says what was kept and what to do. The
-    command line exits 1 (the work ran; its input was fine)."""
+    command line exits 1 (the work ran; its input was fine). ``result``: what was computed
+    (a run's :class:`~daebench.driver.simulate.RunResult`, a comparison's result), None when
+    nothing was — the caller that catches the error still has the work."""
+
+    result: Any = None
 
 
 def ensure_writable_dir(path: str | Path, what: str = "output folder", longest_name: str = "") -> Path:

@@ -43,7 +43,7 @@ party package does the same in its own ``pyproject.toml`` (:mod:`daebench.integr
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields
-from typing import Any, ClassVar, Mapping
+from typing import Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
@@ -59,11 +59,15 @@ from daebench.integrators import declarations
 
 class StepFailure(RuntimeError):
     """An integrator could not take a step (Newton failure, step size underflow …).
-    ``t`` is the time reached before the failing step, when known."""
+    ``t`` is the time reached before the failing step, when known; ``outputs`` the
+    (output time, state) of the output times the call's quiet steps passed before it (an
+    integrator with ``records_outputs``: the driver writes their rows, then the run fails)."""
 
-    def __init__(self, message: str, t: float | None = None):
+    def __init__(self, message: str, t: float | None = None,
+                 outputs: Sequence[tuple[float, Any]] = ()):
         super().__init__(message)
         self.t = t
+        self.outputs = list(outputs)
 
 
 class IntegratorError(ParamError):
