@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from daebench.core.problem import Problem
+from daebench.harness.running import provenance
 from daebench.integrators.lcp_avg import contact_forces
 from daebench.models import build_system
 from daebench.models.doublependulum import contact_outcome
@@ -166,6 +167,6 @@ def pendulum_figure(runs: dict[str, Any], path: str, window: tuple[float, float]
     sc = next(iter(runs.values())).scene
     ax1.set_title(f"double-pendulum: link-2 end on the foundation (E = {sc['links.modulus']:.2g} Pa, "
                   f"{sc['links.elements']} elements/link, h_s = {sc['damping.hs'] * 1e3:g} ms)", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110, format=fmt)
+    fig.tight_layout(rect=(0, 0.02, 1, 1))   # room for the provenance footer
+    provenance.write_figure(fig, path, prov=provenance.collect([r.scene for r in runs.values()]), dpi=110, fmt=fmt)
     plt.close(fig)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -42,7 +43,8 @@ def markdown(df: pd.DataFrame, h_max: float) -> str:
 
 
 def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float | None = None,
-           fmt: str | None = None, scenes: tuple[tuple[str, str], ...] = ()) -> Path:
+           fmt: str | None = None, scenes: tuple[tuple[str, str], ...] = (),
+           prov: dict[str, Any] | None = None) -> Path:
     """h_max against N, one colour and marker per integrator setting, every marker at its
     own N: measured (filled; hollow = no instability up to the bisection bound), predicted
     for the trial (dashed) and for the scene's whole run (dotted), log axis."""
@@ -90,11 +92,7 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
     ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     ax.set_xticks(sorted(set(df["N"].dropna().astype(int))))
     fig.tight_layout(rect=(0, 0.03, 1, 1))   # room for the provenance footer
-    path.parent.mkdir(parents=True, exist_ok=True)
-    prov = provenance.collect(scenes)
-    provenance.add_figure_footer(fig, prov)
-    meta = provenance.figure_metadata(fig, prov)
-    fig.savefig(path, dpi=150, format=fmt, metadata=meta.get(fmt or "png"))
+    provenance.write_figure(fig, path, prov=prov if prov is not None else provenance.collect(scenes), dpi=150, fmt=fmt)
     plt.close(fig)
     return path
 
@@ -117,7 +115,10 @@ def write(df: pd.DataFrame, out_dir: Path, stem: str, title: str, h_max: float,
         raise write_error(exc, "the stability folder", out_dir, kept) from None
     atomic_write(files[0], lambda p: flat.to_parquet(p, index=False), "the stability table", kept)
     atomic_write(files[1], lambda p: flat.to_csv(p, index=False, float_format="%.6g"), "the stability table", kept)
-    atomic_write(files[2], lambda p: p.write_text(f"# {title}\n\n{markdown(df, h_max)}\n"), "the stability table",
+    prov = provenance.collect(scenes)
+    footer = provenance.markdown_footer(prov)
+    atomic_write(files[2], lambda p: p.write_text(f"# {title}\n\n{markdown(df, h_max)}\n{footer}"),
+                 "the stability table", kept)
+    atomic_write(files[3], lambda p: figure(df, p, title, h_max, mark_h, fmt="png", prov=prov), "the stability figure",
                  kept)
-    atomic_write(files[3], lambda p: figure(df, p, title, h_max, mark_h, fmt="png", scenes=scenes), "the stability figure", kept)
     return files

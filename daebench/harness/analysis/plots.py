@@ -81,15 +81,7 @@ def label_of(col: str, model: str | None = None) -> str:
 def save(fig: Any, stem: str | Path, prov: dict[str, Any] | None = None) -> list[Path]:
     """Add the provenance footer, write <stem>.png and <stem>.svg, close the figure."""
     stem = Path(stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    prov = prov or provenance.collect()
-    provenance.add_figure_footer(fig, prov)
-    meta = provenance.figure_metadata(fig, prov)
-    out = []
-    for ext in ("png", "svg"):
-        p = stem.with_suffix(f".{ext}")
-        fig.savefig(p, dpi=130, metadata=meta[ext])
-        out.append(p)
+    out = provenance.write_figure(fig, stem.with_suffix(".png"), stem.with_suffix(".svg"), prov=prov or None)
     plt.close(fig)
     return out
 

@@ -165,13 +165,8 @@ def figure(reach: pd.DataFrame, path: str | Path, cost: str = "wall_s", prov: di
                title="integrator (settings)", title_fontsize=7, bbox_to_anchor=(0.5, 0.0))
     fig.suptitle(f"Performance profiles (Dolan & Moré): cost = {cost_label}", fontsize=10)
     fig.tight_layout(rect=(0, 0.06 + 0.03 * math.ceil(len(labels) / 6), 1, 0.97))
-    if prov is not None:
-        provenance.add_figure_footer(fig, prov)
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    files = [p.with_suffix(".png"), p.with_suffix(".svg")]
-    fig.savefig(files[0], dpi=110)
-    fig.savefig(files[1])
+    files = provenance.write_figure(fig, p.with_suffix(".png"), p.with_suffix(".svg"), prov=prov, dpi=110)
     plt.close(fig)
     return files
 

@@ -96,6 +96,25 @@ def figure_metadata(fig: Any, prov: dict[str, Any]) -> dict[str, dict[str, str]]
     return {"png": {FIGURE_KEY: text}, "svg": {"Description": f"{FIGURE_KEY} {text}"}}
 
 
+def write_figure(fig: Any, *paths: str | os.PathLike, prov: dict[str, Any] | None = None, dpi: int = 130,
+                 fmt: str | None = None) -> list[Path]:
+    """Write ``fig`` to each of ``paths`` with its provenance printed at the bottom and stored
+    as file metadata (:func:`figure_metadata`): every figure daebench writes goes through
+    here, so that each can be traced to its commit and checked against the page that shows
+    it. ``prov`` defaults to :func:`collect` (no scenes); a file's format is ``fmt`` or its
+    suffix."""
+    prov = prov if prov is not None else collect()
+    add_figure_footer(fig, prov)
+    meta = figure_metadata(fig, prov)
+    out = []
+    for path in paths:
+        p = Path(path)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(p, dpi=dpi, format=fmt, metadata=meta.get((fmt or p.suffix.lstrip(".") or "png").lower()))
+        out.append(p)
+    return out
+
+
 def read_figure_provenance(png: str | os.PathLike) -> dict[str, Any] | None:
     """The provenance a PNG written by daebench carries (None if it carries none)."""
     from PIL import Image   # lazy: only figure checks read PNGs (Pillow comes with matplotlib)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from daebench.harness.running import provenance
 from daebench.models import build_system
 from daebench.studies.interactive_mode_contact import measures as fc
 
@@ -46,11 +47,12 @@ def rod_wall(out: Path) -> list[dict]:
 
 
 def slider(out: Path) -> list[dict]:
-    rows, hist = [], {}
+    rows, hist, scenes = [], {}, []
     for k, (tr, name, opts, ov) in enumerate(SLIDER_RUNS):
         c0 = time.process_time()
         rec, res, integ, timer, sc = fc.run("slider-slot", tr, {"output.dt": 1e-6, **ov}, integrator=name, **opts)
         h = res.history
+        scenes.append(sc)
         imps = fc.impact_events(res, build_system(sc), join=20e-6)
         rows.append(dict(run=k, treatment=tr, integrator=name, settings=opts, overrides=ov, status=res.status,
                          cpu_s=time.process_time() - c0, integ_cpu_s=timer.total_s, contact_cpu_s=timer.contact_s,
@@ -63,6 +65,8 @@ def slider(out: Path) -> list[dict]:
             hist[f"{k}_{key}"] = col
         _dump(out / "slider-slot.json", rows)
         np.savez(out / "slider-slot.npz", **hist)
+        # the runs' provenance, for the figure drawn from them later
+        (out / "slider-slot.provenance.json").write_text(json.dumps(provenance.collect(scenes), default=str))
     return rows
 
 
@@ -123,8 +127,10 @@ def figure(out: Path, dest: Path | None = None) -> None:
     ax[1].set_ylabel("total contact force [N]")
     ax[0].legend(fontsize=7, loc="lower right")
     ax[1].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(dest if dest is not None else out / "slider-slot.png", dpi=120)
+    fig.tight_layout(rect=(0, 0.02, 1, 1))   # room for the provenance footer
+    prov = json.loads((out / "slider-slot.provenance.json").read_text())
+    provenance.write_figure(fig, dest if dest is not None else out / "slider-slot.png", prov=prov, dpi=120)
+    plt.close(fig)
 
 
 def _dump(path: Path, rows: list[dict]) -> None:
