@@ -20,6 +20,7 @@ from daebench.core.contact import Impact
 from daebench.core.kernels import friction_coefficients
 from daebench.core.problem import Problem
 from daebench.core.system import MechanicalSystem
+from daebench.driver.impact_laws import LAWS, ImpactLaw
 from daebench.driver.stickslip import SLIP_MIN, phase_friction, slip_velocity, stick_groups
 from daebench.integrators.base import StepFailure
 from daebench.stepping.watch import GAP_BAND, near
@@ -91,7 +92,7 @@ class ContactRules:
     in force (the Zeno rule's time scale; 0: adaptive) and the proximity time of the contact
     step (NEAR_STEPS free steps; 0: no contact step)."""
 
-    impact_law: str = "simultaneous"
+    impact_law: ImpactLaw = field(default_factory=ImpactLaw)
     step: float = 0.0
     near_h: float = 0.0
 
@@ -131,7 +132,7 @@ class ContactState:
         memory = EventMemory(never.copy(), never.copy(), never.copy(), never.copy(), np.full(nc, np.nan))
         mu = friction_coefficients(problem.kernel.model, nc, q, np.zeros_like(q) if v is None else v) \
             if constraint else np.zeros(nc)
-        rules = ContactRules(getattr(problem.contact_law, "impact_law", "simultaneous"))
+        rules = ContactRules(LAWS[getattr(problem.contact_law, "impact_law", "simultaneous")])
         cs = cls(constraint, continuous, problem, g > GAP_BAND if nc else np.zeros(0, bool), memory, Friction(mu),
                  rules)
         if continuous:

@@ -22,15 +22,15 @@ internals:
   used: at small h it is dominated by the step's position correction (∝ C/(βh²)) and
   changes sign from step to step.
 
-The impact law (scene key ``contact.impact_law``, named in the run record by
-:func:`impact_law_name`): where several contacts close at the same instant — the
-impacting one, the open contacts at g = 0 that do not separate, the closed ones — the
-``simultaneous`` law (the default) applies Newton's law to all of them at once, one LCP;
-the ``sequential`` law applies it to the impacting contact alone, the closed contacts
-held, and the next contact's impact follows as its own event. A Newton's cradle of three
-balls leaves at (−1/3, 2/3, 2/3) v under the first and at (0, 0, 1) v under the second. The
-``lzb`` law takes the contacts of the simultaneous one through the Liu–Zhao–Brogliato impact
-process (:mod:`daebench.core.lzb`, the model's ``contact_stiffness``).
+The impact law (scene key ``contact.impact_law``; an object of
+:mod:`daebench.driver.impact_laws`, named in the run record by :func:`impact_law_name`):
+where several contacts close at the same instant — the impacting one, the open contacts at
+g = 0 that do not separate, the closed ones — ``simultaneous`` (the default) applies Newton's
+law to all of them at once, one LCP; ``sequential`` to the impacting contact alone, the
+closed contacts held, the next contact's impact following as its own event (a Newton's
+cradle of three balls leaves at (−1/3, 2/3, 2/3) v under the first and at (0, 0, 1) v under
+the second); ``lzb`` takes the simultaneous law's contacts through the Liu–Zhao–Brogliato
+impact process.
 
 The functions here take the driver's :class:`daebench.driver.contact_state.ContactState`
 and the phase's :class:`daebench.core.problem.Problem`.
@@ -39,14 +39,10 @@ and the phase's :class:`daebench.core.problem.Problem`.
 from __future__ import annotations
 
 import math
-from typing import Callable
-
 import numpy as np
 
 from daebench.core.contact import Impact
-from daebench.core.frictional_impact import failure_message, frictional_impact, law_name
 from daebench.core.linalg import solve_structured
-from daebench.core.lzb import NAME as LZB_NAME, failure_message as lzb_failure, lzb_law
 from daebench.core.problem import Problem
 from daebench.core.resting_contacts import failure_message as resting_failure, resting_lcp
 from daebench.core.system import MechanicalSystem, State
@@ -192,28 +188,20 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
     zeno = t - cs.memory.last_impact_t[i] < REIMPACT_MIN_DT
     md = base.kernel.model
     T = np.array([tangent_row(md, c, q) for c in range(len(g))]) if cs.friction.mu.any() else np.zeros_like(Gq)
-    if cs.rules.impact_law != "sequential":  # simultaneous, lzb: every contact of the event at once
-        part = sorted({i, *cs.active} | {c for c in range(len(g)) if g[c] <= GAP_BAND and Gq[c] @ v <= 0.0
-                                          and not (cs.continuous and c in cs.penetrating)})
-        held = B
-    else:
-        part = [i]
-        held = np.vstack([B] + [Gq[[c]] for c in cs.active])
+    law = cs.rules.impact_law
+    part, held = law.participants(i, g, Gq, v, cs.active, cs.penetrating, cs.continuous, B)
     mu = cs.friction.mu[part] if cs.friction.mu.size else np.zeros(len(part))
     e_c = np.full(len(part), 0.0 if zeno else e)
-    lzb = lzb_law(base.system, part) if cs.rules.impact_law == "lzb" else None
-    law = "lzb" if lzb is not None else "newton"
-    res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i, lzb)
-    if e_c.any() and lzb is None:
+    res = law.solve(base.system, part, M, Gq[part], T[part], mu, v, e_c, held, t, i)
+    if e_c.any() and law.zeno_rules:
         # a rebound too slow, or whose Zeno accumulation of ever shorter bounces (2ġ⁺/((1 − e)|g̈|)
-        # long in all) ends within the step in force, is plastic: taken as instantaneous (not under
-        # LZB, where a contact's e shapes the whole wave: its slow rebounds rest, below)
+        # long in all) ends within the step in force, is plastic: taken as instantaneous
         short = _unresolvable_rebounds(base, t, q, part, res, e, cs.rules.step)
         if short.any():
             e_c[short] = 0.0
-            res = _law(M, Gq[part], T[part], mu, v, e_c, held, t, i, lzb)
+            res = law.solve(base.system, part, M, Gq[part], T[part], mu, v, e_c, held, t, i)
     resting = [c for r, c in enumerate(part) if res.vn_plus[r] < REBOUND_MIN]
-    if lzb is None:   # contacts of the event that the impact lifts off only briefly rest with the others
+    if law.zeno_rules:   # contacts of the event that the impact lifts off only briefly rest with the others
         resting += _lifted_briefly(base, t, q, res.v_plus, resting,
                                    [c for r, c in enumerate(part) if c not in resting and res.impulse_n[r] <= 0.0
                                     and g[c] <= GAP_BAND], cs.rules.step)
@@ -226,7 +214,7 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
             cs.memory.last_impact_t[c] = t
             cs.impacts.append(Impact(t, c, float(res.vn_minus[r]), float(res.vn_plus[r]), loss,
                                      c in resting, float(res.impulse_n[r]),
-                                     restitution=float(e_c[r]) if lzb is None else math.nan, law=law,
+                                     restitution=law.restitution(float(e_c[r])), law=law.record,
                                      q=q.copy(), v_minus=v.copy(), v_plus=res.v_plus.copy()))
             loss = 0.0
     cs.close([c for c in resting if c not in cs.active], t)
@@ -292,20 +280,6 @@ def project_resting(cs: ContactState, problem: Problem, t: float, q: np.ndarray,
     return q1, v1
 
 
-def _law(M: np.ndarray, GN: np.ndarray, GT: np.ndarray, mu: np.ndarray, v: np.ndarray, e: float,
-         held: np.ndarray, t: float, i: int, lzb: Callable | None = None):
-    """Newton's law (with Coulomb friction where μ > 0) for the contacts GN, as one LCP
-    (:func:`daebench.core.frictional_impact.frictional_impact`; impact of contact i at t), or
-    the LZB law ``lzb`` of these contacts (:func:`daebench.core.lzb.lzb_law`).
-    Its failure ends the run, named."""
-    res = frictional_impact(M, GN, GT, mu, v, e, held) if lzb is None else lzb(M, GN, v, e=e, B=held)
-    if not res.ok:
-        why = failure_message(res.status) if lzb is None else lzb_failure(res.status, res.step_count,
-                                                                           float(np.min(e)))
-        raise StepFailure(f"{why} (impact of contact {i})", t)
-    return res
-
-
 def settle(cs: ContactState, t: float, q: np.ndarray, v: np.ndarray) -> bool:
     """Decide which contacts are closed at (t, q, v) by the acceleration-level contact law
     (:func:`daebench.core.resting_contacts.resting_lcp`): the closed contacts and the open
@@ -352,7 +326,7 @@ def impact_law_name(cs: ContactState) -> str:
     """The impact law of the run record: e.g. ``newton-coulomb (Pfeiffer–Glocker LCP), simultaneous``."""
     if not cs.constraint:
         return ""
-    return LZB_NAME if cs.rules.impact_law == "lzb" else f"{law_name(cs.friction.mu)}, {cs.rules.impact_law}"
+    return cs.rules.impact_law.name(cs.friction.mu)
 
 
 def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
