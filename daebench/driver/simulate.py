@@ -53,7 +53,8 @@ from daebench.integrators.applicability import check_fits
 from daebench.integrators.base import Advance, Integrator, IntegratorError, StepFailure
 from daebench.core.problem import Problem
 from daebench.stepping import watch as _watch
-from daebench.stepping.watch import NEAR_STEPS, Watch
+from daebench.driver.step_policy import StepPolicy
+from daebench.stepping.watch import Watch
 from daebench.core.system import MechanicalSystem, State
 from daebench.core.energyscale import energy_scale
 
@@ -97,7 +98,8 @@ class Driver(Books):
 
     def __init__(self, system: MechanicalSystem, integrator: Integrator, t_end: float,
                  output_dt: float, observables: list[str] | None = None,
-                 progress: Callable[[float], None] | None = None, record_states: bool = False):
+                 progress: Callable[[float], None] | None = None, record_states: bool = False,
+                 policy: StepPolicy | None = None):
         if t_end <= 0:
             raise ValueError(f"t_end must be positive, got {t_end}")
         if output_dt <= 0:
@@ -112,8 +114,9 @@ class Driver(Books):
         self.progress = progress
         self.record_states = record_states
         self._progress_wall = 0.0
+        self.policy = policy if policy is not None else StepPolicy.of(integrator)
         law = system.contact_law
-        check_fits(type(integrator), system, integrator.adaptive)
+        check_fits(type(integrator), system, self.policy.adaptive)
         # contacts the driver treats (none when the integrator resolves them itself)
         mine = law is not None and system.n_contacts > 0 and not integrator.capabilities.contacts
         self._constraint_contacts = mine and not law.continuous
@@ -132,8 +135,7 @@ class Driver(Books):
         v = np.asarray(v, float)
         cs = self.contacts = ContactState.start(Problem(sys_), q, self._constraint_contacts,
                                                 self._continuous_contacts, v)
-        if self.integ.step_size(True) < self.integ.step_size(False):
-            cs.rules.near_h = NEAR_STEPS * self.integ.step_size(False)
+        cs.rules.near_h = self.policy.near_h
         self.rows: list[dict[str, float] | Block] = []
         self._states: list[tuple] = []
         self.cmax = {"C": 0.0, "Cdot": 0.0, "Cddot": 0.0}
@@ -235,8 +237,8 @@ class Driver(Books):
                         cs.friction.slip[m] = math.copysign(1.0, lam_t)
                 cs.regroup(state.t, state.q)
                 return state
-        h = self.integ.step_size(cs.in_contact) * 0.5 ** cs.memory.halvings
-        cs.rules.step = 0.0 if self.integ.adaptive else h  # an adaptive step resolves what it must itself
+        h = self.policy.start_step(cs.in_contact, cs.memory.halvings)
+        cs.rules.step = self.policy.zeno_step(h)
         self.integ.start(problem, state, h)
         if self.out_i == 0 and state.t == 0.0:
             self._record_until(state, state, problem, 0.0)
@@ -348,11 +350,13 @@ class Driver(Books):
 
 def simulate(system: MechanicalSystem, integrator: Integrator, t_end: float, output_dt: float,
              observables: list[str] | None = None,
-             progress: Callable[[float], None] | None = None, record_states: bool = False) -> RunResult:
+             progress: Callable[[float], None] | None = None, record_states: bool = False,
+             policy: StepPolicy | None = None) -> RunResult:
     """Run ``integrator`` on ``system`` over [0, t_end] with events; see :class:`Driver`.
 
     ``progress(t)`` is called with the simulated time reached, at most every
     ``PROGRESS_EVERY`` seconds of wall time (for progress bars). With ``record_states``
     the result's ``states`` holds the integrator's own (t, q, v, a, λ_bilateral) at every
-    output time, as arrays."""
-    return Driver(system, integrator, t_end, output_dt, observables, progress, record_states).run()
+    output time, as arrays. ``policy``: the run's step rules (default: the integrator's
+    settings, :meth:`StepPolicy.of`)."""
+    return Driver(system, integrator, t_end, output_dt, observables, progress, record_states, policy).run()

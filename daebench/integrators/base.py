@@ -29,7 +29,11 @@ Implementer's contract (rule by rule, in the spirit of ``scipy.integrate.OdeSolv
    each contact episode with :meth:`report_contact`; the driver books it like an impact.
 
 The driver talks to an integrator through :meth:`start`, :meth:`advance` (which returns
-an :class:`Advance` value) and :meth:`dense`; it reads no other attribute. An integrator
+an :class:`Advance` value) and :meth:`dense`; besides, it reads what the integrator declares
+(``capabilities``, ``records_outputs``) and its ``counters_snapshot()`` for the run record.
+The steps are not read from the integrator during a run: they are the run's
+:class:`daebench.driver.step_policy.StepPolicy`, built once from :meth:`step_size` and
+``adaptive`` before the first step. An integrator
 reads the phase from its :class:`~daebench.core.problem.Problem` and nothing else.
 
 For speed, subclass :class:`daebench.integrators.compiled.CompiledIntegrator` instead:

@@ -17,6 +17,7 @@ from daebench.core import interrupt
 from daebench.core.params import ParamError, parse_pairs
 from daebench.core.scene import Scene
 from daebench.driver.simulate import RunResult, simulate
+from daebench.driver.step_policy import StepPolicy
 from daebench.harness.files import OutputWriteError, ensure_writable_dir, jsonable
 from daebench.harness.running import checks, isolated
 from daebench.harness.running.deadline import deadline
@@ -124,13 +125,14 @@ def run_scene(scene: Scene, integrator: Integrator | str = DEFAULT_INTEGRATOR,
                                    longest_name=f".{history_name(scene, integ)}.json.{os.getpid()}.tmp")
     checks.check_memory(scene, system)
     checks.check_observables(scene, system)
+    policy = StepPolicy.of(integ)   # the run's step rules, resolved once: the driver reads them, not the integrator
     # the history keeps every observable (modal participations included); the scene's
     # output.observables are the ones scored (see bench)
 
     def simulated(report: Callable[[float], None] | None) -> RunResult:
         with deadline(run_cap):
             return simulate(system, integ, scene.t_end, scene["output.dt"], progress=report,
-                            record_states=record_states)
+                            record_states=record_states, policy=policy)
 
     if run_cap and isolated.available() and isolated.is_plugin(integ):
         # a plugin's code may block where no cap reaches it (time.sleep, its own compiled loop):
