@@ -45,12 +45,7 @@ def plot_work_precision(table: str | Path, x: str = "cpu_s", y: str | Sequence[s
     if "label" not in df.columns or "status" not in df.columns:
         raise ParamError(f"'{p}' is not a sweep table (no 'label'/'status' columns); `daebench plot history` plots "
                          f"run histories")
-    try:
-        prov = read_json(p.with_suffix(".json"), "the table's sidecar")["provenance"]
-    except (DamagedFile, KeyError, TypeError, IndexError):
-        prov = provenance.collect()
-    if not isinstance(prov, dict):
-        prov = provenance.collect()
+    prov = _table_provenance(p)
     ys = _ys(y)
     stem = Path(out) if out else p.with_name(f"{p.stem}-wp-{'+'.join(ys)}-vs-{x}")
     _writable_stem(stem)
@@ -60,6 +55,16 @@ def plot_work_precision(table: str | Path, x: str = "cpu_s", y: str | Sequence[s
         raise ParamError(str(exc.args[0])) from None
     except OSError as exc:
         raise ParamError(f"cannot write the figure at {stem}: {exc.strerror or exc}") from None
+
+
+def _table_provenance(p: Path) -> dict:
+    """The provenance of the runs behind a sweep table (its sidecar's; this tree's when the
+    sidecar is missing or damaged): a figure drawn later is stamped with the runs' commit."""
+    try:
+        prov = read_json(p.with_suffix(".json"), "the table's sidecar")["provenance"]
+    except (DamagedFile, KeyError, TypeError, IndexError):
+        prov = None
+    return prov if isinstance(prov, dict) else provenance.collect()
 
 
 def plot_convergence(table: str | Path, x: str = "h", y: str | Sequence[str] = "err_pre_theta_max,err_impact1_t",
@@ -72,7 +77,7 @@ def plot_convergence(table: str | Path, x: str = "h", y: str | Sequence[str] = "
     stem = Path(out) if out else p.with_name(f"{p.stem}-order-{'+'.join(ys)}")
     _writable_stem(stem)
     try:
-        return plots.convergence(df, x, ys, group, stem, provenance.collect(),
+        return plots.convergence(df, x, ys, group, stem, _table_provenance(p),
                                  title=plots.sweep_title(df, "convergence"))[1]
     except KeyError as exc:
         raise ParamError(str(exc.args[0])) from None

@@ -285,12 +285,11 @@ def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
 
 
 #: the scene values a figure's title states, as (key, symbol): what sets a run's answer apart
-TITLE_KEYS = (("discretization.n", "N"), ("contact.restitution", "e"))
 
 
 def scene_label(scene: Scene) -> str:
     """The scene's name with the values its answers depend on: ``beam-impact (N = 5, e = 0, 1 s)``."""
-    values = [(sym, scene.get(key)) for key, sym in TITLE_KEYS]
+    values = [(sym, scene.get(key)) for key, sym in plots.TITLE_KEYS]
     parts = [f"{sym} = {x:g}" for sym, x in values if isinstance(x, (int, float)) and not isinstance(x, bool)]
     return f"{scene.name} ({', '.join(parts + [f'{scene.t_end:g} s'])})"
 

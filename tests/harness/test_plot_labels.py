@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import numpy as np
 import pandas as pd
 
-from daebench.harness.analysis.plots import label_of, model_of, work_precision
+from daebench.harness.analysis.plots import label_of, model_of, sweep_title, work_precision
 
 
 def test_units_come_from_the_cases_model():
@@ -59,3 +59,9 @@ def test_each_point_is_named_by_its_step_and_cost_is_cpu_time():
     texts = {t.get_text() for t in fig.axes[0].texts}
     assert {"0.0001", "5e-05", "2.5e-05"} <= texts
     assert "CPU" in fig.axes[0].get_xlabel()
+
+
+def test_a_sweep_title_names_what_its_answer_depends_on_by_symbol():
+    df = pd.DataFrame({"case": ["beam-impact"] * 2,
+                       "scene_set": ['{"discretization.n": 3, "t_end": 0.38}'] * 2})
+    assert sweep_title(df, "convergence") == "convergence, beam-impact N = 3, t_end=0.38 (2 runs)"

@@ -368,6 +368,10 @@ def series(hists: Mapping[str, pd.DataFrame], column: str, stem: str | Path | No
     return fig, (save(fig, stem, prov) if stem is not None else [])
 
 
+#: scene keys a figure's title names by their symbol (what a comparison's answer depends on)
+TITLE_KEYS = (("discretization.n", "N"), ("contact.restitution", "e"))
+
+
 def sweep_title(df: pd.DataFrame, what: str = "work–precision") -> str:
     """Title of a sweep figure: what it shows, the case, the scene overrides shared by
     every run, how many runs."""
@@ -381,5 +385,6 @@ def sweep_title(df: pd.DataFrame, what: str = "work–precision") -> str:
                 cell = None
             if isinstance(cell, dict):  # a damaged cell only leaves the title without it
                 shared.update(cell)
-    over = (" " + ", ".join(f"{k}={v}" for k, v in shared.items())) if shared else ""
+    sym = dict(TITLE_KEYS)
+    over = (" " + ", ".join(f"{sym[k]} = {v}" if k in sym else f"{k}={v}" for k, v in shared.items())) if shared else ""
     return f"{what}, {case}{over} ({len(df)} runs)"
