@@ -74,3 +74,37 @@ def test_a_figure_without_provenance_is_caught(tmp_path):
     png = tmp_path / "bare.png"
     plt.figure().savefig(png)
     assert "carries no provenance" in figure_problems("", png)[0]
+
+
+def _pages() -> dict[Path, str]:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    return {p: p.read_text(encoding="utf-8") for p in pages if "_build" not in p.parts}
+
+
+def test_every_curated_figure_is_shown_and_agrees_with_each_page_that_shows_it():
+    pages = _pages()
+    shown: dict[str, list[Path]] = {}
+    for path, text in pages.items():
+        for name in FIGURE_REF.findall(text):
+            shown.setdefault(name, []).append(path)
+    curated = sorted((ROOT / "results" / "curated").glob("*.png"))
+    assert curated
+    problems = [f"{png.name} is shown on no page (delete it or show it)" for png in curated if png.name not in shown]
+    problems += [f"{name} is shown on {[str(p.relative_to(ROOT)) for p in where]} but not in results/curated"
+                 for name, where in shown.items() if not (ROOT / "results" / "curated" / name).exists()]
+    for png in curated:
+        for page in shown.get(png.name, []):
+            problems += [f"{page.relative_to(ROOT)}: {p}" for p in figure_problems(pages[page], png)]
+    assert problems == []
+
+
+def test_every_curated_table_names_a_clean_commit():
+    """A curated Markdown table ends with its provenance footer, and that commit is clean."""
+    problems = []
+    for md in sorted((ROOT / "results" / "curated").glob("*.md")):
+        found = re.search(r"provenance: .*?\(([0-9a-f]{7,}(?:\+dirty)?)\)", md.read_text(encoding="utf-8"))
+        if found is None:
+            problems.append(f"{md.name} carries no provenance footer with a commit")
+        elif found.group(1).endswith("+dirty"):
+            problems.append(f"{md.name} comes from a modified tree ({found.group(1)})")
+    assert problems == []
