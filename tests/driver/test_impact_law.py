@@ -20,7 +20,7 @@ from daebench.core import impact_checks
 from daebench.core.contact import Impact
 from daebench.core.frictional_impact import frictional_impact
 from daebench.core.resting_contacts import resting_lcp
-from daebench.driver import transitions
+from daebench.driver import impact_laws
 from daebench.harness.scoring import oracle
 from _driver_runs import cached_run  # noqa: E402  (tests/ is on sys.path under pytest)
 
@@ -122,7 +122,7 @@ def test_a_driver_whose_impact_law_pulls_does_not_complete(monkeypatch):
         vp = v + np.linalg.solve(M, GN.T @ P)
         return res.__class__(vp, P, np.zeros_like(P), vn, GN @ vp, np.zeros_like(P), 0.0)
 
-    monkeypatch.setattr(transitions, "frictional_impact", equality)
+    monkeypatch.setattr(impact_laws, "frictional_impact", equality)
     r = daebench.run("ball", integrator="hht", h=1e-3, overrides={"contact.restitution": 0.8})
     assert r.status == "failed" and "break the unilateral contact law" in r.message
 
