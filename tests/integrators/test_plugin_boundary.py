@@ -132,8 +132,14 @@ def test_a_plugin_keyboard_interrupt_is_not_ctrl_c(tmp_path):
 
 
 def test_a_real_sigint_during_a_step_still_interrupts():
-    with pytest.raises(KeyboardInterrupt):
-        daebench.run("pendulum", "signals", **short())
+    # a user's process has Python's own SIGINT handler; a test worker may have inherited
+    # another (ignored, or a library's) from an earlier test, and then no Ctrl-C arrives at all
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            daebench.run("pendulum", "signals", **short())
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 def test_the_run_cap_stops_a_plugin_blocked_in_sleep(tmp_path):
