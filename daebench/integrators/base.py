@@ -28,12 +28,9 @@ Implementer's contract (rule by rule, in the spirit of ``scipy.integrate.OdeSolv
 7. An integrator that resolves contacts itself (``capabilities.contacts``) reports
    each contact episode with :meth:`report_contact`; the driver books it like an impact.
 
-The driver talks to an integrator through :meth:`start`, :meth:`advance` (which returns
-an :class:`Advance` value) and :meth:`dense`; besides, it reads what the integrator declares
-(``capabilities``, ``records_outputs``) and its ``counters_snapshot()`` for the run record.
-The steps are not read from the integrator during a run: they are the run's
-:class:`daebench.driver.step_policy.StepPolicy`, built once from :meth:`step_size` and
-``adaptive`` before the first step. An integrator
+The driver calls :meth:`start`, :meth:`advance` (an :class:`Advance`) and :meth:`dense`, and
+reads ``capabilities``, ``records_outputs`` and ``counters_snapshot()``; the steps come from
+the run's :class:`daebench.driver.step_policy.StepPolicy`, built from :meth:`step_size`. An integrator
 reads the phase from its :class:`~daebench.core.problem.Problem` and nothing else.
 
 For speed, subclass :class:`daebench.integrators.compiled.CompiledIntegrator` instead:
@@ -257,11 +254,9 @@ class Integrator:
 
     @classmethod
     def protocol(cls, case: str) -> Runs | None:
-        """What `daebench compare` runs of this integrator on the scene named ``case`` (its
-        steps or tolerances and fixed settings), before the case's own ``[compare]`` table;
-        None: nothing of its own (the case's table decides, else compare runs it once at
-        its defaults, the survey at its default step and halvings). Override it to decide
-        from the case name, or declare the table ``protocols``."""
+        """What `daebench compare` runs of this integrator on the scene ``case`` (steps or
+        tolerances, fixed settings) before the case's ``[compare]`` table; None: the case's
+        table decides (else one run at its defaults). Override it, or declare ``protocols``."""
         return cls.protocols.get(case)
 
     @property
@@ -269,10 +264,9 @@ class Integrator:
         return bool(self.settings.get("adaptive", False))
 
     def step_size(self, in_contact: bool) -> float:
-        """The fixed step of the paper's protocol for the current phase."""
-        h = float(self.settings.get("h", DEFAULT_STEP))
+        """The fixed step of the settings for a phase in contact or not (h_contact > 0 in contact)."""
         hc = float(self.settings.get("h_contact", 0.0) or 0.0)
-        return hc if (in_contact and hc > 0.0) else h
+        return hc if (in_contact and hc > 0.0) else float(self.settings.get("h", DEFAULT_STEP))
 
     # -- stepping -------------------------------------------------------------
     def start(self, problem: Problem, state: State, h: float) -> None:
