@@ -64,4 +64,7 @@ def test_each_point_is_named_by_its_step_and_cost_is_cpu_time():
 def test_a_sweep_title_names_what_its_answer_depends_on_by_symbol():
     df = pd.DataFrame({"case": ["beam-impact"] * 2,
                        "scene_set": ['{"discretization.n": 3, "t_end": 0.38}'] * 2})
-    assert sweep_title(df, "convergence") == "convergence, beam-impact N = 3, t_end=0.38 (2 runs)"
+    assert sweep_title(df, "convergence") == "convergence, beam-impact N = 3, e = 0, t_end=0.38 (2 runs)"
+    # a value left at the case's default is named too
+    default_n = sweep_title(df.assign(scene_set='{"t_end": 0.38}'))
+    assert default_n == "work–precision, beam-impact N = 5, e = 0, t_end=0.38 (2 runs)"

@@ -386,5 +386,11 @@ def sweep_title(df: pd.DataFrame, what: str = "work–precision") -> str:
             if isinstance(cell, dict):  # a damaged cell only leaves the title without it
                 shared.update(cell)
     sym = dict(TITLE_KEYS)
-    over = (" " + ", ".join(f"{sym[k]} = {v}" if k in sym else f"{k}={v}" for k, v in shared.items())) if shared else ""
-    return f"{what}, {case}{over} ({len(df)} runs)"
+    try:    # the values the answer depends on, set or by default (N = 5 of beam-impact)
+        scene = load_scene(case, {k: v for k, v in shared.items()})
+        values = {k: scene.get(k) for k, _ in TITLE_KEYS if isinstance(scene.get(k), (int, float))}
+    except ParamError:  # a case file moved since the sweep: the title names what the table holds
+        values = {}
+    parts = [f"{sym[k]} = {v:g}" for k, v in values.items()]
+    parts += [f"{sym[k]} = {v}" if k in sym else f"{k}={v}" for k, v in shared.items() if k not in values]
+    return f"{what}, {case}{' ' + ', '.join(parts) if parts else ''} ({len(df)} runs)"
