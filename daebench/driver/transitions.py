@@ -39,6 +39,7 @@ and the phase's :class:`daebench.core.problem.Problem`.
 from __future__ import annotations
 
 import math
+
 import numpy as np
 
 from daebench.core.contact import Impact

@@ -284,14 +284,9 @@ def measures_present(df: pd.DataFrame, measures: Sequence[str]) -> list[str]:
     return [m for m in measures if m in df.columns and pd.to_numeric(df[m], errors="coerce").notna().any()]
 
 
-#: the scene values a figure's title states, as (key, symbol): what sets a run's answer apart
-
-
 def scene_label(scene: Scene) -> str:
     """The scene's name with the values its answers depend on: ``beam-impact (N = 5, e = 0, 1 s)``."""
-    values = [(sym, scene.get(key)) for key, sym in plots.TITLE_KEYS]
-    parts = [f"{sym} = {x:g}" for sym, x in values if isinstance(x, (int, float)) and not isinstance(x, bool)]
-    return f"{scene.name} ({', '.join(parts + [f'{scene.t_end:g} s'])})"
+    return f"{scene.name} ({', '.join(plots.title_values(scene) + [f'{scene.t_end:g} s'])})"
 
 
 def write(df: pd.DataFrame, scene: Scene, proto: Protocol, folder: Path, refused: Mapping[str, str],

@@ -43,8 +43,7 @@ def markdown(df: pd.DataFrame, h_max: float) -> str:
 
 
 def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float | None = None,
-           fmt: str | None = None, scenes: tuple[tuple[str, str], ...] = (),
-           prov: dict[str, Any] | None = None) -> Path:
+           fmt: str | None = None, prov: dict[str, Any] | None = None) -> Path:
     """h_max against N, one colour and marker per integrator setting, every marker at its
     own N: measured (filled; hollow = no instability up to the bisection bound), predicted
     for the trial (dashed) and for the scene's whole run (dotted), log axis."""
@@ -92,7 +91,7 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
     ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     ax.set_xticks(sorted(set(df["N"].dropna().astype(int))))
     fig.tight_layout(rect=(0, 0.03, 1, 1))   # room for the provenance footer
-    provenance.write_figure(fig, path, prov=prov if prov is not None else provenance.collect(scenes), dpi=150, fmt=fmt)
+    provenance.write_figure(fig, path, prov=prov, dpi=150, fmt=fmt)
     plt.close(fig)
     return path
 

@@ -372,6 +372,12 @@ def series(hists: Mapping[str, pd.DataFrame], column: str, stem: str | Path | No
 TITLE_KEYS = (("discretization.n", "N"), ("contact.restitution", "e"))
 
 
+def title_values(scene: Any) -> list[str]:
+    """The scene's values of TITLE_KEYS by symbol, e.g. ``["N = 5", "e = 0"]`` (keys it lacks left out)."""
+    values = [(sym, scene.get(key)) for key, sym in TITLE_KEYS]
+    return [f"{sym} = {x:g}" for sym, x in values if isinstance(x, (int, float)) and not isinstance(x, bool)]
+
+
 def sweep_title(df: pd.DataFrame, what: str = "work–precision") -> str:
     """Title of a sweep figure: what it shows, the case, the scene overrides shared by
     every run, how many runs."""
@@ -385,12 +391,11 @@ def sweep_title(df: pd.DataFrame, what: str = "work–precision") -> str:
                 cell = None
             if isinstance(cell, dict):  # a damaged cell only leaves the title without it
                 shared.update(cell)
-    sym = dict(TITLE_KEYS)
+    keys = dict(TITLE_KEYS)
     try:    # the values the answer depends on, set or by default (N = 5 of beam-impact)
-        scene = load_scene(case, {k: v for k, v in shared.items()})
-        values = {k: scene.get(k) for k, _ in TITLE_KEYS if isinstance(scene.get(k), (int, float))}
+        parts = title_values(load_scene(case, shared))
+        rest = {k: v for k, v in shared.items() if k not in keys}
     except ParamError:  # a case file moved since the sweep: the title names what the table holds
-        values = {}
-    parts = [f"{sym[k]} = {v:g}" for k, v in values.items()]
-    parts += [f"{sym[k]} = {v}" if k in sym else f"{k}={v}" for k, v in shared.items() if k not in values]
+        parts, rest = [], shared
+    parts += [f"{keys[k]} = {v}" if k in keys else f"{k}={v}" for k, v in rest.items()]
     return f"{what}, {case}{' ' + ', '.join(parts) if parts else ''} ({len(df)} runs)"
