@@ -191,13 +191,17 @@ class Driver(Books):
         failure = getattr(self.integ, "failure", None)
         where = "".join(traceback.format_exception(failure)) if failure is not None and status != "completed" else ""
         broken = impact_checks.violations(cs.impacts, self.energy_scale)
-        if self.integ.capabilities.contacts:   # rules 5 and 6: a capturing contact makes no energy
+        hist = frame(self.rows)
+        if self.integ.capabilities.contacts:   # rules 5 to 7: a capturing contact makes no energy
             e = None if law is None or getattr(law, "restitution", None) is None else float(law.restitution)
             broken += (impact_checks.capturing_violations(cs.impacts, self.energy_scale, e)
                        + self._work_book.violations(self.energy_scale, e))
+            if status == "completed" and len(hist):
+                balance = hist["energy_residual"].to_numpy() + hist.get("W_contact", 0.0)
+                broken += impact_checks.energy_made(hist["t"].to_numpy(), np.asarray(balance, float), cs.impacts,
+                                                    self.energy_scale, e)
         if broken and status == "completed":
             status, message = "failed", impact_checks.verdict(broken)
-        hist = frame(self.rows)
         res = float(np.nanmax(np.abs(hist["energy_residual"]))) if len(hist) else math.nan
         return RunResult(status, message, self._t_last, time.perf_counter() - wall0,
                          self.integ.counters_snapshot(), hist, cs.impacts, dict(self.cmax), res,
