@@ -115,7 +115,9 @@ def figure(out: Path, dest: Path | None = None) -> None:
         r, s = rows[k], rows[k]["settings"]
         lab = (f"{r['treatment']} ({r['integrator']}, h={s['h']:g} s"
                + (f", h_contact={s['h_contact']:g} s" if "h_contact" in s else "")
-               + (f", εN={r['overrides']['contact.penalty_stiffness']:g} N/m" if r["overrides"] else "") + ")")
+               + (f", εN={r['overrides']['contact.penalty_stiffness']:g} N/m" if r["overrides"] else "") + ")"
+               + ("" if r["status"] == "completed"
+                  else f" — {r['status']}: E {r['E0']:.4g} → {r['E_end']:.4g} J"))
         ax[0].plot(1e3 * H[f"{k}_Px"], 1e3 * H[f"{k}_Py"], lw=1, label=lab)
         ax[1].plot(1e3 * H[f"{k}_t"], H[f"{k}_F"], lw=0.8, label=lab)
     for y in (3.5, -3.5):
