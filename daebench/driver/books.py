@@ -3,8 +3,9 @@ non-conservative effects, the constraint residuals and the divergence rule
 (:class:`Books`, which :class:`daebench.driver.simulate.Driver` is).
 
 Reads the driver's system, integrator, contacts (:class:`daebench.driver.contact_state.ContactState`),
-output times and energy scale; writes ``rows``, ``work``, ``cmax`` and ``out_i`` (and the
-integrator's own states with ``record_states``). A diverged row ends the run (:class:`Diverged`).
+output times and energy scale; writes ``rows``, ``work``, ``cmax``, ``out_i`` and ``inside``
+(the output times a step's dense output served from strictly inside it; the integrator's own
+states with ``record_states``). A diverged row ends the run (:class:`Diverged`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,11 @@ from daebench.stepping import dense as _dense, watch as _watch
 # the compiled loops' own rules (which output times are due, which state serves one), called
 # here as plain Python: one source, no dispatch per call
 _output_due, _source = (getattr(f, "py_func", f) for f in (_watch.output_due, _dense.source))
+
+
+#: an output time farther than this fraction of its step from both of the step's ends is
+#: served by the dense output (``Books.inside``); nearer, it is the step's end to rounding
+INSIDE_REL = 1e-6
 
 
 class Diverged(Exception):
@@ -87,6 +93,8 @@ class Books:
             to = float(self.t_out[self.out_i])
             src = _source(to, prev.t, end.t)
             s = end if src == _dense.END else prev if src == _dense.START else self.integ.dense(to)
+            if src == _dense.INSIDE and min(to - prev.t, end.t - to) > INSIDE_REL * dt:
+                self.inside.append(to)   # (an output time a rounding away from a step's end is that end)
             if base is None:
                 work = dict(self.work)
             else:

@@ -205,23 +205,23 @@ def test_complementarity_force_never_negative(pull, h, theta):
 
 
 def test_complementarity_energy_through_the_driver():
-    """The lcp integrator through the driver on the case: report the energy balance."""
+    """The lcp integrator through the driver on the case. θ = 1 (the gap at the step's end)
+    only dissipates and completes; θ = ½ (the midpoint gap) zig-zags about g = 0, where each
+    step changes E by P (g1 − g0)/h (the identity above), and makes 59 % of E0 over the run:
+    the driver fails it for energy made across contacts (it said 'completed')."""
     out = {}
     for theta in (0.5, 1.0):
         sc = load_scene("chain-impact", {"contact.law": "complementarity", "output.dt": 1e-4})
         integ = ComplementarityLCP(h=1e-4, gap_weight=theta)
         res = simulate(Chain(law="complementarity"), integ, sc.t_end, sc["output.dt"])
-        assert res.status == "completed", res.message
-        E0 = res.history["E"].iloc[0]
+        E = res.history["E"].to_numpy()
         # the integrator's contact episodes reach the run record like the driver's impacts
         assert len(res.impacts) >= 1 and all(i.impulse > 0.0 and math.isfinite(i.min_gap) for i in res.impacts)
-        out[theta] = (res.history["E"].iloc[-1] / E0 - 1.0, integ.min_gap, integ.min_force,
-                      effective_restitution(res.impacts), len(res.impacts))
-    print("\nlcp on chain-impact, h = 1e-4, t_end = 0.1: θ, E(t_end)/E0 − 1, min gap, min force, "
-          "e_eff (1st episode), episodes")
-    for th, row in out.items():
-        print(f"  {th}: {row[0]:+.3e}  {row[1]:.3e}  {row[2]:.1e}  {row[3]:.4f}  {row[4]}")
-    assert out[1.0][0] < 0.0                       # θ = 1: dissipative
+        out[theta] = (res.status, res.message, E[-1] / E[0] - 1.0)
+    status, message, gain = out[0.5]
+    assert gain > 0.5 and status == "failed" and "energy made across contacts" in message, out[0.5]
+    status, message, gain = out[1.0]
+    assert status == "completed" and gain < 0.0, out[1.0]          # θ = 1: dissipative
 
 
 def test_lcp_refuses_systems_it_cannot_treat():
