@@ -127,8 +127,8 @@ SCHEMA: dict[str, Param] = {
         Param("discretization.kind", str, "modes", "shape functions of the beam",
               choices=("modes", "fem", "meshfree")),
         Param("discretization.n", int, 5,
-              "modes per direction (modes: 1..12), number of elements (fem: 1..200) or of nodes, root included "
-              "(meshfree: 3..60)", low=1, high=MAX_ELEMENTS),
+              f"modes per direction (modes: 1..{MAX_MODES}), number of elements (fem: 1..{MAX_ELEMENTS}) or of "
+              f"nodes, root included (meshfree: 3..{MAX_NODES})", low=1, high=MAX_ELEMENTS),
         Param("discretization.influence", float, MESHFREE_INFLUENCE,
               "meshfree: influence-domain radius in nodal spacings", low=MIN_INFLUENCE, high=MAX_INFLUENCE),
         Param("discretization.cell_gauss", int, MESHFREE_CELL_GAUSS, "meshfree: Gauss points per background cell",

@@ -48,7 +48,7 @@ from typing import Protocol
 import numpy as np
 
 MAX_MODES = 12
-MAX_ELEMENTS = 200
+MAX_ELEMENTS = 500
 # Global modes: composite Gauss–Legendre on a fixed grid, independent of N, chosen so
 # that mode-12 mass and stiffness integrals are exact to ~1e-14 (tests/models/test_shapes.py).
 MODE_PANELS = 5
