@@ -28,6 +28,14 @@ def test_plan_uses_the_papers_protocol_and_setting_names():
     assert hertz[0].integrator == "newmark" and hertz[0].scene_overrides["contact.law"] == "hertz"
     quick = paper.plan(paper.Protocol.quick())
     assert len(quick) == 13 and {s.scene_overrides["discretization.n"] for s in quick} == {3}
+    # claim 7's FE sizes: HHT over both horizons, Baumgarte once, on the FE beam without foreshortening
+    size = [s for s in specs if s.varied["set"] == "size"]
+    p = paper.Protocol.full()
+    assert len(size) == 3 * len(p.size_elements) and max(p.size_elements) >= 500          # n = 1 001
+    assert {s.scene_overrides["t_end"] for s in size} == {k * p.h for k in p.size_steps}
+    assert all(s.scene_overrides["discretization.kind"] == "fem" and not s.scene_overrides["effects.foreshortening"]
+               for s in size)
+    assert [s.integrator for s in size].count("baumgarte") == len(p.size_elements)
 
 
 def test_paper_quick_writes_table_figures_verdicts(tmp_path, monkeypatch):

@@ -1,6 +1,6 @@
-"""The seven claims of the beam-impact study, each computed from this run's rows and
-histories: a sentence with the numbers it rests on and one verdict word
-(:func:`_verdict`), plus its figure."""
+"""Claims 1–6 of the beam-impact study, each computed from this run's rows and histories:
+a sentence with the numbers it rests on and one verdict word (:func:`_verdict`), plus its
+figure. Claim 7, on cost, is judged in :mod:`daebench.studies.hht_beam_impact.cost`."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from daebench.harness.analysis import plots
 from daebench.harness.scoring import metrics, modal
 from daebench.models import build_system
 from daebench.models.scenes import load_scene
-from daebench.studies.hht_beam_impact.table import BAUMGARTE, HHT_ALPHAS, PUBLISHED_TABLE1, table1
-from daebench.studies.hht_beam_impact.figures import fig_cost, fig_difference, fig_series
+from daebench.studies.hht_beam_impact.table import BAUMGARTE, HHT_ALPHAS
+from daebench.studies.hht_beam_impact.figures import fig_difference, fig_series
 
 
 #: a spread of θ across settings below this is round-off carried by the run, not a
@@ -325,71 +325,7 @@ def claim6(df, hists, p, stem, prov):
                       + (f" — at round-off (< {ROUNDOFF_CDOT:g} m/s): {NO_DRIFT}" if inert else ""), ok_b)]), figs
 
 
-def claim7(df, hists, p, stem, prov):
-    """Cost grows steeply with N; at these fixed steps HHT is slower than Baumgarte.
-
-    Judged on each run's CPU time (``cpu_s``: ``time.process_time`` of the run in its
-    worker, the minimum of the timed repeats), which other processes on the machine do
-    not inflate as they do its wall time (one loaded run measured the growth as N^0.04
-    where an idle one gave N^0.34); the figure keeps the wall times beside the published
-    seconds. The verdict says which time it used."""
-    t = table1(df)
-    figs = fig_cost(t, stem, prov)
-    cost, what = ("cpu_s", "CPU time") if "cpu_s" in df.columns else ("wall_s", "wall time (no CPU time recorded)")
-    done = df[(df["set"] == "table") & (df["status"] == "completed")]
-    c = pd.DataFrame({"N": done["N"].astype(int), "setting": done["setting"].astype(str),
-                      "cost": pd.to_numeric(done[cost], errors="coerce")}).dropna()
-    ratios = []
-    for N in sorted(set(c["N"])):
-        m = c[c["N"] == N]
-        hv, bv = m[m.setting.str.startswith("HHT")]["cost"], m[m.setting.str.startswith("Baum")]["cost"]
-        if len(hv) and len(bv):
-            ratios.append((N, hv.mean() / bv.mean()))
-    parts: list[tuple[str, bool | None]] = [
-        (", ".join(f"N={N}: HHT/Baumgarte {what} = {r:.3g}" for N, r in ratios), all(r > 1 for _, r in ratios))
-        if ratios else ("no completed HHT/Baumgarte pair", None)]
-    pub = _growth(PUBLISHED_TABLE1.index.to_numpy(float), PUBLISHED_TABLE1.median(axis=1).to_numpy(float))[0]
-    fits = []
-    for family in ("HHT", "Baum"):   # one fit per method: a median across methods mixes them where one diverged
-        m = c[c.setting.str.startswith(family)]
-        g = m.groupby("N")["cost"].median()
-        if len(g) > 1:
-            fits.append((family, g.index.to_numpy(int), *_growth(g.index.to_numpy(float), g.to_numpy(float))))
-    if fits:
-        ops = _operations(done)
-        parts.append(("; ".join(f"{'HHT' if f == 'HHT' else 'Baumgarte'} median {what} ∝ N^{k:.2g} "
-                                f"(fit over N = {Ns.min()}…{Ns.max()}, {len(Ns)} points, log residual "
-                                f"{spread:.2g})" for f, Ns, k, spread in fits)
-                      + f" (published wall time N^{pub:.2g}); {ops}", all(k > 1.0 for _, _, k, _ in fits)))
-    else:
-        parts.append(("one N only, so no growth with N", None))
-    return _verdict(parts), figs
-
-
-def _growth(n: np.ndarray, cost: np.ndarray) -> tuple[float, float]:
-    """Exponent k of cost ∝ n^k (least squares in log–log) and the largest |log residual|."""
-    k, c0 = np.polyfit(np.log(n), np.log(cost), 1)
-    return float(k), float(np.max(np.abs(np.log(cost) - (k * np.log(n) + c0))))
-
-
-def _operations(done: pd.DataFrame) -> str:
-    """Newton iterations and LU factorizations per step of each method at its smallest and
-    largest N: at a fixed step, work per step that does not grow with N says the measured
-    time growth is cost per operation (call overhead at these sizes), not more operations."""
-    out = []
-    for family, words in (("HHT", "HHT"), ("Baum", "Baumgarte")):
-        m = done[done.setting.astype(str).str.startswith(family)]
-        if not len(m) or "steps" not in m or "newton_iterations" not in m:
-            continue
-        per = m.assign(nw=pd.to_numeric(m["newton_iterations"], errors="coerce") / m["steps"],
-                       lu=pd.to_numeric(m.get("lu_factorizations"), errors="coerce") / m["steps"])
-        g = per.groupby("N")[["nw", "lu"]].median()
-        lo, hi = g.index.min(), g.index.max()
-        out.append(f"{words} Newton iterations per step {g.loc[lo, 'nw']:.3g} at N = {lo}, {g.loc[hi, 'nw']:.3g} "
-                   f"at N = {hi}; LU factorizations per step {g.loc[lo, 'lu']:.3g}, {g.loc[hi, 'lu']:.3g}")
-    return "; ".join(out) if out else "no operation counts recorded"
-
-
-CLAIMS = (claim1, claim2, claim3, claim4, claim5, claim6, claim7)
+#: claims 1–6; claim 7 (cost) is :func:`daebench.studies.hht_beam_impact.cost.claim7`
+CLAIMS = (claim1, claim2, claim3, claim4, claim5, claim6)
 
 

@@ -30,9 +30,12 @@ from daebench.harness.sweeps import sweep
 from daebench.harness.sweeps.options import Execution, Storage, SweepOptions, Timing
 from daebench.harness.sweeps.plan import RunSpec
 from daebench.models.scenes import load_scene
-from daebench.studies.hht_beam_impact.claims import CLAIMS
+from daebench.studies.hht_beam_impact import claims, cost
 from daebench.studies.hht_beam_impact.table import (BAUMGARTE, BASE_OBSERVABLES, HHT_ALPHAS, PUBLISHED_TABLE1,  # noqa: F401
                                            QUICK_RUN_CAP, SCENE, observables, table1)
+
+#: the seven claims, in the paper's order
+CLAIMS = (*claims.CLAIMS, cost.claim7)
 
 @dataclass(frozen=True)
 class Protocol:
@@ -53,6 +56,10 @@ class Protocol:
     h_contact: float = 1e-6
     e_table: float = 0.0            # restitution of the Table 1 runs
     e_rebound: float = 0.3
+    #: claim 7's FE beam sizes (elements; n = 2·elements + 1 unknowns) and the two horizons,
+    #: in steps, whose difference gives the CPU time per step without the set-up
+    size_elements: tuple[int, ...] = (50, 100, 150, 250, 350, 500)
+    size_steps: tuple[int, int] = (50, 150)
     scene: str = SCENE
     name: str = "published"
 
@@ -66,7 +73,8 @@ class Protocol:
 
     @classmethod
     def quick(cls) -> "Protocol":
-        return cls(Ns=(3,), n_main=3, n_modal=3, t_end=0.5, h_contact=1e-5, name="quick")
+        # no FE sizes: their first runs compile the FE kernels (~70 s CPU), which --quick exists to avoid
+        return cls(Ns=(3,), n_main=3, n_modal=3, t_end=0.5, h_contact=1e-5, size_elements=(), name="quick")
 
     def setting(self) -> str:
         """The setting every verdict of this protocol rests on, in words."""
@@ -90,9 +98,10 @@ def plan(p: Protocol) -> list[RunSpec]:
     """Every run of the reproduction, tagged by purpose in ``varied['set']``."""
     specs: list[RunSpec] = []
 
-    def add(tag: str, integ: str, opts: dict[str, Any], N: int, e: float, law: str = "constraint") -> None:
+    def add(tag: str, integ: str, opts: dict[str, Any], N: int, e: float, law: str = "constraint",
+            **scene_keys: Any) -> None:
         over = {"discretization.n": N, "contact.restitution": e, "contact.law": law,
-                "output.observables": observables(N)}
+                "output.observables": observables(N), **scene_keys}
         o = {"h": p.h, "h_contact": p.h_contact, **opts}
         varied = {"set": tag, "N": N, "e": e, "law": law, "setting": setting_name(integ, opts)}
         specs.append(RunSpec(len(specs), integ, o, over, varied))
@@ -105,6 +114,14 @@ def plan(p: Protocol) -> list[RunSpec]:
     for integ, o in methods:
         add("rebound", integ, o, p.n_main, p.e_rebound)
     add("hertz", "newmark", {}, p.n_main, p.e_rebound, "hertz")
+    # claim 7 where cost is not overhead: the FE beam (foreshortening off: its tables grow as
+    # n³ in memory), N = its elements; Baumgarte's explicit ABM4 once, at the short horizon
+    for el in p.size_elements:
+        for k, steps in enumerate(p.size_steps):
+            for integ, o in [("hht", {"alpha": -0.15})] + ([("baumgarte", {"delta": 0.0, "epsilon": 0.0})] if k == 0 else []):
+                add("size", integ, o, el, p.e_table, **{"discretization.kind": "fem", "effects.foreshortening": False,
+                                                         "output.observables": BASE_OBSERVABLES,
+                                                         "t_end": steps * p.h})
     return specs
 
 
@@ -182,7 +199,8 @@ def claim_setting(k: int, p: Protocol) -> str:
     return {1: f"N = {p.n_main}, e = {p.e_table:g} and {p.e_rebound:g}", 2: f"N = {p.n_main}, e = {p.e_rebound:g}",
             3: f"N = {p.n_main}, e = {p.e_rebound:g}", 4: f"N = {', '.join(map(str, p.Ns))}, e = {p.e_table:g}",
             5: f"N = {p.n_modal}, e = {p.e_table:g}", 6: f"N = {p.n_modal}, e = {p.e_table:g}",
-            7: f"N = {', '.join(map(str, p.Ns))}, e = {p.e_table:g}"}[k] + f"; {p.scene}, h = {p.h:g} s"
+            7: f"N = {', '.join(map(str, p.Ns))}, e = {p.e_table:g}; FE beam of {', '.join(map(str, p.size_elements))} "
+               f"elements over {p.size_steps[0]} and {p.size_steps[1]} steps"}[k] + f"; {p.scene}, h = {p.h:g} s"
 
 
 def _load_histories(df: pd.DataFrame) -> dict[int, pd.DataFrame]:
@@ -196,7 +214,7 @@ def _load_histories(df: pd.DataFrame) -> dict[int, pd.DataFrame]:
 
 def table1_markdown(t: pd.DataFrame, p: Protocol) -> str:
     cols = list(PUBLISHED_TABLE1.columns)
-    lines = [f"# Table 1 — wall-clock seconds, measured here / published (2017)\n",
+    lines = ["# Table 1 — wall-clock seconds, measured here / published (2017)\n",
              f"{p.scene}, e = {p.e_table:g}, fixed steps h = {p.h:g} s, h_contact = {p.h_contact:g} s, "
              f"t_end = {p.t_end:g} s. 'published' is the paper's Table 1 (MATLAB-era code, t_end "
              f"not stated there), hard-coded as data.\n",
