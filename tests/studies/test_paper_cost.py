@@ -48,7 +48,7 @@ def _planted(baumgarte_fe_status="diverged"):
                          lu_factorizations=2000, newton_iterations=0, cpu_s=0.1 * N))
     for el in (50, 100, 250, 500):
         n = 2 * el + 1
-        for steps in (50, 150):
+        for steps in (100, 400):
             rows.append(_row(len(rows), "size", el, "HHT α=-0.15", steps=steps, residual_evals=2 * steps + 1,
                              jacobian_evals=1, lu_factorizations=1, newton_iterations=2 * steps,
                              cpu_s=0.5 + steps * 3e-8 * n ** 2))

@@ -58,9 +58,15 @@ def operation_cost(n: float, residual_evals: float, jacobian_evals: float, lu_fa
             + 2.0 * n ** 3 * jacobian_evals)
 
 
-def growth(n: np.ndarray, cost: np.ndarray) -> tuple[float, float]:
-    """Exponent k of cost ∝ n^k (least squares in log–log) and the largest |log residual|."""
+def power_fit(n: np.ndarray, cost: np.ndarray) -> tuple[float, float]:
+    """k and log c of cost ≈ c n^k, least squares in log–log."""
     k, c0 = np.polyfit(np.log(n), np.log(cost), 1)
+    return float(k), float(c0)
+
+
+def growth(n: np.ndarray, cost: np.ndarray) -> tuple[float, float]:
+    """Exponent k of cost ∝ n^k (:func:`power_fit`) and the largest |log residual|."""
+    k, c0 = power_fit(n, cost)
     return float(k), float(np.max(np.abs(np.log(cost) - (k * np.log(n) + c0))))
 
 
@@ -95,8 +101,9 @@ def _counted(rows: pd.DataFrame, scene: str) -> pd.DataFrame:
 
 
 def per_step_cpu(rows: pd.DataFrame, scene: str) -> pd.DataFrame:
-    """CPU time per step of each FE size: (cpu_s of the long horizon − of the short) /
-    (their steps' difference), from completed rows of one setting (set-up cancels)."""
+    """CPU time, modelled operations and Newton iterations per step of each FE size: (the
+    long horizon's − the short's) / (their steps' difference), from completed rows of one
+    setting — the set-up, and the one factorization and Jacobian of a run, cancel."""
     out = []
     c = _counted(rows, scene)
     for n, g in c.groupby("n"):
@@ -104,8 +111,9 @@ def per_step_cpu(rows: pd.DataFrame, scene: str) -> pd.DataFrame:
         if len(g) < 2 or g["steps"].iloc[-1] <= g["steps"].iloc[0]:
             continue
         a, b = g.iloc[0], g.iloc[-1]
-        out.append({"n": int(n), "cpu_step": (b["cpu_s"] - a["cpu_s"]) / (b["steps"] - a["steps"]),
-                    "ops_step": b["ops_step"], "newton_step": b["newton_iterations"] / b["steps"]})
+        d = b["steps"] - a["steps"]
+        out.append({"n": int(n), "cpu_step": (b["cpu_s"] - a["cpu_s"]) / d, "ops_step": (b["ops"] - a["ops"]) / d,
+                    "newton_step": (b["newton_iterations"] - a["newton_iterations"]) / d})
     return pd.DataFrame(out, columns=["n", "cpu_step", "ops_step", "newton_step"])
 
 
@@ -156,16 +164,17 @@ def claim7(df, hists, p, stem, prov):
     if len(bad):
         el = sorted(set(int(x) for x in bad["N"]))
         parts.append((f"Baumgarte on the FE beam: {bad['status'].iloc[0]} at every size tried ({len(el)}: "
-                      f"{el[0]}…{el[-1]} elements; {str(bad['message'].iloc[0])[:90]}), so HHT against Baumgarte "
+                      f"{el[0]}…{el[-1]} elements; at {el[0]}: {bad['message'].iloc[0]}), so HHT against Baumgarte "
                       "where cost is not overhead is not testable at this step", None))
     if stem is not None and len(hs):
-        figs += fig_size(table, hs, Path(str(stem) + "-size"), prov)
+        figs += fig_size(table, hs, fit, Path(str(stem) + "-size"), prov)
     return _verdict(parts), figs
 
 
-def fig_size(table: pd.DataFrame, hs: pd.DataFrame, stem: Path, prov: dict[str, Any]) -> list[Path]:
+def fig_size(table: pd.DataFrame, hs: pd.DataFrame, fit: pd.DataFrame, stem: Path, prov: dict[str, Any]) -> list[Path]:
     """CPU time per step (left) and modelled operations per step (right) against the
-    number of unknowns, log–log, every point labelled by its n."""
+    number of unknowns, log–log, every point labelled by its n; the fitted power law over
+    the rows of ``fit`` dashed."""
     fig, (a, b) = plt.subplots(1, 2, figsize=(9.0, 4.0))
     for family, colour, word in (("HHT", "C0", "HHT α-family"), ("Baum", "C1", "Baumgarte")):
         m = table[table.setting.str.startswith(family)].groupby("n")[["cpu_s", "steps", "ops_step"]].median()
@@ -174,6 +183,11 @@ def fig_size(table: pd.DataFrame, hs: pd.DataFrame, stem: Path, prov: dict[str, 
             b.plot(m.index, m["ops_step"], "o", color=colour, label=f"{word}, modal beam")
     a.plot(hs["n"], hs["cpu_step"], "s-", color="C2", label="HHT α=−0.15, FE beam (two-horizon difference)")
     b.plot(hs["n"], hs["ops_step"], "s-", color="C2", label="HHT α=−0.15, FE beam")
+    for ax, col in ((a, "cpu_step"), (b, "ops_step")):
+        if len(fit) >= 2:
+            n = fit["n"].to_numpy(float)
+            k, c0 = power_fit(n, fit[col].to_numpy())
+            ax.plot(n, np.exp(c0) * n ** k, "k--", lw=0.8, label=f"fit ∝ n^{k:.2g} (n = {n.min():g}…{n.max():g})")
     for _, r in hs.iterrows():
         a.annotate(f"n={int(r['n'])}", (r["n"], r["cpu_step"]), fontsize=6, xytext=(3, 3), textcoords="offset points")
     for ax, ylab in ((a, "CPU time per step [s]"), (b, "modelled operations per step [flop]")):

@@ -59,7 +59,7 @@ class Protocol:
     #: claim 7's FE beam sizes (elements; n = 2·elements + 1 unknowns) and the two horizons,
     #: in steps, whose difference gives the CPU time per step without the set-up
     size_elements: tuple[int, ...] = (50, 100, 150, 250, 350, 500)
-    size_steps: tuple[int, int] = (50, 150)
+    size_steps: tuple[int, int] = (100, 400)
     scene: str = SCENE
     name: str = "published"
 
