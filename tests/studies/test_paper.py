@@ -86,7 +86,10 @@ def test_calibrated_variant_judges_all_seven_claims(tmp_path, monkeypatch):
     assert len(res.verdicts) == 7
     for k, v in enumerate(res.verdicts, start=1):
         assert "n/a" not in v.split("→")[1], v
-        assert ("round-off" in v) if k in (1, 6) else ("not testable" not in v), v
+        if k == 7:   # HHT against Baumgarte on the FE beam cannot be made: its ABM4 diverges there
+            assert "FE beam ∝ n^" in v and "ABM4 needs h·ω_max < 1" in v and "not testable at this step" in v, v
+        else:
+            assert ("round-off" in v) if k in (1, 6) else ("not testable" not in v), v
     t = res.table.set_index(["N", "setting"])["status"]
     assert all(t[(N, "Baumgarte (0,0)")] == "completed" for N in (3, 5, 7))
     assert t[(9, "Baumgarte (0,0)")] == "diverged" and t[(9, "HHT α=-0.15")] == "completed"
