@@ -377,21 +377,23 @@ def stability(case: str = typer.Argument(..., help="scene name or path to a .tom
               jobs: int = typer.Option(1, "--jobs", "-j", help="worker processes"),
               run_cap: Optional[float] = typer.Option(None, "--run-cap", help="wall-time cap of one run, s"),
               mark_h: float = typer.Option(0.0, "--mark-h", help="draw this step as a line, s (0: none)"),
+              whole_run: bool = typer.Option(True, "--whole-run/--trials-only",
+                                             help="bisect a second time on runs over the scene's whole horizon"),
               out_dir: Optional[str] = typer.Option(None, "--out", help="output folder (default results/stability)"),
               name: Optional[str] = typer.Option(None, "--name", help="file stem (default `<case>-stability`)"),
               overwrite: bool = typer.Option(False, "--overwrite",
                                              help="replace the files of an earlier map of the same --name")) -> None:
     """Measure the largest stable fixed step per integrator setting and N beside its prediction.
 
-    Bisection on whole runs (completed, energy balance within the divergence threshold),
-    beside the linear prediction (start frequencies × the method's computed stability
-    interval)."""
+    Bisection on trial runs (completed, energy balance within the divergence threshold),
+    and again on runs over the scene's whole horizon, each beside its linear prediction
+    (start frequencies × the method's computed stability interval)."""
     from daebench import api
 
     with refusals():
         sc = api.load_scene(case, set_)
         search = api.Bisection(n_key, t_end if t_end != 0.0 else None, periods, h_min, h_max, tol, jobs, run_cap,
-                               mark_h or None)
+                               mark_h or None, whole_run)
         res = api.stability(sc, method or None, n, search, out=out_dir, name=name,
                             progress=lambda line: sys.stderr.write(line + "\n"), overwrite=overwrite)
     typer.echo(res.markdown)

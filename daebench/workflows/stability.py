@@ -174,7 +174,8 @@ class Bisection:
     bracket width ``tol`` (the upper bound is lowered to t_trial/:data:`MIN_STEPS`: a trial
     of fewer steps shows no instability), worker processes (``jobs``: one bisection per
     task, the tasks in parallel), the wall-time cap of one run (``run_cap`` [s]), and a step
-    drawn as a line on the figure (``mark_h`` [s])."""
+    drawn as a line on the figure (``mark_h`` [s]); ``whole_run``: bisect a second time on
+    runs over the scene's whole horizon (impacts included), the run a user makes."""
 
     n_key: str = "discretization.n"
     t_end: float | None = None
@@ -185,6 +186,7 @@ class Bisection:
     jobs: int = 1
     run_cap: float | None = None
     mark_h: float | None = None
+    whole_run: bool = True
 
 
 def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n_values: Iterable[int] | None,
@@ -207,7 +209,10 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
     step for a run that long — on beam-impact-hub at N = 9, Baumgarte's 5.3e-5 s for an
     80-period trial becomes 2.0e-5 s for the 1 s run (its run at 2.5e-5 s is predicted to
     diverge at 0.366 s; it does at 0.367 s). The trial measures the method's boundary; the
-    run's prediction is what a user's step must stay below.
+    run's prediction is what a user's step must stay below. With ``search.whole_run`` the
+    same bisection on runs over the whole horizon (h_contact = h, impacts included):
+    h_stable_run, h_unstable_run, unstable_status_run, runs_run, agrees_run (h_pred_run
+    within one bisection step of that bracket) — measured, beside the prediction for it.
     """
     n_key, t_end, periods, h_min, h_max, tol, jobs, run_cap = (
         search.n_key, search.t_end, search.periods, search.h_min, search.h_max, search.tol, search.jobs, search.run_cap)
@@ -233,6 +238,10 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
             top = min(h_max, te / MIN_STEPS)       # never fewer than MIN_STEPS steps in a trial
             tasks.append(Task(sc, name, tuple(settings.items()), label, n, min(h_min, 0.5 * top), top, tol, te,
                               run_cap))
+            if search.whole_run:
+                top_run = min(h_max, sc.t_end / MIN_STEPS)
+                tasks.append(Task(sc, name, tuple(settings.items()), label + " (whole run)", n,
+                                  min(h_min, 0.5 * top_run), top_run, tol, sc.t_end, run_cap))
             meta.append({"integrator": name, "settings": dict(settings), "label": label, "N": n,
                          "omega_max": float(lin.omega.max(initial=0.0)), "method": getattr(meth, "name", "n/a"),
                          "interval_strict": strict, "interval": pred["interval"], "h_pred": pred["h_pred"],
@@ -243,10 +252,17 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
             found = list(pool.map(_solve, tasks))
     else:
         found = [bisect(t, progress) for t in tasks]
+    per = 2 if search.whole_run else 1
     rows = []
-    for m, f, t in zip(meta, found, tasks):
-        rows.append({**m, **f, "t_trial": t.t_trial, "h_top": t.h_max, "tol": tol,
-                     "agrees": agrees(m["h_pred"], f, tol, t.h_max)})
+    for i, m in enumerate(meta):
+        f, t = found[per * i], tasks[per * i]
+        row = {**m, **f, "t_trial": t.t_trial, "h_top": t.h_max, "tol": tol,
+               "agrees": agrees(m["h_pred"], f, tol, t.h_max)}
+        if search.whole_run:
+            fr, tr = found[per * i + 1], tasks[per * i + 1]
+            row.update({f"{k}_run": v for k, v in fr.items()})
+            row["agrees_run"] = agrees(m["h_pred_run"], fr, tol, tr.h_max)
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
@@ -365,6 +381,8 @@ def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str
              f"bisection to {search.tol:.0%}")
     files = stability_report.write(df, out, stem, title, search.h_max, search.mark_h,
                                    scenes=((scene.name, scene.hash),))
-    summary = (f"{int(df['agrees'].sum())}/{len(df)} rows agree with the prediction within one bisection step; "
-               f"{int(df['runs'].sum())} runs in {time.perf_counter() - wall0:.1f} s")
+    whole = (f"; over the whole run {int(df['agrees_run'].sum())}/{len(df)}" if "agrees_run" in df else "")
+    runs = int(df["runs"].sum() + (df["runs_run"].sum() if "runs_run" in df else 0))
+    summary = (f"{int(df['agrees'].sum())}/{len(df)} rows agree with the prediction within one bisection step"
+               f"{whole}; {runs} runs in {time.perf_counter() - wall0:.1f} s")
     return StabilityResult(df, files, stability_report.markdown(df, search.h_max), heading, summary)

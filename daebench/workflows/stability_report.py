@@ -25,28 +25,35 @@ def markdown(df: pd.DataFrame, h_max: float) -> str:
     """One row per (setting, N): the measured bracket beside the prediction."""
     lines = ["| integrator, settings | N | ω_max [rad/s] | trial [s] | method | strict interval hω "
              "| run interval hω* | predicted h_max [s] | measured h_max [s]: stable – unstable | first unstable run "
-             "| agrees | predicted h_max for the whole run [s] |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| agrees | predicted h_max for the whole run [s] | measured for the whole run [s] | agrees |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in df.itertuples():
-        if math.isfinite(r.h_stable) and math.isfinite(r.h_unstable):
-            meas = f"{r.h_stable:.4g} – {r.h_unstable:.4g}"
-        elif math.isfinite(r.h_stable):
-            meas = f"≥ {r.h_stable:.3g} (no instability up to the upper bound)"
-        else:
-            meas = f"< {r.h_unstable:.3g} (unstable at the lower bound)"
+        meas = _bracket(r.h_stable, r.h_unstable)
+        run = (f"{_bracket(r.h_stable_run, r.h_unstable_run)} ({r.unstable_status_run or '—'}) "
+               f"| {'yes' if r.agrees_run else 'NO'}" if hasattr(r, "h_stable_run") else "— | —")
         lines.append(f"| {r.label} | {'' if r.N is None or (isinstance(r.N, float) and math.isnan(r.N)) else int(r.N)} "
                      f"| {r.omega_max:.5g} | {r.t_trial:.3g} | {r.method} | {_omega(r.interval_strict)} "
                      f"| {_omega(r.interval)} "
                      f"| {_h(r.h_pred)} | {meas} | {r.unstable_status or '—'} | {'yes' if r.agrees else 'NO'} "
-                     f"| {_h(getattr(r, 'h_pred_run', math.nan))} ({getattr(r, 't_run', math.nan):g} s) |")
+                     f"| {_h(getattr(r, 'h_pred_run', math.nan))} ({getattr(r, 't_run', math.nan):g} s) | {run} |")
     return "\n".join(lines)
+
+
+def _bracket(lo: float, hi: float) -> str:
+    """A bisection's result in words: the bracket, or which bound was not crossed."""
+    if math.isfinite(lo) and math.isfinite(hi):
+        return f"{lo:.4g} – {hi:.4g}"
+    if math.isfinite(lo):
+        return f"≥ {lo:.3g} (no instability up to the upper bound)"
+    return f"< {hi:.3g} (unstable at the lower bound)"
 
 
 def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float | None = None,
            fmt: str | None = None, prov: dict[str, Any] | None = None) -> Path:
     """h_max against N, one colour and marker per integrator setting, every marker at its
-    own N: measured (filled; hollow = no instability up to the bisection bound), predicted
-    for the trial (dashed) and for the scene's whole run (dotted), log axis."""
+    own N: measured on the trial (filled; hollow = no instability up to the bisection bound)
+    and over the scene's whole run (×, where bracketed), predicted for the trial (dashed) and
+    for the whole run (dotted), log axis."""
     import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
 
     matplotlib.use("Agg")
@@ -70,6 +77,10 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
         up = np.isfinite(lo) & ~np.isfinite(hi)
         if up.any():
             ax.plot(n[up], lo[up], mk, color=c, ms=7, mfc="none")
+        if "h_stable_run" in d:    # measured over the whole run: crosses at its own N
+            lo_r, hi_r = d["h_stable_run"].to_numpy(float), d["h_unstable_run"].to_numpy(float)
+            ok = np.isfinite(lo_r) & np.isfinite(hi_r)
+            ax.plot(n[ok], lo_r[ok], "x", color=c, ms=7, mew=1.5)
         for col, ls in (("h_pred", "--"), ("h_pred_run", ":")):
             pred = d[col].to_numpy(float) if col in d else np.full(len(d), np.nan)
             fin = np.isfinite(pred)
@@ -79,7 +90,8 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
     handles += [Line2D([], [], color="k", marker="o", ls="", label="measured on the trial (bar: last bracket)"),
                 Line2D([], [], color="k", marker="o", mfc="none", ls="", label="no instability up to the upper bound"),
                 Line2D([], [], color="k", ls="--", label="predicted for the trial (∞: not drawn)"),
-                Line2D([], [], color="k", ls=":", label="predicted for the whole run")]
+                Line2D([], [], color="k", ls=":", label="predicted for the whole run"),
+                Line2D([], [], color="k", marker="x", ls="", mew=1.5, label="measured over the whole run")]
     if mark_h:
         ax.axhline(mark_h, color="0.3", ls=":", lw=1.0)
         handles.append(Line2D([], [], color="0.3", ls=":", label=f"h = {mark_h:g} s"))
