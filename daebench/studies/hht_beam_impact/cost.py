@@ -18,6 +18,7 @@ that can:
 
 from __future__ import annotations
 
+import json
 import math
 from functools import lru_cache
 from pathlib import Path
@@ -76,7 +77,6 @@ COUNTS = ("steps", "residual_evals", "jacobian_evals", "lu_factorizations", "new
 
 @lru_cache(maxsize=32)
 def _unknowns(scene: str, overrides: str) -> int:
-    import json
     return int(build_system(load_scene(scene, json.loads(overrides))).n)
 
 
