@@ -107,17 +107,17 @@ class Task:
 
 
 def run_is_stable(scene: Scene, integrator: str, settings: dict[str, Any], h: float, t_trial: float | None = None,
-                  run_cap: float | None = None) -> tuple[bool, str]:
-    """(completed?, status) of one fixed-step run at h (h_contact = h) to ``t_trial`` (the
-    scene's t_end when None)."""
+                  run_cap: float | None = None) -> tuple[bool, str, str]:
+    """(completed?, status, message) of one fixed-step run at h (h_contact = h) to
+    ``t_trial`` (the scene's t_end when None)."""
     integ = make_integrator(integrator, {**settings, "h": h, "h_contact": h})
     if t_trial is not None:
         scene = scene.with_overrides({"t_end": t_trial})
     try:
         _, res = run_scene(scene, integ, write=False, force=True, run_cap=run_cap, step_check=False)
     except RunTimeout:
-        return False, "timeout"
-    return res.status == "completed", res.status
+        return False, "timeout", f"over the run cap of {run_cap:g} s"
+    return res.status == "completed", res.status, res.message
 
 
 def bisect(task: Task, report: Callable[[str], None] | None = None) -> dict[str, Any]:
@@ -125,29 +125,29 @@ def bisect(task: Task, report: Callable[[str], None] | None = None) -> dict[str,
     bounds were not crossed) and the status of the run at h_unstable."""
     s = dict(task.settings)
     runs = 1
-    ok, status = run_is_stable(task.scene, task.integrator, s, task.h_max, task.t_trial, task.run_cap)
-    lo, hi, bad = math.nan, math.nan, ""
+    ok, status, message = run_is_stable(task.scene, task.integrator, s, task.h_max, task.t_trial, task.run_cap)
+    lo, hi, bad, why = math.nan, math.nan, "", ""
     if ok:
         lo = task.h_max
     else:
-        hi, bad = task.h_max, status
+        hi, bad, why = task.h_max, status, message
         runs += 1
-        ok, status = run_is_stable(task.scene, task.integrator, s, task.h_min, task.t_trial, task.run_cap)
+        ok, status, message = run_is_stable(task.scene, task.integrator, s, task.h_min, task.t_trial, task.run_cap)
         if ok:
             lo = task.h_min
         else:
-            hi, bad = task.h_min, status
+            hi, bad, why = task.h_min, status, message
     while math.isfinite(lo) and math.isfinite(hi) and hi / lo > 1.0 + task.tol:
         mid = math.sqrt(lo * hi)
         runs += 1
-        ok, status = run_is_stable(task.scene, task.integrator, s, mid, task.t_trial, task.run_cap)
+        ok, status, message = run_is_stable(task.scene, task.integrator, s, mid, task.t_trial, task.run_cap)
         if ok:
             lo = mid
         else:
-            hi, bad = mid, status
+            hi, bad, why = mid, status, message
     if report is not None:
         report(f"{task.label:<34s} N = {task.n!s:>4}: h_max in [{lo:.4g}, {hi:.4g}] s ({runs} runs)")
-    return {"h_stable": lo, "h_unstable": hi, "unstable_status": bad, "runs": runs}
+    return {"h_stable": lo, "h_unstable": hi, "unstable_status": bad, "unstable_message": why, "runs": runs}
 
 
 def _solve(task: Task) -> dict[str, Any]:
@@ -211,8 +211,9 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
     diverge at 0.366 s; it does at 0.367 s). The trial measures the method's boundary; the
     run's prediction is what a user's step must stay below. With ``search.whole_run`` the
     same bisection on runs over the whole horizon (h_contact = h, impacts included):
-    h_stable_run, h_unstable_run, unstable_status_run, runs_run, agrees_run (h_pred_run
-    within one bisection step of that bracket) — measured, beside the prediction for it.
+    h_stable_run, h_unstable_run, unstable_status_run, unstable_message_run, runs_run,
+    agrees_run (h_pred_run within one bisection step of that bracket; None where the run
+    above it failed rather than diverged: no test of a stability prediction).
     """
     n_key, t_end, periods, h_min, h_max, tol, jobs, run_cap = (
         search.n_key, search.t_end, search.periods, search.h_min, search.h_max, search.tol, search.jobs, search.run_cap)
@@ -261,7 +262,10 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
         if search.whole_run:
             fr, tr = found[per * i + 1], tasks[per * i + 1]
             row.update({f"{k}_run": v for k, v in fr.items()})
-            row["agrees_run"] = agrees(m["h_pred_run"], fr, tol, tr.h_max)
+            # linear theory predicts divergence; a run that failed otherwise (Newton at an impact
+            # with h_contact = h, a weak instability of the constraints) is no test of it
+            diverged = fr["unstable_status"] in ("", "diverged")
+            row["agrees_run"] = agrees(m["h_pred_run"], fr, tol, tr.h_max) if diverged else None
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -381,7 +385,11 @@ def run_stability(scene: Scene, methods: Sequence[str] = DEFAULT_METHODS, n: str
              f"bisection to {search.tol:.0%}")
     files = stability_report.write(df, out, stem, title, search.h_max, search.mark_h,
                                    scenes=((scene.name, scene.hash),))
-    whole = (f"; over the whole run {int(df['agrees_run'].sum())}/{len(df)}" if "agrees_run" in df else "")
+    whole = ""
+    if "agrees_run" in df:
+        tested = df["agrees_run"].dropna()
+        whole = (f"; over the whole run {int(tested.astype(bool).sum())}/{len(tested)} where the run diverged "
+                 f"({len(df) - len(tested)} failed otherwise: no test of the prediction)")
     runs = int(df["runs"].sum() + (df["runs_run"].sum() if "runs_run" in df else 0))
     summary = (f"{int(df['agrees'].sum())}/{len(df)} rows agree with the prediction within one bisection step"
                f"{whole}; {runs} runs in {time.perf_counter() - wall0:.1f} s")

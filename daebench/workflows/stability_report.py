@@ -29,14 +29,30 @@ def markdown(df: pd.DataFrame, h_max: float) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in df.itertuples():
         meas = _bracket(r.h_stable, r.h_unstable)
-        run = (f"{_bracket(r.h_stable_run, r.h_unstable_run)} ({r.unstable_status_run or '—'}) "
-               f"| {'yes' if r.agrees_run else 'NO'}" if hasattr(r, "h_stable_run") else "— | —")
+        run = (f"{_bracket(r.h_stable_run, r.h_unstable_run)} ({_why(r.unstable_status_run, r.unstable_message_run)}) "
+               f"| {_agrees(r.agrees_run)}" if hasattr(r, "h_stable_run") else "— | —")
         lines.append(f"| {r.label} | {'' if r.N is None or (isinstance(r.N, float) and math.isnan(r.N)) else int(r.N)} "
                      f"| {r.omega_max:.5g} | {r.t_trial:.3g} | {r.method} | {_omega(r.interval_strict)} "
                      f"| {_omega(r.interval)} "
                      f"| {_h(r.h_pred)} | {meas} | {r.unstable_status or '—'} | {'yes' if r.agrees else 'NO'} "
                      f"| {_h(getattr(r, 'h_pred_run', math.nan))} ({getattr(r, 't_run', math.nan):g} s) | {run} |")
     return "\n".join(lines)
+
+
+def _why(status: str, message: str) -> str:
+    """The status of the first unstable run, with the start of its reason where it did not
+    simply diverge."""
+    if not status:
+        return "—"
+    if status == "diverged" or not message:
+        return status
+    reason = message.split(" — ")[0].split(" (t = ")[0]
+    return f"{status}: {reason[:90]}"
+
+
+def _agrees(ok: bool | None) -> str:
+    return "n/a (failed, not diverged)" if ok is None or (isinstance(ok, float) and math.isnan(ok)) else \
+        ("yes" if ok else "NO")
 
 
 def _bracket(lo: float, hi: float) -> str:
