@@ -68,7 +68,7 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
            fmt: str | None = None, prov: dict[str, Any] | None = None) -> Path:
     """h_max against N, one colour and marker per integrator setting, every marker at its
     own N: measured on the trial (filled; hollow = no instability up to the bisection bound)
-    and over the scene's whole run (×, where bracketed), predicted for the trial (dashed) and
+    and over the scene's whole run (×, where its bracket ends in a divergence), predicted for the trial (dashed) and
     for the whole run (dotted), log axis."""
     import matplotlib  # lazy: matplotlib (heavy) only when the figure is drawn
 
@@ -93,9 +93,9 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
         up = np.isfinite(lo) & ~np.isfinite(hi)
         if up.any():
             ax.plot(n[up], lo[up], mk, color=c, ms=7, mfc="none")
-        if "h_stable_run" in d:    # measured over the whole run: crosses at its own N
+        if "h_stable_run" in d:    # measured over the whole run where it diverged: crosses at its own N
             lo_r, hi_r = d["h_stable_run"].to_numpy(float), d["h_unstable_run"].to_numpy(float)
-            ok = np.isfinite(lo_r) & np.isfinite(hi_r)
+            ok = np.isfinite(lo_r) & np.isfinite(hi_r) & (d["unstable_status_run"] == "diverged").to_numpy()
             ax.plot(n[ok], lo_r[ok], "x", color=c, ms=7, mew=1.5)
         for col, ls in (("h_pred", "--"), ("h_pred_run", ":")):
             pred = d[col].to_numpy(float) if col in d else np.full(len(d), np.nan)
@@ -107,7 +107,7 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
                 Line2D([], [], color="k", marker="o", mfc="none", ls="", label="no instability up to the upper bound"),
                 Line2D([], [], color="k", ls="--", label="predicted for the trial (∞: not drawn)"),
                 Line2D([], [], color="k", ls=":", label="predicted for the whole run"),
-                Line2D([], [], color="k", marker="x", ls="", mew=1.5, label="measured over the whole run")]
+                Line2D([], [], color="k", marker="x", ls="", mew=1.5, label="measured over the whole run (where it diverged; a failed run is in the table)")]
     if mark_h:
         ax.axhline(mark_h, color="0.3", ls=":", lw=1.0)
         handles.append(Line2D([], [], color="0.3", ls=":", label=f"h = {mark_h:g} s"))
