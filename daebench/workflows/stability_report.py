@@ -107,7 +107,7 @@ def figure(df: pd.DataFrame, path: Path, title: str, h_max: float, mark_h: float
                 Line2D([], [], color="k", marker="o", mfc="none", ls="", label="no instability up to the upper bound"),
                 Line2D([], [], color="k", ls="--", label="predicted for the trial (∞: not drawn)"),
                 Line2D([], [], color="k", ls=":", label="predicted for the whole run"),
-                Line2D([], [], color="k", marker="x", ls="", mew=1.5, label="measured over the whole run (where it diverged; a failed run is in the table)")]
+                Line2D([], [], color="k", marker="x", ls="", mew=1.5, label="measured over the whole run (diverged)")]
     if mark_h:
         ax.axhline(mark_h, color="0.3", ls=":", lw=1.0)
         handles.append(Line2D([], [], color="0.3", ls=":", label=f"h = {mark_h:g} s"))
