@@ -38,8 +38,8 @@ P gives g₁ = −g₀, so the gap zig-zags about zero (|g| = O(h |ġ⁻|), not 
 E₁ − E₀ = −2 P g₀ / h changes sign from step to step, and need not sum to zero: on
 chain-impact at h = 1e-4 s the run ends with E 59 % above E0, and the driver fails it for
 energy made across contacts (:mod:`daebench.core.impact_checks`, rule 7; θ = 1 dissipates
-and completes; tests/models/test_chain.py). The rigid contact has no restitution parameter; its effective restitution
-follows from the scheme.
+and completes; tests/models/test_chain.py). The rigid contact has no restitution
+parameter; its effective restitution follows from the scheme.
 
 Output
 ------

@@ -124,27 +124,22 @@ def bisect(task: Task, report: Callable[[str], None] | None = None) -> dict[str,
     """Largest stable h of one task: the bracket [h_stable, h_unstable] (NaN where the
     bounds were not crossed) and the status of the run at h_unstable."""
     s = dict(task.settings)
-    runs = 1
-    ok, status, message = run_is_stable(task.scene, task.integrator, s, task.h_max, task.t_trial, task.run_cap)
-    lo, hi, bad, why = math.nan, math.nan, "", ""
-    if ok:
-        lo = task.h_max
-    else:
-        hi, bad, why = task.h_max, status, message
+    lo, hi, bad, why, runs = math.nan, math.nan, "", "", 0
+
+    def probe(h: float) -> bool:
+        nonlocal lo, hi, bad, why, runs
         runs += 1
-        ok, status, message = run_is_stable(task.scene, task.integrator, s, task.h_min, task.t_trial, task.run_cap)
+        ok, status, message = run_is_stable(task.scene, task.integrator, s, h, task.t_trial, task.run_cap)
         if ok:
-            lo = task.h_min
+            lo = h
         else:
-            hi, bad, why = task.h_min, status, message
+            hi, bad, why = h, status, message
+        return ok
+
+    if not probe(task.h_max):
+        probe(task.h_min)
     while math.isfinite(lo) and math.isfinite(hi) and hi / lo > 1.0 + task.tol:
-        mid = math.sqrt(lo * hi)
-        runs += 1
-        ok, status, message = run_is_stable(task.scene, task.integrator, s, mid, task.t_trial, task.run_cap)
-        if ok:
-            lo = mid
-        else:
-            hi, bad, why = mid, status, message
+        probe(math.sqrt(lo * hi))
     if report is not None:
         report(f"{task.label:<34s} N = {task.n!s:>4}: h_max in [{lo:.4g}, {hi:.4g}] s ({runs} runs)")
     return {"h_stable": lo, "h_unstable": hi, "unstable_status": bad, "unstable_message": why, "runs": runs}
@@ -223,7 +218,7 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
         lin = linearize(sc)
         te = min(t_end, sc.t_end) if t_end is not None else trial_length(sc, lin, periods)
         scenes.append((n, sc, lin, te))
-    tasks, meta = [], []
+    tasks, run_tasks, meta = [], [], []
     for name, settings in methods:
         integ = make_integrator(name, settings)
         if not integ.capabilities.fixed_step or integ.adaptive:
@@ -241,26 +236,26 @@ def stability_map(scene: Scene, methods: Sequence[tuple[str, dict[str, Any]]], n
                               run_cap))
             if search.whole_run:
                 top_run = min(h_max, sc.t_end / MIN_STEPS)
-                tasks.append(Task(sc, name, tuple(settings.items()), label + " (whole run)", n,
-                                  min(h_min, 0.5 * top_run), top_run, tol, sc.t_end, run_cap))
+                run_tasks.append(Task(sc, name, tuple(settings.items()), label + " (whole run)", n,
+                                      min(h_min, 0.5 * top_run), top_run, tol, sc.t_end, run_cap))
             meta.append({"integrator": name, "settings": dict(settings), "label": label, "N": n,
                          "omega_max": float(lin.omega.max(initial=0.0)), "method": getattr(meth, "name", "n/a"),
                          "interval_strict": strict, "interval": pred["interval"], "h_pred": pred["h_pred"],
                          "t_run": sc.t_end, "h_pred_run": run})
-    if jobs > 1 and len(tasks) > 1:
+    every = tasks + run_tasks
+    if jobs > 1 and len(every) > 1:
         ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
         with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
-            found = list(pool.map(_solve, tasks))
+            found = list(pool.map(_solve, every))
     else:
-        found = [bisect(t, progress) for t in tasks]
-    per = 2 if search.whole_run else 1
+        found = [bisect(t, progress) for t in every]
+    found_run = found[len(tasks):]
     rows = []
-    for i, m in enumerate(meta):
-        f, t = found[per * i], tasks[per * i]
+    for i, (m, f, t) in enumerate(zip(meta, found, tasks)):
         row = {**m, **f, "t_trial": t.t_trial, "h_top": t.h_max, "tol": tol,
                "agrees": agrees(m["h_pred"], f, tol, t.h_max)}
-        if search.whole_run:
-            fr, tr = found[per * i + 1], tasks[per * i + 1]
+        if run_tasks:
+            fr, tr = found_run[i], run_tasks[i]
             row.update({f"{k}_run": v for k, v in fr.items()})
             # linear theory predicts divergence; a run that failed otherwise (Newton at an impact
             # with h_contact = h, a weak instability of the constraints) is no test of it

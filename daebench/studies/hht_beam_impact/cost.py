@@ -10,8 +10,8 @@ that can:
   dense linear algebra in the n unknowns (:func:`operation_cost`);
 - **CPU time per step where it is not overhead**: HHT on the same beam discretized by
   finite elements (``discretization.kind = fem``, n = 2·elements + 1 up to 1 001,
-  foreshortening off: its tables grow as n³ in memory), each size run over two horizons
-  so that the difference of their CPU times per step difference excludes the set-up. The
+  foreshortening off: its tables grow as n³ in memory), each size run over two horizons:
+  their CPU times' difference over their steps' difference excludes the set-up. The
   explicit ABM4 of Baumgarte's method cannot take the paper's step on these meshes (its
   step must stay below ~1/ω_max, which grows as n²); the runs say so.
 """
@@ -39,7 +39,7 @@ from daebench.studies.hht_beam_impact.table import PUBLISHED_TABLE1, table1
 STEEP = 1.0
 #: the FE sizes of the per-step fit start here: from n ≈ 100 on, a step costs far more than
 #: the call overhead that dominates the modal beam's (HHT α=−0.15, h = 1e-4 s, CPU time per
-#: step from 50 and 150 steps: 3.1e-4 s at n = 101 elements' FE beam, 9.3e-6 s on the modal
+#: step from 50 and 150 steps: 3.1e-4 s on the FE beam at n = 101, 9.3e-6 s on the modal
 #: beam at N = 9, 4.2e-7 s at N = 3)
 MIN_FIT_UNKNOWNS = 100
 
@@ -68,7 +68,7 @@ def power_fit(n: np.ndarray, cost: np.ndarray) -> tuple[float, float]:
 def growth(n: np.ndarray, cost: np.ndarray) -> tuple[float, float]:
     """Exponent k of cost ∝ n^k (:func:`power_fit`) and the largest |log residual|."""
     k, c0 = power_fit(n, cost)
-    return float(k), float(np.max(np.abs(np.log(cost) - (k * np.log(n) + c0))))
+    return k, float(np.max(np.abs(np.log(cost) - (k * np.log(n) + c0))))
 
 
 #: the integrator counters a row carries (:class:`daebench.integrators.base.Counters`)
@@ -77,12 +77,8 @@ COUNTS = ("steps", "residual_evals", "jacobian_evals", "lu_factorizations", "new
 
 @lru_cache(maxsize=32)
 def _unknowns(scene: str, overrides: str) -> int:
+    """A run's number of unknowns, from its model built with the run's scene overrides (JSON)."""
     return int(build_system(load_scene(scene, json.loads(overrides))).n)
-
-
-def _n_of(row: pd.Series, scene: str) -> int:
-    """The run's number of unknowns, from its model built with the run's scene overrides."""
-    return _unknowns(scene, row["overrides"])
 
 
 def _counted(rows: pd.DataFrame, scene: str) -> pd.DataFrame:
@@ -92,7 +88,7 @@ def _counted(rows: pd.DataFrame, scene: str) -> pd.DataFrame:
         c = {k: float(pd.to_numeric(r.get(k), errors="coerce")) for k in (*COUNTS, "cpu_s")}
         if not all(math.isfinite(v) for v in c.values()) or c["steps"] <= 0:
             continue
-        n = _n_of(r, scene)
+        n = _unknowns(scene, r["overrides"])
         ops = operation_cost(n, c["residual_evals"], c["jacobian_evals"], c["lu_factorizations"],
                              c["newton_iterations"])
         out.append({"N": int(r["N"]), "n": n, "setting": str(r["setting"]), "ops_step": ops / c["steps"],
@@ -121,13 +117,13 @@ def claim7(df, hists, p, stem, prov):
     """Cost grows steeply with N; at these fixed steps HHT is slower than Baumgarte (module
     docstring: judged on operation counts at the paper's sizes and on CPU time per step on
     FE meshes where it is not overhead; CPU time at the paper's sizes is reported beside)."""
-    scene = getattr(p, "scene", "beam-impact")
+    scene = p.scene
     figs = fig_cost(table1(df), stem, prov) if stem is not None else []
     table = _counted(df[df["set"] == "table"], scene)
     parts: list[tuple[str, bool | None]] = []
     # HHT against Baumgarte, N by N, in operations (the verdict) and CPU time (beside)
     pairs = []
-    for N in sorted(set(table["N"])) if len(table) else []:
+    for N in sorted(set(table["N"])):
         m = table[table["N"] == N]
         hv, bv = m[m.setting.str.startswith("HHT")], m[m.setting.str.startswith("Baum")]
         if len(hv) and len(bv):
@@ -149,7 +145,7 @@ def claim7(df, hists, p, stem, prov):
     # growth where it is not overhead: HHT's CPU time per step on FE meshes
     size = df[df["set"] == "size"] if "set" in df else df.iloc[:0]
     hs = per_step_cpu(size[size["setting"].astype(str).str.startswith("HHT")], scene)
-    fit = hs[hs["n"] >= MIN_FIT_UNKNOWNS] if len(hs) else hs
+    fit = hs[hs["n"] >= MIN_FIT_UNKNOWNS]
     if len(fit) >= 3:
         k, spread = growth(fit["n"].to_numpy(float), fit["cpu_step"].to_numpy())
         ko = growth(fit["n"].to_numpy(float), fit["ops_step"].to_numpy())[0]

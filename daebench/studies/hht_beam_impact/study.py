@@ -116,12 +116,12 @@ def plan(p: Protocol) -> list[RunSpec]:
     add("hertz", "newmark", {}, p.n_main, p.e_rebound, "hertz")
     # claim 7 where cost is not overhead: the FE beam (foreshortening off: its tables grow as
     # n³ in memory), N = its elements; Baumgarte's explicit ABM4 once, at the short horizon
+    fe = {"discretization.kind": "fem", "effects.foreshortening": False, "output.observables": BASE_OBSERVABLES}
     for el in p.size_elements:
         for k, steps in enumerate(p.size_steps):
-            for integ, o in [("hht", {"alpha": -0.15})] + ([("baumgarte", {"delta": 0.0, "epsilon": 0.0})] if k == 0 else []):
-                add("size", integ, o, el, p.e_table, **{"discretization.kind": "fem", "effects.foreshortening": False,
-                                                         "output.observables": BASE_OBSERVABLES,
-                                                         "t_end": steps * p.h})
+            sized = [("hht", {"alpha": -0.15})] + ([("baumgarte", {"delta": 0.0, "epsilon": 0.0})] if k == 0 else [])
+            for integ, o in sized:
+                add("size", integ, o, el, p.e_table, **fe, t_end=steps * p.h)
     return specs
 
 
