@@ -31,7 +31,7 @@ from typing import Callable
 
 import numpy as np
 
-from daebench.core.contact import contact_schema
+from daebench.core.contact import ContactLaw, contact_schema
 from daebench.core.linalg import Sparsity, band_order
 from daebench.models import _planar_imm, _planar_kernels as pk
 from daebench.models._planar_mesh import Mesh2D, assemble
@@ -88,6 +88,11 @@ class Layout:
     observe: Callable[["PlanarBodies", np.ndarray, np.ndarray], dict[str, float]]
     imm_radius: float = 0.0                     # the layout's Hertz estimate [m]
     notes: dict[str, float] = field(default_factory=dict)
+    #: mass added to nodes beyond their elements' lumped mass: (body, node, kg) — where a layout moves
+    #: the inertia of massless contact nodes it condensed (mass redistribution, see :mod:`.rodwall`)
+    added_mass: list[tuple[str, int, float]] = field(default_factory=list)
+    #: the layout's own contact law, replacing the one the scene's contact keys name (None: the scene's)
+    contact_law: ContactLaw | None = None
 
 
 class PlanarBodies(KernelSystem):
@@ -109,6 +114,8 @@ class PlanarBodies(KernelSystem):
         mats = [assemble(b.mesh, b.E, b.nu, b.rho, b.thickness) for b in self.bodies]
         self.matrices = mats
         mass = np.concatenate([np.repeat(m.mass, 2) for m in mats])
+        for bn, i, dm in layout.added_mass:
+            mass[2 * (offsets[bn] + int(i)) + np.arange(2)] += dm
         Xref = np.zeros(n)
         body_nodes = np.zeros(len(self.bodies) + 1, np.int64)
         frame = np.zeros((len(self.bodies), 2), np.int64)
@@ -162,7 +169,7 @@ class PlanarBodies(KernelSystem):
         law = scene["contact.law"]
         self.contact_model = law
         self.contact_restitution = float(scene["contact.restitution"])
-        self.contact_law = CONTACT.law(scene, self.n_contacts)
+        self.contact_law = layout.contact_law or CONTACT.law(scene, self.n_contacts)
         self.imm_radius = float(scene["imm.radius"]) or float(layout.imm_radius)
         self.coordinate_names = tuple(f"{c}{i}" for i in range(N) for c in "xy")
         self._sparsity: Sparsity | None = None
