@@ -9,10 +9,12 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
+from typing import Callable, Iterator
 
 import numpy as np
 
 from daebench.harness.running import provenance
+from daebench.harness.running.progress import SweepProgress
 from daebench.models import build_system
 from daebench.studies.interactive_mode_contact import measures as fc
 
@@ -34,28 +36,46 @@ ROD_PLATE_RUNS = [("ACM", "hht", dict(h=1e-6, h_contact=1e-7, alpha=-0.05), {}),
 REDISTRIBUTED = {"rod.contact_mass": "redistributed"}
 
 
+def _rod_wall_runs(N: int) -> list[tuple]:
+    h = min(1e-7, 1e-5 / N)
+    return [(N, "ACM", "ACM", dict(h=1e-6, h_contact=min(1e-7, 2e-5 / N), alpha=0.0), {}),
+            (N, "ACM+MR", "ACM", dict(h=h, alpha=0.0), REDISTRIBUTED),
+            (N, "ACM+MR", "ACM", dict(h=h / 4, alpha=0.0), REDISTRIBUTED),
+            (N, "IMM", "IMM", dict(h=h), {}), (N, "PFM", "PFM", dict(h=h), {"contact.penalty_stiffness": 1e10})]
+
+
+ROD_WALL_RUNS = [run for N in (10, 50, 200) for run in _rod_wall_runs(N)]
+COST_RUNS = [(N, tr, name, opts) for N in (10, 50, 200, 800)
+             for tr, name, opts in (("IMM", "imm", dict(h=1e-8)), ("PFM", "central", dict(h=1e-8)),
+                                    ("ACM", "hht", dict(h=1e-7, h_contact=1e-8, alpha=-0.05)))
+             if not (tr == "ACM" and N > 200)]
+
+
+def _each(part: str, runs: list[tuple], label: Callable[[tuple], str]) -> Iterator[tuple]:
+    """The runs of a part, one after another, with progress on stderr (each takes seconds)."""
+    with SweepProgress(f"interactive-mode {part}", len(runs)) as progress:
+        for run in runs:
+            progress.running([label(run)])
+            yield run
+            progress.update({"label": label(run), "status": "done"})
+
+
 def rod_wall(out: Path) -> list[dict]:
     rows = []
-    for N in (10, 50, 200):
-        h = min(1e-7, 1e-5 / N)
-        for label, tr, opts, ov in (
-                ("ACM", "ACM", dict(h=1e-6, h_contact=min(1e-7, 2e-5 / N), alpha=0.0), {}),
-                ("ACM+MR", "ACM", dict(h=h, alpha=0.0), REDISTRIBUTED),
-                ("ACM+MR", "ACM", dict(h=h / 4, alpha=0.0), REDISTRIBUTED),
-                ("IMM", "IMM", dict(h=h), {}), ("PFM", "PFM", dict(h=h), {"contact.penalty_stiffness": 1e10})):
-            c0 = time.process_time()
-            rec, res, integ, timer, sc = fc.run("rod-wall", tr, {"rod.elements": N, "output.dt": 5e-7, **ov}, **opts)
-            rows.append(dict(N=N, treatment=label, settings=opts, status=res.status, cpu_s=time.process_time() - c0,
-                             contact_cpu_s=timer.contact_s, steps=res.counters["steps"],
-                             energy_residual=res.energy_residual, C_max=res.constraint_max.get("C"),
-                             **fc.rod_wall_scores(res, sc)))
-            _dump(out / "rod-wall.json", rows)
+    for N, label, tr, opts, ov in _each("rodwall", ROD_WALL_RUNS, lambda r: f"N={r[0]} {r[1]} h={r[3]['h']:g}"):
+        c0 = time.process_time()
+        rec, res, integ, timer, sc = fc.run("rod-wall", tr, {"rod.elements": N, "output.dt": 5e-7, **ov}, **opts)
+        rows.append(dict(N=N, treatment=label, settings=opts, status=res.status, cpu_s=time.process_time() - c0,
+                         contact_cpu_s=timer.contact_s, steps=res.counters["steps"],
+                         energy_residual=res.energy_residual, C_max=res.constraint_max.get("C"),
+                         **fc.rod_wall_scores(res, sc)))
+        _dump(out / "rod-wall.json", rows)
     return rows
 
 
 def slider(out: Path) -> list[dict]:
     rows, hist, scenes = [], {}, []
-    for k, (tr, name, opts, ov) in enumerate(SLIDER_RUNS):
+    for k, (tr, name, opts, ov) in enumerate(_each("slider", SLIDER_RUNS, lambda r: f"{r[1]} h={r[2]['h']:g}")):
         c0 = time.process_time()
         rec, res, integ, timer, sc = fc.run("slider-slot", tr, {"output.dt": 1e-6, **ov}, integrator=name, **opts)
         h = res.history
@@ -79,7 +99,7 @@ def slider(out: Path) -> list[dict]:
 
 def rod_plate(out: Path) -> list[dict]:
     rows = []
-    for tr, name, opts, ov in ROD_PLATE_RUNS:
+    for tr, name, opts, ov in _each("rodplate", ROD_PLATE_RUNS, lambda r: f"{r[1]} h={r[2]['h']:g}"):
         c0 = time.process_time()
         rec, res, integ, timer, sc = fc.run("rod-plate", tr, {"t_end": 4e-4, "output.dt": 1e-6, **ov},
                                             integrator=name, **opts)
@@ -93,17 +113,13 @@ def rod_plate(out: Path) -> list[dict]:
 
 def cost(out: Path) -> list[dict]:
     rows = []
-    for N in (10, 50, 200, 800):
-        for tr, name, opts in (("IMM", "imm", dict(h=1e-8)), ("PFM", "central", dict(h=1e-8)),
-                               ("ACM", "hht", dict(h=1e-7, h_contact=1e-8, alpha=-0.05))):
-            if tr == "ACM" and N > 200:
-                continue
-            rec, res, integ, timer, sc = fc.run("rod-wall", tr, {"rod.elements": N, "output.dt": 1e-4, "t_end": 1e-4,
-                                                                 "contact.penalty_stiffness": 1e10},
-                                                integrator=name, **opts)
-            rows.append(dict(N=N, n=2 * (N + 1) * 2, treatment=tr, steps=res.counters["steps"],
-                             us_per_step=1e6 * timer.total_s / res.counters["steps"]))
-            _dump(out / "cost.json", rows)
+    for N, tr, name, opts in _each("cost", COST_RUNS, lambda r: f"N={r[0]} {r[1]}"):
+        rec, res, integ, timer, sc = fc.run("rod-wall", tr, {"rod.elements": N, "output.dt": 1e-4, "t_end": 1e-4,
+                                                             "contact.penalty_stiffness": 1e10},
+                                            integrator=name, **opts)
+        rows.append(dict(N=N, n=2 * (N + 1) * 2, treatment=tr, steps=res.counters["steps"],
+                         us_per_step=1e6 * timer.total_s / res.counters["steps"]))
+        _dump(out / "cost.json", rows)
     return rows
 
 
