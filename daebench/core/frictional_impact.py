@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from daebench.core.lcp import LCP_FAILURES, LCP_RAY, enumerate_lcp, lcp, lemke_work, solve_lcp_lemke
-from daebench.core.linalg import solve_structured
+from daebench.core.linalg import DiagonalMass, solve_structured
 
 #: the names of the impact laws, as the run record gives them
 ENUMERATE_MAX = 12     # unknowns up to which a failed Lemke run is checked by enumerating the bases
@@ -86,12 +86,15 @@ def law_name(mu: np.ndarray) -> str:
     return LAW_NEWTON_COULOMB if np.any(np.asarray(mu) > 0.0) else LAW_NEWTON
 
 
-def constrained_inverse(M: np.ndarray, B: np.ndarray, G: np.ndarray) -> np.ndarray:
+def constrained_inverse(M: "np.ndarray | DiagonalMass", B: np.ndarray, G: np.ndarray) -> np.ndarray:
     """M_B⁻¹ Gᵀ: the velocity change per unit impulse along the rows of G with B v = 0 kept
     (the augmented system [[M, Bᵀ], [B, 0]])."""
     n, mb = M.shape[0], B.shape[0]
     if mb == 0:
         return solve_structured(M, G.T)
+    if isinstance(M, DiagonalMass):   # the Schur complement on B: O(n (k + mb)) instead of a dense (n + mb)² system
+        X, Y = M.solve(G.T), M.solve(B.T)
+        return X - Y @ np.linalg.solve(B @ Y, B @ X)
     A = np.zeros((n + mb, n + mb))
     A[:n, :n], A[:n, n:], A[n:, :n] = M, B.T, B
     rhs = np.zeros((n + mb, G.shape[0]))

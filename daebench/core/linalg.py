@@ -293,6 +293,37 @@ STRUCTURED_MIN_N = 128
 STRUCTURED_MAX_FRACTION = 0.125
 
 
+class DiagonalMass:
+    """A diagonal mass matrix M = diag(d) as an operator: ``M @ x``, ``x @ M`` and
+    :meth:`solve` in O(n) per column, so that a lumped model's contact transitions (impacts,
+    settling, projections) never build the dense n × n matrix. NumPy defers to it
+    (``__array_ufunc__ = None``), so ``v @ M @ v`` works as with an array; there is no
+    implicit conversion to a dense array — code that needs one asks for :meth:`dense`."""
+
+    __array_ufunc__ = None
+
+    def __init__(self, d: np.ndarray):
+        self.d = np.ascontiguousarray(d, dtype=np.float64)
+        if self.d.ndim != 1 or not np.all(np.isfinite(self.d)) or not np.all(self.d > 0.0):
+            raise ValueError("DiagonalMass needs a 1-D array of positive, finite masses")
+        self.shape = (self.d.size, self.d.size)
+
+    def __matmul__(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float64)
+        return self.d * x if x.ndim == 1 else self.d[:, None] * x
+
+    def __rmatmul__(self, x: np.ndarray) -> np.ndarray:
+        return np.asarray(x, dtype=np.float64) * self.d
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """M⁻¹ b for one right-hand side or columns of them."""
+        b = np.asarray(b, dtype=np.float64)
+        return b / self.d if b.ndim == 1 else b / self.d[:, None]
+
+    def dense(self) -> np.ndarray:
+        return np.diag(self.d)
+
+
 def solve_structured(A: np.ndarray, b: np.ndarray, nb: int | None = None) -> np.ndarray:
     """x = A⁻¹ b (``b`` one right-hand side or columns of them) for a dense ``A`` whose
     leading ``nb`` × ``nb`` block (all of A by default) is banded: a mass matrix, or an
@@ -305,6 +336,8 @@ def solve_structured(A: np.ndarray, b: np.ndarray, nb: int | None = None) -> np.
     ``STRUCTURED_MIN_N`` banded unknowns, or a band (kl + ku) or border wider than
     ``STRUCTURED_MAX_FRACTION`` of them — and where the banded block needs a pivot from
     outside itself (a zero pivot in it: the banded LU pivots within the block only)."""
+    if isinstance(A, DiagonalMass):
+        return A.solve(b)
     A = np.ascontiguousarray(A, dtype=np.float64)
     n = A.shape[0]
     nb = n if nb is None else int(nb)

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from daebench.core import coulomb, phase
+from daebench.core.linalg import DiagonalMass
 from daebench.core.system import MechanicalSystem
 
 @dataclass
@@ -98,6 +99,13 @@ class Problem:
         M = np.empty((self.n, self.n))
         phase.mass_force(self.kernel, 0.0, _f(q), self._zeros, M, np.empty(self.n))
         return M
+
+    def mass_operator(self, q: np.ndarray) -> "np.ndarray | DiagonalMass":
+        """M(q) for products and solves: a lumped model's constant diagonal as a
+        :class:`~daebench.core.linalg.DiagonalMass` (O(n), never the dense n × n matrix),
+        else the dense matrix."""
+        d = _lumped(self.system)
+        return DiagonalMass(d) if d is not None else self.mass(q)
 
     def force(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         return self.mass_force(t, q, v)[1]

@@ -41,6 +41,7 @@ import numpy as np
 
 from daebench.core.frictional_impact import constrained_inverse
 from daebench.core.lcp import LCP_FAILURES, lcp
+from daebench.core.linalg import DiagonalMass
 
 CLOSED_FORCE_REL = 1e-9   # contact force below this fraction of the force scale: open
 
@@ -71,7 +72,7 @@ def resting_lcp(M: np.ndarray, B: np.ndarray, G: np.ndarray, a_free: np.ndarray,
     if k == 0:
         return RestingSolution(np.zeros(0), np.zeros(0), np.zeros(0, bool), 0)
     B = np.zeros((0, G.shape[1])) if B is None else np.atleast_2d(B)
-    X = constrained_inverse(np.asarray(M, float), B, G)
+    X = constrained_inverse(M if isinstance(M, DiagonalMass) else np.asarray(M, float), B, G)
     W = np.ascontiguousarray(G @ X)
     b = np.ascontiguousarray(G @ a_free - np.asarray(gamma, float))
     z, status = lcp(W, b)

@@ -181,7 +181,7 @@ def _impact(cs: ContactState, problem: Problem, t: float, i: int, q: np.ndarray,
     opens the closed ones that separate. Returns v⁺ and the open contacts of the event that
     lie below their surface by more than the band allows (to be lifted onto it)."""
     base = cs.base if cs.base is not None else problem
-    M = base.mass(q)
+    M = base.mass_operator(q)
     g, Gq, _ = base.gap_rows(q)
     B = base.constraint_jacobian(t, q)[:base.n_bilateral]
     e = problem.contact_law.restitution
@@ -276,7 +276,7 @@ def project_resting(cs: ContactState, problem: Problem, t: float, q: np.ndarray,
     ≥ 0, a projection in the kinetic metric) booked as impact loss."""
     q1, v1 = project(problem, t, q, v)
     if problem.m:
-        M = problem.mass(q1)
+        M = problem.mass_operator(q1)
         cs.d_impacts += max(0.5 * float(v @ M @ v - v1 @ M @ v1), 0.0)
     return q1, v1
 
@@ -305,7 +305,7 @@ def settle(cs: ContactState, t: float, q: np.ndarray, v: np.ndarray) -> bool:
         return False
     a_free, _ = base.acceleration(t, q, v)
     B = base.constraint_jacobian(t, q)[:base.n_bilateral]
-    sol = resting_lcp(base.mass(q), B, G[cand], a_free, gam[cand], cs.memory.force_release_t[cand] == t)
+    sol = resting_lcp(base.mass_operator(q), B, G[cand], a_free, gam[cand], cs.memory.force_release_t[cand] == t)
     if not sol.ok:
         raise StepFailure(f"{resting_failure(sol.status)} (contacts {cand})", t)
     closed = [c for c, shut in zip(cand, sol.closed) if shut]
@@ -335,7 +335,7 @@ def project(problem: Problem, t: float, q: np.ndarray, v: np.ndarray) -> tuple[n
     problem's active constraints (no-op when none are active)."""
     if problem.m == 0:
         return q, v
-    M = problem.mass(q)
+    M = problem.mass_operator(q)
     q = project_positions(problem, t, q, M)
     Cq = problem.constraint_jacobian(t, q)
     MiCt = solve_structured(M, Cq.T)
@@ -349,7 +349,7 @@ def project_positions(problem: Problem, t: float, q: np.ndarray, M: np.ndarray |
     by default)."""
     if problem.m == 0:
         return q
-    M = problem.mass(q) if M is None else M
+    M = problem.mass_operator(q) if M is None else M
     q = q.copy()
     for _ in range(PROJECTION_ITERS):
         C = problem.constraint(t, q)
