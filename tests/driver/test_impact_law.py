@@ -10,7 +10,6 @@ complete. On beam-impact, the runs the old driver filled with pulling impulses h
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
