@@ -36,6 +36,19 @@ _NO_ROWS = np.zeros((0, 1))
 _NONE = (np.zeros(0), _NO_ROWS)  # (output times, rows): no rows recorded
 
 
+def code_owner(cls: type) -> type:
+    """The class whose compiled loop the runs of integrator class ``cls`` use: for a
+    compiled stepper the class that defines its method data (hht, genalpha and newmark are
+    one Newmark-family loop), otherwise ``cls`` itself. Runs with one owner compile the
+    same code; a sweep's workers take runs of different owners first
+    (:func:`daebench.harness.sweeps.sweep.compile_order`)."""
+    if isinstance(cls, type) and issubclass(cls, CompiledIntegrator):
+        for klass in cls.__mro__:
+            if "method" in vars(klass) and klass is not CompiledIntegrator:
+                return klass
+    return cls
+
+
 class CompiledIntegrator(Integrator):
     """Base of integrators with a compiled stepper (see the module docstring)."""
 
