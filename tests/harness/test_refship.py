@@ -170,16 +170,35 @@ def _planted(tmp_path, monkeypatch, edit):
     return scene
 
 
-def test_a_derived_column_that_does_not_rebuild_to_the_bit_is_refused(empty_results, no_compute, tmp_path,
-                                                                      monkeypatch):
-    def wrong_digest(meta):
-        meta[packed.DERIVED_KEY]["tip_x"]["sha256"] = "0" * 64
+def test_a_derived_column_that_does_not_rebuild_is_refused(empty_results, no_compute, tmp_path, monkeypatch):
+    """tip_x's fingerprint moved by 1e-9 of its scale at one sampled row (1 000× the
+    tolerance: another model's value, not arithmetic): refused, nothing installed, and
+    `auto` computes the reference instead."""
+    def moved(meta):
+        fp = meta[packed.DERIVED_KEY]["tip_x"]
+        fp["samples"][7] += 1e-9 * fp["scale"]
 
-    scene = _planted(tmp_path, monkeypatch, wrong_digest)
-    with pytest.raises(references.ReferenceDamaged, match="refused.*tip_x rebuilt from the states differ"):
+    scene = _planted(tmp_path, monkeypatch, moved)
+    with pytest.raises(references.ReferenceDamaged, match="refused.*tip_x: at a sampled row it differs by"):
         references.load_reference(scene, mode="require")
     assert not references.reference_path(scene).exists()
     assert references.load_reference(scene, mode="auto") == "computed" and no_compute == [scene.hash]
+
+
+def test_another_cpus_last_bits_are_accepted(empty_results, no_compute, tmp_path, monkeypatch):
+    """Every sampled value of every rebuilt column two ulps away and the sums of magnitudes
+    moved by 1e-14 (what another CPU's vector width or math library gives): installed, and
+    the installed columns are this machine's rebuilt values (θ in degrees = q_theta)."""
+    def last_bits(meta):
+        for fp in meta[packed.DERIVED_KEY].values():
+            fp["samples"] = [None if x is None else float(np.nextafter(np.nextafter(x, np.inf), np.inf))
+                             for x in fp["samples"]]
+            fp["sum_abs"] *= 1 + 1e-14
+
+    scene = _planted(tmp_path, monkeypatch, last_bits)
+    hist = references.load_reference(scene, mode="require").history
+    assert no_compute == []
+    np.testing.assert_allclose(hist["theta_deg"], np.degrees(hist["q_theta"]), rtol=1e-15, atol=0)
 
 
 def test_thin_drops_only_what_the_states_rebuild():

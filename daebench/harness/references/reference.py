@@ -89,7 +89,7 @@ def install_shipped(scene: Scene) -> Path | None:
     except OSError as exc:
         raise write_error(exc, "the reference folder", dest.parent, kept) from None
     hist, meta = ref.history, {k: v for k, v in ref.meta.items() if k not in (packed.DERIVED_KEY, packed.ORDER_KEY)}
-    if ref.meta.get(packed.DERIVED_KEY):   # shipped thin: the columns the states determine rebuilt, to the bit
+    if ref.meta.get(packed.DERIVED_KEY):   # shipped thin: the columns the states determine rebuilt and checked
         try:
             hist = packed.rebuild(build_system(scene), hist, ref.meta[packed.DERIVED_KEY], ref.meta[packed.ORDER_KEY])
         except (ValueError, KeyError, TypeError) as exc:
