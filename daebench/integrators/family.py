@@ -52,6 +52,21 @@ def chung_hulbert(rho_inf: float) -> Coefficients:
     return Coefficients(am, af, 0.25 * (1.0 - am + af) ** 2, 0.5 - am + af, False, True)
 
 
+_DENSE_SCRATCH = ("LU", "M", "Kq", "Kv", "KM", "KC")
+
+
+def _dense_scratch_kept(ws: _nm.NewmarkWork, previous: _nm.NewmarkWork | None) -> _nm.NewmarkWork:
+    """A new phase's workspace with the last phase's dense scratch in it where the shapes
+    agree: the iteration matrix and the n × n matrices M, K_q, K_v, K_M, K_C, which a step
+    writes before it reads (they are allocated uninitialised). Why: at n = 4 738 each is
+    180 MB, which the system maps afresh at every phase start (an impact, a contact that
+    closes) and faults in a page per row on its first write. The history arrays are new."""
+    if previous is None:
+        return ws
+    kept = {k: getattr(previous, k) for k in _DENSE_SCRATCH if getattr(previous, k).shape == getattr(ws, k).shape}
+    return ws._replace(**kept)
+
+
 class NewmarkFamily(CompiledIntegrator):
     """Base of the Newmark-family integrators: subclasses implement :meth:`coefficients`."""
 
@@ -70,7 +85,8 @@ class NewmarkFamily(CompiledIntegrator):
 
     def workspace(self, n: int, m: int) -> _nm.NewmarkWork:
         declared = getattr(self.problem.system, "sparsity", None)  # a model's Sparsity, if it declares one
-        return _nm.workspace(n, m, bool(self.coefficients().ggl) and m > 0, declared() if declared else None)
+        ws = _nm.workspace(n, m, bool(self.coefficients().ggl) and m > 0, declared() if declared else None)
+        return _dense_scratch_kept(ws, getattr(self, "_ws", None))
 
     def stability_model(self) -> NewmarkMember:
         c = self.coefficients()
