@@ -22,6 +22,13 @@ import os as _os
 
 __version__ = "0.1.0"
 
+# One BLAS thread per process unless the environment says otherwise (read when numpy first
+# loads OpenBLAS, so only where daebench is imported before numpy: the command line, sweep
+# workers). daebench runs one method per process and prices it in CPU seconds; on the
+# paper-size slider (n = 4 738, 2 cores) OpenBLAS's second thread spent 15 s of CPU waiting
+# in a 64 s run, with the same wall time (docs/performance.md).
+_os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 # Before any kernel module is decorated: DAEBENCH_COMPILED=0 runs every numba function as
 # plain Python (the same source, interpreted), and daebench's compiled functions share one
 # cache stamp (daebench.core.numba_cache).
