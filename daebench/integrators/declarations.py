@@ -59,7 +59,8 @@ def capability_problems(cap: Any) -> list[str]:
         out.append(f"capabilities.{bad[0]} = {getattr(cap, bad[0])!r}: true or false is needed")
     if not bad and not (cap.fixed_step or cap.adaptive):
         out.append("capabilities: fixed_step or adaptive must be true (a method takes some step)")
-    if cap.constraints is True and cap.index not in INDICES:
+    whole = isinstance(cap.index, int) and not isinstance(cap.index, bool)   # 2.0 == 2 but is no index
+    if cap.constraints is True and not (whole and cap.index in INDICES):
         out.append(f"capabilities.index = {cap.index!r}: a method with constraints declares the index it accepts, "
                    f"one of {', '.join(map(str, INDICES))}")
     elif cap.constraints is False and cap.index is not None:
