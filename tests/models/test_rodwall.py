@@ -13,7 +13,7 @@ from scipy.linalg import eigh
 from scipy.optimize import brentq
 
 from daebench.core.scene import SceneError
-from daebench.models import build_system
+from daebench.models import build_system, rodwall
 from daebench.models.scenes import load_scene
 from daebench.studies.interactive_mode_contact import measures as fc
 
@@ -128,3 +128,19 @@ def test_penalty_spring_in_series_with_the_massless_end():
     exact = semi_discrete_bar(50, redistributed=True, wall_spring=0.5)
     for key in ("T_ratio", "F_mean_ratio", "v_after_ratio"):
         assert s[key] == pytest.approx(exact[key], abs=2e-4), key
+
+
+def test_saint_venants_numbers_and_the_condensed_end_spring():
+    """Steel, 1 m × 1 cm², 1 m/s (cases/rod-wall.toml): c = √(E/ρ), Z = ρ c A, T = 2L/c,
+    F = Z v0; the redistributed end's spring per node E A N / (2 L), and in series with a
+    penalty spring of the same stiffness half of it."""
+    sc = load_scene("rod-wall", {"rod.elements": 20})
+    c = (2.1e11 / 7850.0) ** 0.5
+    ex = rodwall.exact(sc)
+    assert ex["c"] == pytest.approx(c, rel=1e-15) and ex["T"] == pytest.approx(2.0 / c, rel=1e-15)
+    assert ex["Z"] == pytest.approx(7850.0 * c * 1e-4, rel=1e-15) and ex["F"] == pytest.approx(ex["Z"] * 1.0)
+    assert ex["mass"] == pytest.approx(0.785, rel=1e-15)
+    k_e = 2.1e11 * 1e-4 * 20 / 2.0
+    assert rodwall.condensed_stiffness(sc) == pytest.approx(k_e, rel=1e-15)
+    pen = sc.with_overrides({"contact.law": "penalty", "contact.penalty_stiffness": k_e})
+    assert rodwall.condensed_stiffness(pen) == pytest.approx(k_e / 2.0, rel=1e-15)
