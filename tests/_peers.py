@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 
+import _apt
 from daebench.peers import PEERS, PeerUnavailable
 
 
@@ -21,3 +22,10 @@ needs_siconos = pytest.mark.skipif(not available("siconos-mj"),
                                    reason="Siconos is not installed (apt-get install python3-siconos)")
 needs_exudyn = pytest.mark.skipif(not available("exudyn-ga"),
                                   reason="Exudyn is not installed (pip install 'daebench[exudyn]')")
+
+
+def ensure_siconos() -> None:
+    """Siconos in the system Python, installed (Debian's python3-siconos) when the session
+    may (:func:`_apt.ensure`): the documentation's peer how-to runs it."""
+    _apt.ensure("python3-siconos", lambda: True if available("siconos-mj") else None,
+                "Siconos is not importable in the system Python", "Siconos, which docs/howto/run-a-peer.md runs")

@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 import daebench
 from daebench.cli.app import app
 from daebench.cli.click_command import command as CLI
+import _peers  # noqa: E402  (tests/ is on sys.path under pytest)
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
@@ -65,7 +66,9 @@ def shown_commands(text: str) -> list[list[str]]:
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
-    """The site built as CI builds it: warnings as errors, every how-to page executed."""
+    """The site built as CI builds it: warnings as errors, every how-to page executed (the
+    peer how-to runs Siconos: found, or installed as the browser is)."""
+    _peers.ensure_siconos()
     out = tmp_path_factory.mktemp("site")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
                DAEBENCH_DOCS_EXECUTE="force", DAEBENCH_RESULTS=str(out / "results"))
