@@ -189,6 +189,7 @@ def connect_dask(scheduler: Any, jobs: int, timeout: float | None = None) -> tup
         raise ExecutorError(f"cannot reach the Dask scheduler at {scheduler} within {timeout:g} s "
                             f"({type(exc).__name__}); is it running? Start one with `dask scheduler`, or use "
                             f"--scheduler local") from None
+    _drop_unread_exits(client)
 
     def release() -> None:
         with quiet_distributed():
@@ -197,6 +198,23 @@ def connect_dask(scheduler: Any, jobs: int, timeout: float | None = None) -> tup
             except Exception:   # noqa: BLE001  the scheduler is gone: nothing left to release there
                 pass
     return client, release
+
+
+def _drop_unread_exits(client: Any) -> None:
+    """A result the sweep stopped waiting for (its read timed out: :func:`_finished`) leaves a
+    gather task in the client's event loop that ends with ``AllExit`` when the client closes;
+    no one reads it, and asyncio printed "Task exception was never retrieved" with a traceback
+    into the sweep's own report of the lost cluster, at whatever moment the task was freed.
+    The client's loop drops exactly those; any other unhandled exception is reported as before."""
+    loop = getattr(getattr(client, "loop", None), "asyncio_loop", None)
+    if loop is None:
+        return
+
+    def handler(lp: Any, context: dict) -> None:
+        if type(context.get("exception")).__name__ != "AllExit":
+            lp.default_exception_handler(context)
+
+    loop.set_exception_handler(handler)
 
 
 @contextmanager
