@@ -1,6 +1,7 @@
-"""daebench.harness.scoring.external.events and .checks: impacts read off another code's gap
+"""daebench.harness.scoring.external.events, .checks and .records: impacts read off another code's gap
 series, checked against the bouncing ball's closed form (dropped 1 m, e = 0.8: t₁ = √(2h/g),
-t_{k+1} = t_k + 2 e^k v₁/g), and the time column's rules with the fix each refusal gives."""
+t_{k+1} = t_k + 2 e^k v₁/g), the time column's rules with the fix each refusal gives, and what a
+message may echo of a file."""
 
 from __future__ import annotations
 
@@ -64,3 +65,13 @@ def test_time_column_refusals_say_the_fix(t, t_end, match):
 def test_a_trajectory_over_the_span_with_an_impacts_two_sides_passes():
     check_times(np.array([0.0, 0.25, 0.5, 0.5, 1.0]), 1.0, "the file")
     check_times(np.array([0.2, 0.7]), 1.0, "the impacts file", trajectory=False)   # impacts: no span rule
+
+
+def test_what_a_message_echoes_of_a_file_is_bounded():
+    from daebench.harness.scoring.external.records import ECHO_CHARS, clip
+
+    assert clip("t,x") == "'t,x'" and clip(3.5) == "3.5"
+    long = "x" * 10_000
+    shown = clip(long)
+    assert shown.startswith("'" + "x" * ECHO_CHARS + "'") and shown.endswith("(10000 characters)")
+    assert len(shown) < ECHO_CHARS + 40
