@@ -44,7 +44,7 @@ REBUILD_RTOL = 1e-12
 ORDER_KEY = "columns_whole"
 #: rows of a rebuilt column whose values its fingerprint keeps (evenly spaced, ends included)
 SAMPLES = 65
-_FINGERPRINT = ("rows", "samples", "scale", "sum_abs", "nan")
+_FINGERPRINT = ("samples", "scale", "sum_abs", "nan")
 
 
 def _sample_rows(n: int) -> np.ndarray:
@@ -52,12 +52,12 @@ def _sample_rows(n: int) -> np.ndarray:
 
 
 def fingerprint(values: np.ndarray) -> dict[str, Any]:
-    """What a thin reference keeps of a rebuilt column: {"rows", "samples" (values there,
-    None for NaN), "scale" (largest magnitude), "sum_abs" (sum of magnitudes), "nan" (count)}."""
+    """What a thin reference keeps of a rebuilt column: {"samples" (its values at the rows
+    :func:`_sample_rows` picks for its length, None for NaN), "scale" (largest magnitude),
+    "sum_abs" (sum of magnitudes), "nan" (count)}."""
     v = np.asarray(values, float)
-    rows = _sample_rows(len(v))
     finite = np.isfinite(v)
-    return {"rows": rows.tolist(), "samples": [None if np.isnan(x) else float(x) for x in v[rows]],
+    return {"samples": [None if np.isnan(x) else float(x) for x in v[_sample_rows(len(v))]],
             "scale": float(np.abs(v[finite]).max(initial=0.0)), "sum_abs": float(np.abs(v[finite]).sum()),
             "nan": int(np.isnan(v).sum())}
 
@@ -67,11 +67,11 @@ def mismatch(values: np.ndarray, fp: dict[str, Any]) -> str:
     ("" when they do): the sampled values each within it, the sum of magnitudes within it
     times the rows, the same count of NaN."""
     v = np.asarray(values, float)
-    rows = np.asarray(fp["rows"], np.int64)
+    rows = _sample_rows(len(v))
     if int(np.isnan(v).sum()) != fp["nan"]:
         return f"{int(np.isnan(v).sum())} NaN instead of {fp['nan']}"
-    if len(rows) != len(fp["samples"]) or (len(rows) and (rows.min() < 0 or rows.max() >= len(v))):
-        return "its sampled rows are not rows of the history"
+    if len(rows) != len(fp["samples"]):
+        return f"{len(fp['samples'])} sampled values for {len(v)} rows (another history length)"
     tol = REBUILD_RTOL * fp["scale"] + np.finfo(float).tiny   # a column of zeros: subnormals are arithmetic too
     want = np.array([np.nan if x is None else x for x in fp["samples"]], float)
     got = v[rows]
