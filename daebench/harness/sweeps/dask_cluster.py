@@ -206,7 +206,7 @@ def _drop_unread_exits(client: Any) -> None:
     no one reads it, and asyncio printed "Task exception was never retrieved" with a traceback
     into the sweep's own report of the lost cluster, at whatever moment the task was freed.
     The client's loop drops exactly those; any other unhandled exception is reported as before."""
-    from distributed.client import AllExit   # dask is installed: the client exists
+    from distributed.client import AllExit   # lazy: dask, an optional extra; the client exists
 
     loop = getattr(getattr(client, "loop", None), "asyncio_loop", None)
     if loop is None:
