@@ -41,7 +41,7 @@ import numpy as np
 
 from daebench.core.linalg import solve_structured
 from daebench.core.params import Param, ParamError
-from daebench.core.phase import LAW_HERTZ, LAW_PENALTY, law_elastic, law_force, law_potential
+from daebench.core.phase import LAW_HERTZ, LAW_PENALTY, law_elastic, law_forces, law_potentials
 
 if TYPE_CHECKING:  # pragma: no cover
     from daebench.core.scene import Scene
@@ -101,16 +101,23 @@ class ContactLaw:
 
     def force(self, g: np.ndarray, gdot: np.ndarray, engaged: np.ndarray | None = None,
               chi: np.ndarray | None = None) -> np.ndarray:
-        """Normal force per contact (engaged: all by default; χ: 0 by default)."""
-        engaged = np.ones(g.size, bool) if engaged is None else np.asarray(engaged, bool)
-        chi = np.zeros(g.size) if chi is None else np.asarray(chi, float)
-        law = self.parameters()
-        return np.array([law_force(law, bool(engaged[i]), float(chi[i]), float(g[i]), float(gdot[i]))
-                         for i in range(g.size)])
+        """Normal force per contact (engaged: all by default; χ: 0 by default); ``g`` and
+        ``gdot`` one value per contact, or rows × contacts (then so is the force)."""
+        g2, gd2 = _rows2(g), _rows2(gdot)
+        k = g2.shape[1]
+        engaged = np.ones(k, bool) if engaged is None else np.ascontiguousarray(engaged, bool)
+        chi = np.zeros(k) if chi is None else np.ascontiguousarray(chi, float)
+        F = np.empty(g2.shape)
+        law_forces(self.parameters(), engaged, chi, g2, gd2, F)
+        return F if np.ndim(g) == 2 else F[0]
 
-    def potential(self, g: np.ndarray) -> float:
-        law = self.parameters()
-        return float(sum(law_potential(law, float(x)) for x in np.ravel(g)))
+    def potential(self, g: np.ndarray) -> float | np.ndarray:
+        """Energy stored in the springs at the gaps ``g`` (one per contact: a number; rows ×
+        contacts: one per row)."""
+        g2 = _rows2(g)
+        U = np.empty(g2.shape[0])
+        law_potentials(self.parameters(), g2, U)
+        return U if np.ndim(g) == 2 else float(U[0])
 
     def dissipation_power(self, g: np.ndarray, gdot: np.ndarray, engaged: np.ndarray | None = None,
                           chi: np.ndarray | None = None) -> float:
@@ -120,6 +127,12 @@ class ContactLaw:
         F = self.force(g, gdot, engaged, chi)
         elastic = np.array([law_elastic(law, bool(engaged[i]), float(g[i])) for i in range(g.size)])
         return float(np.sum((F - elastic) * gdot))
+
+
+def _rows2(x: np.ndarray) -> np.ndarray:
+    """One value per contact, or rows × contacts, as a C-contiguous float 2-D array."""
+    x = np.asarray(x, dtype=float)
+    return np.ascontiguousarray(x if x.ndim == 2 else x.reshape(1, -1))
 
 
 class ConstraintLaw(ContactLaw):

@@ -24,7 +24,7 @@ import numpy as np
 
 from daebench.core import coulomb, phase
 from daebench.core.linalg import DiagonalMass
-from daebench.core.system import MechanicalSystem
+from daebench.core.system import MechanicalSystem, gap_table
 
 @dataclass
 class EvalCounters:
@@ -190,12 +190,15 @@ class Problem:
     # -- continuous contact forces ------------------------------------------------------------
     def contact_forces(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Normal force of each contact's continuous law in this phase (0 when open)."""
-        g, G, _ = self.gap_rows(q)
+        return self.contact_forces_rows(np.reshape(q, (1, -1)), np.reshape(v, (1, -1)))[0]
+
+    def contact_forces_rows(self, Q: np.ndarray, V: np.ndarray) -> np.ndarray:
+        """:meth:`contact_forces` at each row of the states (Q, V): rows × contacts."""
         law = self.system.contact_law
-        if law is None or not law.continuous:
-            return np.zeros(self.n_contacts)
-        F = law.force(g, G @ v, self.engaged != 0.0, self.chi)
-        return np.where(g < 0.0, F, 0.0)
+        if law is None or not law.continuous or not self.n_contacts:
+            return np.zeros((np.shape(Q)[0], self.n_contacts))
+        g, gd = gap_table(self.kernel.model, self.n_contacts, Q, V)
+        return np.where(g < 0.0, law.force(g, gd, self.engaged != 0.0, self.chi), 0.0)
 
     def contact_power(self, q: np.ndarray, v: np.ndarray) -> float:
         """Power into the system of the continuous laws' dissipation (≤ 0): the normal

@@ -27,6 +27,7 @@ import numpy as np
 
 from daebench.core import handles, kernels
 from daebench.core.kernels import fd_step
+from daebench.core.phase import gap_table as gap_table_kernel, model_gaps
 
 if TYPE_CHECKING:  # pragma: no cover
     from daebench.core.contact import ContactLaw
@@ -133,10 +134,18 @@ class MechanicalSystem:
 
     def contact_potential(self, q: np.ndarray) -> float:
         """Energy stored in continuous contact springs (0 for constraints)."""
+        return float(self.contact_potential_rows(np.reshape(q, (1, -1)))[0])
+
+    def contact_potential_rows(self, Q: np.ndarray) -> np.ndarray:
+        """:meth:`contact_potential` at each row of Q."""
         law = self.contact_law
-        if law is not None and law.continuous and self.n_contacts:
-            return float(law.potential(self.gap(q)))
-        return 0.0
+        if law is None or not law.continuous or not self.n_contacts:
+            return np.zeros(np.shape(Q)[0])
+        return law.potential(self.gap_rows_of(Q))
+
+    def gap_rows_of(self, Q: np.ndarray) -> np.ndarray:
+        """:meth:`gap` at each row of Q: rows × contacts."""
+        return np.array([self.gap(q) for q in Q], dtype=float).reshape(np.shape(Q)[0], self.n_contacts)
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
         """Named scalar outputs written to the history and scored by metrics."""
@@ -264,20 +273,33 @@ class KernelSystem(MechanicalSystem):
     def _gap_rows(self, q: np.ndarray, v: np.ndarray | None = None):
         k, n = self.n_contacts, self.n
         g, G, gam = np.zeros(k), np.zeros((k, n)), np.zeros(k)
-        qq, vv = _f(q), np.zeros(n) if v is None else _f(v)
-        md = self.kernel_handle()
-        for i in range(k):
-            g[i], gam[i] = kernels.gap(md, i, qq, vv, G[i])
+        if k:
+            model_gaps(self.kernel_handle(), _f(q), np.zeros(n) if v is None else _f(v), g, G, gam)
         return g, G, gam
 
     def gap(self, q: np.ndarray) -> np.ndarray:
         return self._gap_rows(q)[0]
+
+    def gap_rows_of(self, Q: np.ndarray) -> np.ndarray:
+        return gap_table(self.kernel_handle(), self.n_contacts, Q)[0]
 
     def gap_jacobian(self, q: np.ndarray) -> np.ndarray:
         return self._gap_rows(q)[1]
 
     def gap_gamma(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         return self._gap_rows(q, v)[2]
+
+
+def gap_table(md: Any, k: int, Q: np.ndarray, V: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(g, ġ) of the ``k`` contact points (columns) of the model with kernel data ``md`` at
+    each row of the states (Q, V) (V = 0 by default), one compiled call
+    (:func:`daebench.core.phase.gap_table`)."""
+    Q = np.ascontiguousarray(Q, dtype=np.float64)
+    V = np.zeros_like(Q) if V is None else np.ascontiguousarray(V, dtype=np.float64)
+    g, gd = np.empty((Q.shape[0], k)), np.empty((Q.shape[0], k))
+    if k:
+        gap_table_kernel(md, Q, V, g, gd, np.empty(Q.shape[1]))
+    return g, gd
 
 
 def _f(x: np.ndarray) -> np.ndarray:

@@ -61,13 +61,13 @@ class Books:
         self.work["friction"] = float(book[0])
         return {**powers0, "friction": float(book[1])}
 
-    def _output_work(self, problem: Problem, k: int) -> list[dict[str, float]]:
-        """The work booked at each of the first ``k`` output rows a compiled call wrote: the
-        slip friction's from the loop (:func:`daebench.core.coulomb.book_rows`), the rest unchanged."""
+    def _output_work(self, problem: Problem, k: int) -> dict[str, float | np.ndarray]:
+        """The work booked at each of the first ``k`` output rows a compiled call wrote, by
+        effect (a value for all rows, or one per row): the slip friction's from the loop
+        (:func:`daebench.core.coulomb.book_rows`), the rest unchanged."""
         if not problem.slips:
-            return [dict(self.work) for _ in range(k)]
-        rows = problem.kernel.friction.row_work
-        return [{**self.work, "friction": float(rows[i])} for i in range(k)]
+            return dict(self.work)
+        return {**self.work, "friction": np.array(problem.kernel.friction.row_work[:k], dtype=float)}
 
     def _accumulate_work(self, prev: State, end: State, p0: dict, p1: dict, problem: Problem) -> None:
         dt = end.t - prev.t
@@ -88,56 +88,74 @@ class Books:
 
     def _record_until(self, prev: State, end: State, problem: Problem, dt: float,
                       base: dict | None = None, p0: dict | None = None, p1: dict | None = None) -> None:
-        """Write history rows for the output times in (prev.t, end.t] (t = 0 included once)."""
-        while self.out_i < len(self.t_out) and _output_due(self.t_out[self.out_i], end.t, self.t_end):
-            to = float(self.t_out[self.out_i])
-            src = _source(to, prev.t, end.t)
-            s = end if src == _dense.END else prev if src == _dense.START else self.integ.dense(to)
-            if src == _dense.INSIDE and min(to - prev.t, end.t - to) > INSIDE_REL * dt:
-                self.inside.append(to)   # (an output time a rounding away from a step's end is that end)
-            if base is None:
-                work = dict(self.work)
-            else:
-                th = 0.0 if dt == 0.0 else (to - prev.t) / dt
-                work = dict(base)
-                for k in set(p0) | set(p1):
-                    pk = p0.get(k, 0.0) + th * (p1.get(k, 0.0) - p0.get(k, 0.0))
-                    work[k] = base.get(k, 0.0) + 0.5 * (to - prev.t) * (p0.get(k, 0.0) + pk)
-            self._row(to, s, work, problem)
+        """Write history rows for the output times in (prev.t, end.t] (t = 0 included once):
+        the states there (a step's ends, else its dense output) and the work booked until
+        then (the trapezoid of the powers ``p0``, ``p1`` from ``base``, the power linear over
+        the step), all rows of the step at once (:meth:`_rows`)."""
+        i, n_out = self.out_i, len(self.t_out)
+        while i < n_out and _output_due(self.t_out[i], end.t, self.t_end):
+            i += 1
+        times = self.t_out[self.out_i:i].tolist()
+        if not times:
+            return
+        src = [_source(to, prev.t, end.t) for to in times]
+        inner = [to for to, k in zip(times, src) if k == _dense.INSIDE]
+        dense = iter(self.integ.dense_many(inner) if inner else ())
+        outputs = [(to, end if k == _dense.END else prev if k == _dense.START else next(dense))
+                   for to, k in zip(times, src)]
+        # (an output time a rounding away from a step's end is that end)
+        self.inside += [to for to in inner if min(to - prev.t, end.t - to) > INSIDE_REL * dt]
+        if base is None:
+            work: dict[str, float | np.ndarray] = dict(self.work)
+        else:
+            # each row's work as the scalar rule would give it, elementwise (the same operations)
+            el = np.array([to for to, _ in outputs]) - prev.t
+            th = np.zeros(len(outputs)) if dt == 0.0 else el / dt
+            work = dict(base)
+            for k in set(p0) | set(p1):
+                a, b = p0.get(k, 0.0), p1.get(k, 0.0)
+                work[k] = base.get(k, 0.0) + 0.5 * el * (a + (a + th * (b - a)))
+        self._rows(outputs, problem, work)
 
-    def _rows(self, outputs: list[tuple[float, State]], problem: Problem) -> None:
-        """:meth:`_row` of (output time, state) pairs, the work unchanged between them; the
-        model's ``output_rows`` (:class:`~daebench.core.system.MechanicalSystem`), if any, in one call."""
-        batch = getattr(self.system, "output_rows", None)
-        works = self._output_work(problem, len(outputs))   # (the rows of a slipping phase: closed contacts)
-        if batch is None or len(outputs) < 2:
-            for (to, s), work in zip(outputs, works):
-                self._row(to, s, work, problem)
+    def _rows(self, outputs: list[tuple[float, State]], problem: Problem,
+              work: dict[str, float | np.ndarray] | None = None) -> None:
+        """The history rows of (output time, state) pairs with the work booked at each (by
+        effect: one value, or one per row; default: what a compiled call booked,
+        :meth:`_output_work`): one block of columns (:func:`daebench.driver.history.block`;
+        the model's ``output_rows`` of :class:`~daebench.core.system.MechanicalSystem` if it
+        has them, its ``observables``/``energy`` per row otherwise) — by :meth:`_row` one at a
+        time for a single row and where closed constraints add their residuals per row. The
+        first diverging row ends the run as :meth:`_row` ends it."""
+        if not outputs:
+            return
+        work = self._output_work(problem, len(outputs)) if work is None else work
+        cs, sys_ = self.contacts, self.system
+        if len(outputs) < 2 or (problem.m and cs.active):   # (constraint residuals: per row)
+            for i, (to, s) in enumerate(outputs):
+                self._row(to, s, _work_row(work, i), problem)
             return
         t = np.array([to for to, _ in outputs])
-        obs, terms = batch(t, np.array([s.q for _, s in outputs]), np.array([s.v for _, s in outputs]))
-        cs, sys_ = self.contacts, self.system
-        if cs.continuous or (problem.m and cs.active):  # per-row contact forces or constraint residuals
-            obs_cols, term_cols = ({k: c.tolist() for k, c in d.items()} for d in (obs, terms))
-            for i, (to, s) in enumerate(outputs):
-                self._row(to, s, works[i], problem, {k: c[i] for k, c in obs_cols.items()},
-                          {k: c[i] for k, c in term_cols.items()})
-            return
-        # a stretch without events: the rows as one block of columns (driver.history)
-        b = block(t, obs, terms, self.work, self.E0, cs.d_impacts, self.observables, self._n_active())
-        bad, _ = divergence(b["E"], b["energy_residual"], self.work, self.E0, self.energy_scale, cs.d_impacts)
+        Q, V = np.array([s.q for _, s in outputs]), np.array([s.v for _, s in outputs])
+        batch = getattr(sys_, "output_rows", None)
+        obs, terms = batch(t, Q, V) if batch is not None else _model_rows(sys_, outputs)
+        b = block(t, obs, terms, work, self.E0, cs.d_impacts, self.observables, self._n_active())
+        if cs.continuous:
+            F = problem.contact_forces_rows(Q, V)
+            for c in range(sys_.n_contacts):
+                b[f"contact_force_{c}"] = F[:, c]
+        bad, _ = divergence(b["E"], b["energy_residual"], work, self.E0, self.energy_scale, cs.d_impacts)
         bad = np.broadcast_to(bad, (len(outputs),))
         if self._length_scale is not None:
-            bad = bad | penetration(np.array([sys_.gap(s.q) for _, s in outputs]), self._length_scale)[0]
+            bad = bad | penetration(sys_.gap_rows_of(Q), self._length_scale)[0]
         k = int(np.argmax(bad)) if bad.any() else len(outputs)
         if k:
             self.rows.append(b.head(k) if k < len(outputs) else b)
             if self.record_states:
                 self._states.extend(state_row(to, s, sys_.n, sys_.n_bilateral) for to, s in outputs[:k])
             self.out_i += k
-        if k < len(outputs):  # the first diverging row ends the run as the row path ends it
+        if k < len(outputs):
             to, s = outputs[k]
-            self._row(to, s, dict(self.work), problem, {c: v[k] for c, v in obs.items()},
+            self._row(to, s, _work_row(work, k), problem, {c: v[k] for c, v in obs.items()},
                       {c: v[k] for c, v in terms.items()})
 
     def _row(self, to: float, s: State, work: dict[str, float], problem: Problem,
@@ -198,3 +216,16 @@ class Books:
         if bad.any():
             self._t_last, self._last_state = max(self._t_last, t), s
             raise Diverged(f"t = {t:.6g} s: {why}")
+
+
+def _work_row(work: dict[str, float | np.ndarray], i: int) -> dict[str, float]:
+    """Row ``i`` of work given by effect (one value for all rows, or one per row)."""
+    return {k: (float(w[i]) if isinstance(w, np.ndarray) else w) for k, w in work.items()}
+
+
+def _model_rows(system, outputs: list[tuple[float, State]]) -> tuple[dict, dict]:
+    """(observables, energy terms) as columns from the model's per-row methods."""
+    obs = [system.observables(to, s.q, s.v) for to, s in outputs]
+    terms = [system.energy(s.q, s.v) for _, s in outputs]
+    return ({k: np.array([o[k] for o in obs]) for k in obs[0]},
+            {k: np.array([float(e[k]) for e in terms]) for k in terms[0]})

@@ -35,7 +35,7 @@ class Block(dict):
 DISSIPATIVE_WORK = ("contact", "friction", "damping")
 
 
-def divergence(E: float | np.ndarray, resid: float | np.ndarray, work: Mapping[str, float], E0: float,
+def divergence(E: float | np.ndarray, resid: float | np.ndarray, work: Mapping[str, float | np.ndarray], E0: float,
                energy_scale: float, d_impacts: float) -> tuple[np.ndarray, str]:
     """The one divergence rule, for every integrator and both contact families (elementwise
     over output rows): the run diverged where
@@ -47,6 +47,7 @@ def divergence(E: float | np.ndarray, resid: float | np.ndarray, work: Mapping[s
       but :data:`DISSIPATIVE_WORK`, whose booking cannot excuse a gain (an unstable contact
       step books its own energy as contact work: the residual closes, the energy grows).
 
+    ``work`` gives each effect's work for all rows or one per row.
     Returns the mask and the reason of its first row ("" where none diverged)."""
     resid = np.asarray(resid, dtype=float)
     inputs = sum(w for k, w in work.items() if k not in DISSIPATIVE_WORK)
@@ -59,12 +60,13 @@ def divergence(E: float | np.ndarray, resid: float | np.ndarray, work: Mapping[s
     if not bad.any():
         return bad, ""
     i = int(np.argmax(bad.ravel()))
+    at = lambda x: float(np.broadcast_to(x, bad.shape).ravel()[i])  # noqa: E731  (row i's value)
     if bad_resid.ravel()[i]:
-        why = (f"energy residual {resid.ravel()[i]:.3g} J exceeds {DIVERGENCE_ENERGY:g} × the energy scale "
-               f"{scale:.3g} J")
+        why = (f"energy residual {at(resid):.3g} J exceeds {DIVERGENCE_ENERGY:g} × the energy scale "
+               f"{at(scale):.3g} J")
     else:
-        why = (f"the energy grew by {gain.ravel()[i]:.3g} J beyond what the input works supplied, over "
-               f"{DIVERGENCE_ENERGY:g} × the energy scale {in_scale:.3g} J (energy from nowhere)")
+        why = (f"the energy grew by {at(gain):.3g} J beyond what the input works supplied, over "
+               f"{DIVERGENCE_ENERGY:g} × the energy scale {at(in_scale):.3g} J (energy from nowhere)")
     return bad, why
 
 
@@ -114,9 +116,10 @@ def columns(t, obs: Mapping, terms: Mapping, work: Mapping[str, float], E0: floa
 
 
 def block(t: np.ndarray, obs: Mapping[str, np.ndarray], terms: Mapping[str, np.ndarray],
-          work: Mapping[str, float], E0: float, d_impacts: float, observables: Iterable[str] | None,
+          work: Mapping[str, float | np.ndarray], E0: float, d_impacts: float, observables: Iterable[str] | None,
           n_active: int | None) -> Block:
-    """The rows at output times ``t`` of one stretch without events (:func:`columns` over arrays)."""
+    """The rows at output times ``t`` of one stretch without events (:func:`columns` over
+    arrays; each effect's ``work`` one value for all rows or one per row)."""
     return Block(columns(np.asarray(t, dtype=float), obs, {k: np.asarray(x, dtype=float) for k, x in terms.items()},
                          work, E0, d_impacts, observables, n_active))
 

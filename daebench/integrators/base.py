@@ -19,7 +19,7 @@ Implementer's contract (rule by rule, in the spirit of ``scipy.integrate.OdeSolv
    ``self.counters.newton_iterations``. Residual and Jacobian evaluations made
    through the problem are counted automatically; steps are counted by the base.
 5. Optionally override :meth:`dense` (the default is a cubic Hermite interpolant
-   of q and v between the last two states, linear in λ).
+   of q and v between the last two states, linear in λ) and :meth:`dense_many`.
 6. Step control: a fixed-step method takes ``self.h``; every method lands exactly on
    ``t_stop`` with :func:`daebench.stepping.control.land` (a step within SNAP·h of it
    ends on it). An adaptive method uses a :class:`daebench.stepping.control.StepControl`
@@ -28,7 +28,7 @@ Implementer's contract (rule by rule, in the spirit of ``scipy.integrate.OdeSolv
 7. An integrator that resolves contacts itself (``capabilities.contacts``) reports
    each contact episode with :meth:`report_contact`; the driver books it like an impact.
 
-The driver calls :meth:`start`, :meth:`advance` (an :class:`Advance`) and :meth:`dense`, and
+The driver calls :meth:`start`, :meth:`advance` (an :class:`Advance`), :meth:`dense` and :meth:`dense_many`, and
 reads ``capabilities``, ``records_outputs`` and ``counters_snapshot()``; the steps come from
 the run's :class:`daebench.driver.step_policy.StepPolicy`, built from :meth:`step_size`. An integrator
 reads the phase from its :class:`~daebench.core.problem.Problem` and nothing else.
@@ -302,10 +302,9 @@ class Integrator:
         :meth:`step`. An integrator may take several when given a ``watch``, stopping after
         the first step the driver must see (:func:`daebench.stepping.watch.quiet`) and
         doing the quiet steps' bookkeeping on its own copies of the watch's arrays."""
-        prev = self.state
-        new = self.step(t_stop)
-        return Advance(prev, new, 1, None if watch is None else watch.armed,
-                       None if watch is None else watch.cmax, self._take_events())
+        prev, new = self.state, self.step(t_stop)
+        return Advance(prev, new, 1, *((None, None) if watch is None else (watch.armed, watch.cmax)),
+                       self._take_events())
 
     def report_contact(self, event: Impact) -> None:
         """Book a contact episode resolved inside the steps (contact-resolving methods)."""
@@ -323,12 +322,13 @@ class Integrator:
         return control.fixed(self.h)
 
     def dense(self, t: float) -> State:
-        """State at t within the last step: cubic Hermite in q (using v) and in v
-        (using a), linear in λ."""
+        """State at t within the last step: cubic Hermite in q (with v) and v (with a), linear in λ."""
         s0, s1 = self.prev, self.state
-        if s0 is None:
-            return s1.copy()
-        return hermite_state(s0, s1, t)
+        return s1.copy() if s0 is None else hermite_state(s0, s1, t)
+
+    def dense_many(self, ts: Sequence[float]) -> list[State]:
+        """:meth:`dense` at each of the times ``ts`` (an override may compute them at once)."""
+        return [self.dense(t) for t in ts]
 
     def counters_snapshot(self) -> dict[str, int]:
         self._sync_eval_counters()

@@ -26,12 +26,12 @@ import numpy as np
 
 from daebench.integrators.base import Advance, Integrator, RecordedAdvance, StepFailure
 from daebench.stepping import method_handles, methods, runner, watch as _watch
+from daebench.stepping.dense import MAX_OUTPUT_ROWS
 from daebench.stepping.methods import C_JAC, C_LU, C_NEWTON, C_RES, StateArrays
 from daebench.stepping.runner import C_REJECTED, UNDERFLOW_ERROR, UNDERFLOW_FAIL
 from daebench.core.system import State
 
 MAX_STEPS_PER_CALL = 2000  # keeps a caller (progress, wall-time caps) responsive
-MAX_OUTPUT_ROWS = 4096    # advance(): output rows written per call at most
 _NO_ROWS = np.zeros((0, 1))
 _NONE = (np.zeros(0), _NO_ROWS)  # (output times, rows): no rows recorded
 

@@ -117,6 +117,7 @@ Problems in Differential-Algebraic Equations*, SIAM, 1996.
 from __future__ import annotations
 
 import math
+from typing import Sequence
 
 import numpy as np
 from sksundae.ida import IDA as _SundaeIDA
@@ -133,6 +134,7 @@ from daebench.integrators.base import (
     hermite_state,
 )
 from daebench.stepping import ida_native as _native
+from daebench.stepping.dense import MAX_OUTPUT_ROWS
 from daebench.stepping.ida_native import ggl_residual
 from daebench.stepping import watch as _watch
 from daebench.stepping.methods import StateArrays
@@ -141,9 +143,7 @@ from daebench.core.system import State
 
 MAX_NUM_STEPS = 500  # IDA's limit per call; one call = one internal step here
 ALG_ATOL_DEFAULT = 1e10  # absolute tolerance of λ, μ: takes them out of the error test
-DENSE_EDGE = 1e-10  # relative distance to the step end below which dense() returns the end state
 MAX_STEPS_PER_CALL = 2000  # advance(): keeps the driver responsive
-MAX_OUTPUT_ROWS = 4096  # advance(): output rows written per call at most
 
 
 class IDA(Integrator):
@@ -427,7 +427,7 @@ class IDA(Integrator):
         (the BDF predictor polynomial of the current order; q, v, v̇ and λ)."""
         s0, s1 = self.prev, self.state
         t = float(t)
-        if s0 is None or t >= s1.t - DENSE_EDGE * (s1.t - s0.t):
+        if s0 is None or t >= s1.t - _native.DENSE_EDGE * (s1.t - s0.t):
             return s1.copy() if s0 is None else (s1.copy() if t >= s1.t else hermite_state(s0, s1, t))
         if t < s0.t or s1.t > self._ida_t:
             return hermite_state(s0, s1, t)
@@ -437,3 +437,13 @@ class IDA(Integrator):
         if not res.success:
             return hermite_state(s0, s1, t)
         return self._unpack(t, np.asarray(res.y).ravel(), np.asarray(res.yp).ravel())
+
+    def dense_many(self, ts: Sequence[float]) -> list[State]:
+        """:meth:`dense` at each of the times ``ts``: those IDA's polynomial serves in one
+        compiled call (native backend), the rest one by one."""
+        s0, s1, ts = self.prev, self.state, np.asarray(ts, dtype=float)
+        if s0 is None or s1.t > self._ida_t or not isinstance(self._solver, _native.NativeIDA):
+            return [self.dense(t) for t in ts]
+        inner = np.flatnonzero((ts >= s0.t) & (ts < s1.t - _native.DENSE_EDGE * (s1.t - s0.t)))
+        got, N = dict(zip(inner.tolist(), self._solver.interpolate(ts[inner]))), self._solver.size  # (rows IDA gave)
+        return [self._unpack(t, got[i][:N], got[i][N:]) if i in got else self.dense(t) for i, t in enumerate(ts)]

@@ -198,22 +198,29 @@ class Cradle(KernelSystem):
             scale = (self.contact_stiffness / law.stiffness) ** (1.0 / (law.exponent + 1.0))
         self.data = CradleData(self.masses, self.s, scale)
 
-    def energy(self, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
-        out = {"kinetic": 0.5 * float(self.masses @ (v * v))}
+    def output_rows(self, t: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[dict[str, np.ndarray],
+                                                                               dict[str, np.ndarray]]:
+        """(observables, energy terms) as columns over the rows of (q, v): the one rule of
+        :meth:`observables` and :meth:`energy` (:class:`~daebench.core.system.MechanicalSystem`)."""
+        q, v = np.atleast_2d(q), np.atleast_2d(v)
+        obs = {}
+        for i in range(self.n):
+            obs[f"x{i + 1}"] = q[:, i]
+            obs[f"v{i + 1}"] = v[:, i]
+        terms = {"kinetic": 0.5 * ((v * v) @ self.masses)}
         if self.contact_law is not None and self.contact_law.continuous:
-            out["contact"] = self.contact_potential(q)
-        return out
+            terms["contact"] = self.contact_potential_rows(q)
+        return obs, terms
+
+    def energy(self, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
+        return {k: float(x[0]) for k, x in self.output_rows(np.zeros(1), q, v)[1].items()}
 
     def momentum(self, v: np.ndarray) -> float:
         """Σ m_i v_i (conserved: no force acts on the chain from outside)."""
         return float(self.masses @ v)
 
     def observables(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, float]:
-        out = {}
-        for i in range(self.n):
-            out[f"x{i + 1}"] = float(q[i])
-            out[f"v{i + 1}"] = float(v[i])
-        return out
+        return {k: float(x[0]) for k, x in self.output_rows(np.full(1, float(t)), q, v)[0].items()}
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         v = np.zeros(self.n)

@@ -21,6 +21,9 @@ from daebench.stepping.watch import output_due
 #: :func:`source` of an output time in a step: its end state, its start state, dense output inside
 END, START, INSIDE = 0, 1, 2
 
+#: output rows a compiled call of an integrator's ``advance`` writes at most (its buffer)
+MAX_OUTPUT_ROWS = 4096
+
 
 @njit(cache=True, inline="always")
 def outputs_due(t_out, oi, t1, t_end):

@@ -82,6 +82,20 @@ def record_outputs(cx, mem, prev, cur, t_out, oi, t_end, out, nrow, yd, ypd_d, n
 
 
 @njit(cache=True)
+def interpolate(cx, mem, ts, out, yd, ypd_d, nvd, nvpd):
+    """IDA's interpolating polynomial over its last step (``IDAGetSolution``, what
+    :meth:`daebench.integrators.ida.IDA.dense` gets from IDA) at the times ``ts``: rows
+    (y, ẏ) into ``out``. Returns how many rows were written before IDA refused a time."""
+    N = yd.shape[0]
+    for r in range(ts.shape[0]):
+        if ccall(types.int32, cx.addr[A_GETSOL], (mem, ts[r], nvd, nvpd)) < 0:
+            return r
+        out[r, :N] = yd
+        out[r, N:] = ypd_d
+    return ts.shape[0]
+
+
+@njit(cache=True)
 def advance_loop(cx, mem, yy, yp, y, ypd, t_cur, ida_t, t_stop, max_steps, w, prev, cur, tret, slot, C, Cq, Ct,
                  gam, t_out, out, yd, ypd_d, nvd, nvpd):
     """IDA one-step calls toward ``t_stop`` until a step the driver must see

@@ -29,7 +29,8 @@ from numba import carray, cfunc, njit, types, typeof
 
 from daebench.core import phase
 from daebench.stepping.ida_advance import (ADV_FAIL, ADV_MAX, ADV_NONFINITE, ADV_PYTHON, ADV_STOP,  # noqa: F401
-                                           ADV_STUCK, IDA_NORMAL, IDA_ONE_STEP, advance_loop, solve)
+                                           ADV_STUCK, DENSE_EDGE, IDA_NORMAL, IDA_ONE_STEP, advance_loop, interpolate,
+                                           solve)
 from daebench.stepping.sundials_c import (A_MATDATA, A_NVDATA, NativeUnavailable, as_int, ccall, deref_key,
                                           double_ptr, lib, message, type_key)
 
@@ -342,6 +343,15 @@ class NativeIDA:
         self._book()
         nfev, njev = self._stats()
         return int(k), int(code), int(flag), float(ida_t), prev, cur, nfev, njev, out[:nrow], int(oi)
+
+    def interpolate(self, ts: np.ndarray) -> np.ndarray:
+        """(y, ẏ) rows of IDA's interpolating polynomial at the times ``ts`` within its last
+        step (:func:`daebench.stepping.ida_advance.interpolate`): as many rows as IDA gave
+        before it refused a time."""
+        out = np.empty((len(ts), 2 * self.size))
+        k = interpolate(self.cx, _ptr(self.mem), np.ascontiguousarray(ts, dtype=float), out, self.yd, self.ypd_d,
+                        _ptr(self.nv_yd), _ptr(self.nv_ypd))
+        return out[:k]
 
     def __del__(self) -> None:
         L = getattr(self, "lib", None)  # None: __init__ failed before loading the library

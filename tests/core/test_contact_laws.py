@@ -48,3 +48,20 @@ def test_regularised_coulomb():
         assert friction_force(HERTZ, 0.3, 10.0, vt) == pytest.approx(-0.3 * 10.0 * math.tanh(vt / 1e-4), abs=1e-15)
     assert friction_force(HERTZ, 0.3, 10.0, 1.0) == pytest.approx(-3.0, rel=1e-12)   # full slip: μ F_N
     assert friction_force(HERTZ, 0.0, 10.0, 1.0) == 0.0 and friction_force(HERTZ, 0.3, 0.0, 1.0) == 0.0
+
+
+def test_the_tables_of_forces_and_potentials_follow_the_formulas():
+    """law_forces / law_potentials (rows × contacts, the output rows' columns) against
+    Hertz's formula written here, contact by contact; an unengaged contact carries no force."""
+    from daebench.core.phase.laws import law_forces, law_potentials
+
+    g = np.array([[-1e-4, 2e-3, -3e-6], [-2e-5, -1e-6, 0.0]])
+    gdot = np.array([[-0.3, 0.1, 0.0], [0.2, -1.0, 0.5]])
+    engaged, chi = np.array([True, True, False]), np.array([0.4, 0.0, 0.4])
+    F, U = np.empty(g.shape), np.empty(2)
+    law_forces(HERTZ, engaged, chi, g, gdot, F)
+    law_potentials(HERTZ, g, U)
+    delta = np.maximum(-g, 0.0)
+    want = np.where(engaged, np.maximum(2.0e9 * delta ** 1.5 * (1.0 + chi * (-gdot)), 0.0), 0.0)
+    np.testing.assert_allclose(F, want, rtol=1e-14, atol=0.0)
+    np.testing.assert_allclose(U, (2.0e9 * delta ** 2.5 / 2.5).sum(axis=1), rtol=1e-14, atol=0.0)

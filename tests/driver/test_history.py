@@ -50,3 +50,16 @@ def test_energy_made_from_nowhere_diverges_whatever_the_dissipative_work_booked(
     assert bad.tolist() == [False, False, True] and "energy from nowhere" in why
     bad, _ = divergence(E, E - 1.0 - 499.0, {"torque": 499.0}, 1.0, 1.0, 0.0)
     assert not bad.any()
+
+
+def test_divergence_with_work_per_row_is_the_rule_row_by_row():
+    """Rows whose work grows along a step (one value per row): the mask is the single-row
+    rule's at each row, and the message gives the failing row's own scale (0.5 + |W| there)."""
+    E = np.array([1.0, 1.0, 60.0])
+    W = {"torque": np.array([0.0, 1.0, 2.0]), "damping": np.array([0.0, -0.5, -1.0])}
+    resid = E - 1.0 - W["torque"] - W["damping"]
+    bad, why = divergence(E, resid, W, 1.0, 0.5, 0.0)
+    rows = [divergence(E[i], resid[i], {k: float(w[i]) for k, w in W.items()}, 1.0, 0.5, 0.0)[0]
+            for i in range(3)]
+    assert bad.tolist() == [bool(r) for r in rows] == [False, False, True]
+    assert why == ("energy residual 58 J exceeds 10 × the energy scale 3.5 J")

@@ -265,6 +265,31 @@ def test_dense_matches_direct_solve():
     assert nxt.t > s.t
 
 
+@pytest.mark.parametrize("native", [False, True], ids=["python-model", "kernel-model"])
+def test_dense_many_is_dense_at_each_time(native):
+    """The dense states of many output times at once (one compiled call for those inside the
+    step, natively) are dense()'s, to the bit: inside, at both ends, a rounding from the end."""
+    from daebench.models import build_system
+    from daebench.models.scenes import load_scene
+    from daebench.stepping.ida_native import NativeIDA
+
+    sysm = build_system(load_scene("pendulum")) if native else Pendulum()
+    q0, v0 = sysm.initial_state()
+    integ = IDA(rtol=1e-10, atol=1e-12)
+    integ.start(Problem(sysm), State(0.0, q0, v0), 1e-3)
+    s = integ.state
+    while s.t < 0.3:
+        s = integ.step(1.0)
+    assert isinstance(integ._solver, NativeIDA) == native
+    s0 = integ.prev
+    ts = [s0.t, *(s0.t + f * (s.t - s0.t) for f in (1e-9, 0.3, 0.5, 0.97, 1.0 - 1e-12)), s.t]
+    for one, many in zip((integ.dense(t) for t in ts), integ.dense_many(ts), strict=True):
+        assert one.t == many.t
+        for a, b in ((one.q, many.q), (one.v, many.v), (one.a, many.a), (one.lam, many.lam)):
+            np.testing.assert_array_equal(a, b)
+    assert integ.dense_many([]) == []
+
+
 def test_restart_mid_run_gives_same_answer(pendulum_truth):
     sysm = Pendulum()
     p = Problem(sysm)

@@ -114,7 +114,13 @@ def test_driver_rows_equal_with_and_without_the_batch_path(monkeypatch):
     assert max(calls) > 100  # the compiled loop's rows went through in batches
     monkeypatch.setattr(HubBeam, "output_rows", real)
     one = simulate.Driver._rows  # one output at a time: the row-by-row path (observables(), energy())
-    monkeypatch.setattr(simulate.Driver, "_rows", lambda self, outs, problem: [one(self, [o], problem) for o in outs])
+
+    def row_by_row(self, outs, problem, work=None):
+        work = self._output_work(problem, len(outs)) if work is None else work
+        for i, o in enumerate(outs):
+            one(self, [o], problem, {k: (w[i:i + 1] if isinstance(w, np.ndarray) else w) for k, w in work.items()})
+
+    monkeypatch.setattr(simulate.Driver, "_rows", row_by_row)
     rows = api.run("beam-impact", "ida", **kw)
     assert batch.status == rows.status == "completed" and len(batch.observables) == 401
     assert list(batch.observables.columns) == list(rows.observables.columns)

@@ -46,18 +46,19 @@ from __future__ import annotations
 
 from daebench.core.phase.data import PhaseData
 from daebench.core.phase.laws import (LAW_HERTZ, LAW_NONE, LAW_PENALTY, friction_force, law_elastic,
-                                      law_force, law_potential)
+                                      law_force, law_forces, law_potential, law_potentials)
 from daebench.core.phase.compliant import friction_power, has_law
 from daebench.core.phase.slip import (add_slip_force, book_friction, book_rows, friction_switches,
                                       slip_normal_forces, slip_power)
 from daebench.core.phase.rows import (constraint_force_jacobian, constraint_jacobian, constraint_residuals,
                                       constraints, velocity_constraint_jacobian)
-from daebench.core.phase.forces import force_jacobian, gaps, mass_force, mass_jacobian_product
+from daebench.core.phase.forces import (force_jacobian, gap_table, gaps, mass_force, mass_jacobian_product,
+                                        model_gaps)
 from daebench.core.phase.augmented import AugmentedWork, augmented_work, solve_augmented
 
-__all__ = ["PhaseData", "LAW_NONE", "LAW_HERTZ", "LAW_PENALTY", "law_force", "law_elastic", "law_potential",
-           "friction_force", "friction_power", "has_law", "add_slip_force", "book_friction", "book_rows",
-           "friction_switches", "slip_normal_forces", "slip_power", "constraints", "constraint_jacobian",
-           "constraint_force_jacobian", "velocity_constraint_jacobian", "constraint_residuals", "mass_force",
-           "force_jacobian", "mass_jacobian_product", "gaps", "AugmentedWork", "augmented_work",
-           "solve_augmented"]
+__all__ = ["PhaseData", "LAW_NONE", "LAW_HERTZ", "LAW_PENALTY", "law_force", "law_forces", "law_elastic",
+           "law_potential", "law_potentials", "friction_force", "friction_power", "has_law", "add_slip_force",
+           "book_friction", "book_rows", "friction_switches", "slip_normal_forces", "slip_power", "constraints",
+           "constraint_jacobian", "constraint_force_jacobian", "velocity_constraint_jacobian",
+           "constraint_residuals", "mass_force", "force_jacobian", "mass_jacobian_product", "gaps", "model_gaps",
+           "gap_table", "AugmentedWork", "augmented_work", "solve_augmented"]

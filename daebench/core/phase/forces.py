@@ -33,5 +33,25 @@ def mass_jacobian_product(ph, q, a, K):
 @uncounted
 def gaps(ph, q, v, g, G, gam):
     """Every contact's gap, Jacobian row and γ_g (for the Python protocol)."""
+    model_gaps(ph.model, q, v, g, G, gam)
+
+
+@uncounted
+def model_gaps(md, q, v, g, G, gam):
+    """:func:`gaps` of the model's kernel data ``md`` alone (no phase)."""
     for i in range(g.shape[0]):
-        g[i], gam[i] = kernels.gap(ph.model, i, q, v, G[i])
+        g[i], gam[i] = kernels.gap(md, i, q, v, G[i])
+
+
+@uncounted
+def gap_table(md, Q, V, g, gdot, G):
+    """Every contact's gap g and rate ġ = g_q · v (columns) at each row of (Q, V) into
+    ``g``, ``gdot`` (the model's kernel data ``md``; ``G``: scratch for one Jacobian row):
+    the output rows' contact forces and springs' energy."""
+    for r in range(Q.shape[0]):
+        for i in range(g.shape[1]):
+            g[r, i], _ = kernels.gap(md, i, Q[r], V[r], G)
+            s = 0.0
+            for j in range(G.shape[0]):
+                s += G[j] * V[r, j]
+            gdot[r, i] = s

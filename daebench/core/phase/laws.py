@@ -52,6 +52,25 @@ def law_potential(law, g):
 
 
 @uncounted
+def law_forces(law, engaged, chi, g, gdot, F):
+    """:func:`law_force` of every contact (columns; ``engaged``, ``chi`` per contact) at every
+    row of the gaps ``g`` and gap rates ``gdot`` into ``F``."""
+    for r in range(g.shape[0]):
+        for i in range(g.shape[1]):
+            F[r, i] = law_force(law, engaged[i], chi[i], g[r, i], gdot[r, i])
+
+
+@uncounted
+def law_potentials(law, g, U):
+    """Σ_i :func:`law_potential` over the contacts (columns) of each row of ``g`` into ``U``."""
+    for r in range(g.shape[0]):
+        s = 0.0
+        for i in range(g.shape[1]):
+            s += law_potential(law, g[r, i])
+        U[r] = s
+
+
+@uncounted
 def friction_force(law, mu, fn, vt):
     """Tangential force F_T = −μ F_N tanh(v_T / v_ε) of the regularised Coulomb law at
     normal force F_N ≥ 0 and slip velocity v_T (module docstring); 0 for μ = 0."""
