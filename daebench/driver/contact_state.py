@@ -133,8 +133,12 @@ class ContactState:
         mu = friction_coefficients(problem.kernel.model, nc, q, np.zeros_like(q) if v is None else v) \
             if constraint else np.zeros(nc)
         rules = ContactRules(LAWS[getattr(problem.contact_law, "impact_law", "simultaneous")])
-        cs = cls(constraint, continuous, problem, g > GAP_BAND if nc else np.zeros(0, bool), memory, Friction(mu),
-                 rules)
+        # armed: closing detected at g = 0, else at −GAP_BAND. A continuous law's contact on its
+        # surface at the start (a chain of touching balls) closes as soon as it is pressed: the
+        # band, against a constraint contact closing again right after it separated, has no
+        # meaning there, and would leave it pressed GAP_BAND deep without force
+        armed = (g >= 0.0 if continuous else g > GAP_BAND) if nc else np.zeros(0, bool)
+        cs = cls(constraint, continuous, problem, armed, memory, Friction(mu), rules)
         if continuous:
             cs.penetrating = {int(i) for i in np.flatnonzero(g < 0.0)}
         return cs
