@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -75,8 +76,12 @@ def plugins():
 
 
 def test_a_correct_python_plugin_passes(plugins):
+    """Störmer–Verlet is second order: the slope of its errors over the step sweep, read here."""
     res = daebench.verify("t-verlet", properties=["order", "drift", "contract"])
-    assert res.ok, "\n".join(res.lines())
+    assert [c.status for c in res.checks] == ["pass"] * 3, "\n".join(res.lines())
+    errs = next(c for c in res.checks if c.property == "order").numbers["errors"]
+    assert all(b < a for a, b in zip(errs, errs[1:])), errs
+    assert 1.8 < float(np.log2(errs[-2] / errs[-1])) < 2.2, errs   # successive steps halve
 
 
 def test_a_wrong_order_claim_fails_with_the_measured_order(plugins):
