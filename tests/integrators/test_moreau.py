@@ -1,0 +1,39 @@
+"""daebench.integrators.moreau (Moreau–Jean, θ = ½) on the dropped ball against its closed
+form (tests/_closed_forms.py: parabolas between impacts at t_k, rebound e·v): Newton's law at
+velocity level in every episode, the motion first order in h (the impacts fall on the steps),
+the impact times within 2.5 steps."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import daebench
+from _closed_forms import E_BALL, ball_impacts, ball_motion  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def runs():
+    return {h: daebench.run("ball", integrator="moreau", h=h) for h in (1e-3, 5e-4)}
+
+
+def _x_error(r) -> float:
+    h = r.observables
+    x, _ = ball_motion(h["t"].to_numpy(), ball_impacts())
+    return float(np.max(np.abs(h["x"].to_numpy() - x)))
+
+
+def test_newton_law_in_every_episode(runs):
+    for r in runs.values():
+        assert r.status == "completed"
+        for i in r.impacts:
+            assert i["vn_minus"] < 0.0 and i["vn_plus"] == pytest.approx(-E_BALL * i["vn_minus"], rel=1e-12)
+
+
+def test_impact_times_and_first_order_motion(runs):
+    exact = np.array(ball_impacts())
+    for h, r in runs.items():
+        t = np.array([i["t"] for i in r.impacts])
+        assert len(t) == len(exact) and np.max(np.abs(t - exact)) < 2.5 * h
+    e1, e2 = _x_error(runs[1e-3]), _x_error(runs[5e-4])   # measured 7.8e-3, 4.1e-3 m
+    assert e1 < 10 * 1e-3 and 1.6 < e1 / e2 < 2.4
