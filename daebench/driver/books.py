@@ -130,14 +130,16 @@ class Books:
             return
         work = self._output_work(problem, len(outputs)) if work is None else work
         cs, sys_ = self.contacts, self.system
-        if len(outputs) < 2 or (problem.m and cs.active):   # (constraint residuals: per row)
-            for i, (to, s) in enumerate(outputs):
-                self._row(to, s, _work_row(work, i), problem)
-            return
         t = np.array([to for to, _ in outputs])
         Q, V = np.array([s.q for _, s in outputs]), np.array([s.v for _, s in outputs])
         batch = getattr(sys_, "output_rows", None)
-        obs, terms = batch(t, Q, V) if batch is not None else _model_rows(sys_, outputs)
+        cols = None if len(outputs) < 2 or (problem.m and cs.active) else \
+            batch(t, Q, V) if batch is not None else _model_rows(sys_, outputs)
+        if cols is None:   # one row, constraint residuals per row, or columns that differ between rows
+            for i, (to, s) in enumerate(outputs):
+                self._row(to, s, _work_row(work, i), problem)
+            return
+        obs, terms = cols
         b = block(t, obs, terms, work, self.E0, cs.d_impacts, self.observables, self._n_active())
         if cs.continuous:
             F = problem.contact_forces_rows(Q, V)
@@ -223,9 +225,12 @@ def _work_row(work: dict[str, float | np.ndarray], i: int) -> dict[str, float]:
     return {k: (float(w[i]) if isinstance(w, np.ndarray) else w) for k, w in work.items()}
 
 
-def _model_rows(system, outputs: list[tuple[float, State]]) -> tuple[dict, dict]:
-    """(observables, energy terms) as columns from the model's per-row methods."""
+def _model_rows(system, outputs: list[tuple[float, State]]) -> tuple[dict, dict] | None:
+    """(observables, energy terms) as columns from the model's per-row methods; None when
+    the rows do not all have the same names."""
     obs = [system.observables(to, s.q, s.v) for to, s in outputs]
     terms = [system.energy(s.q, s.v) for _, s in outputs]
+    if any(o.keys() != obs[0].keys() for o in obs) or any(e.keys() != terms[0].keys() for e in terms):
+        return None
     return ({k: np.array([o[k] for o in obs]) for k in obs[0]},
             {k: np.array([float(e[k]) for e in terms]) for k in terms[0]})

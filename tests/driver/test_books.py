@@ -66,3 +66,19 @@ def test_contact_forces_and_energies_follow_hertz(wave):
     E0 = 0.5 * M * V0 ** 2
     np.testing.assert_allclose(h["E"], E0, rtol=1e-6)
     np.testing.assert_allclose(M * v.sum(axis=1), M * V0, rtol=1e-9)
+
+
+def test_rows_whose_names_differ_are_not_joined_as_columns():
+    """A model whose observables change names between rows: no block (the rows one at a time)."""
+    from types import SimpleNamespace
+
+    from daebench.core.system import State
+    from daebench.driver.books import _model_rows
+
+    model = SimpleNamespace(observables=lambda t, q, v: {"a": q[0]} if t < 1 else {"b": q[0]},
+                            energy=lambda q, v: {"kinetic": 0.5 * float(v @ v)})
+    rows = [(t, State(t, np.array([t]), np.array([2.0]))) for t in (0.0, 0.5)]
+    obs, terms = _model_rows(model, rows)
+    np.testing.assert_array_equal(obs["a"], [0.0, 0.5])
+    np.testing.assert_array_equal(terms["kinetic"], [2.0, 2.0])
+    assert _model_rows(model, rows + [(1.5, State(1.5, np.array([1.5]), np.array([2.0])))]) is None
