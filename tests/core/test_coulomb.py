@@ -1,4 +1,4 @@
-"""The compiled stick/slip phase (daebench.core.coulomb, daebench.core.phase): its rows and
+"""The compiled stick/slip phase (daebench.core.coulomb, daebench.core.phase.slip): its rows and
 force against the planar rigid body's exact kinematics and the block on an incline's closed
 forms, and the compiled loop's booking of the slip friction's work against the driver's own
 (the same run with one step per call).

@@ -1,7 +1,8 @@
 """daebench.integrators.moreau (Moreau–Jean, θ = ½) on the dropped ball against its closed
 form (tests/_closed_forms.py: parabolas between impacts at t_k, rebound e·v): Newton's law at
-velocity level in every episode, the motion first order in h (the impacts fall on the steps),
-the impact times within 2.5 steps."""
+velocity level in every episode, each episode's impulse the momentum balance over it (the
+records of daebench.stepping.episodes through daebench.integrators.capturing), the motion
+first order in h (the impacts fall on the steps), the impact times within 2.5 steps."""
 
 from __future__ import annotations
 
@@ -9,7 +10,9 @@ import numpy as np
 import pytest
 
 import daebench
-from _closed_forms import E_BALL, ball_impacts, ball_motion  # noqa: E402
+from _closed_forms import E_BALL, G, ball_impacts, ball_motion  # noqa: E402
+
+MASS = 1.0   # kg, cases/ball.toml
 
 
 @pytest.fixture(scope="module")
@@ -28,6 +31,9 @@ def test_newton_law_in_every_episode(runs):
         assert r.status == "completed"
         for i in r.impacts:
             assert i["vn_minus"] < 0.0 and i["vn_plus"] == pytest.approx(-E_BALL * i["vn_minus"], rel=1e-12)
+            # Λ = m (ġ⁺ − ġ⁻) + m g (t_end − t): the ground's impulse also holds the weight over the episode
+            want = MASS * (i["vn_plus"] - i["vn_minus"]) + MASS * G * (i["t_end"] - i["t"])
+            assert i["impulse"] == pytest.approx(want, rel=1e-9)
 
 
 def test_impact_times_and_first_order_motion(runs):
