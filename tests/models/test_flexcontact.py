@@ -1,7 +1,8 @@
 """The three contact treatments of flexible bodies on the rod–wall impact (docs/sources.md §A):
 ACM against the semi-discrete exact values of docs/sources.md §A.3, IMM and PFM against
 Saint-Venant's solution. Two compiled pairs in the fast suite (planar model × HHT,
-planar model × IMM); sweeps are slow."""
+planar model × IMM: daebench.integrators.imm with its local statics module
+daebench.models._planar_imm); sweeps are slow."""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
-"""The planar FE bodies (floating frames, node-to-segment contact): kernels against
-finite differences and invariances, meshes and lumped masses against geometry."""
+"""The planar FE bodies (daebench.models.planar: floating frames, node-to-segment contact,
+compiled in daebench.models._planar_kernels): kernels against finite differences and
+invariances, meshes and lumped masses against geometry."""
 
 from __future__ import annotations
 
