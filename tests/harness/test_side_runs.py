@@ -1,5 +1,6 @@
-"""A reference's check runs beside its main run: forked where a process may have children,
-one after the other in a sweep's (daemonic) worker, with the same results either way."""
+"""A reference's check runs beside its main run: shared between the caller and a few forked
+workers where a process may have children, one after the other in a sweep's (daemonic)
+worker, with the same results either way."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import os
 
 import pandas as pd
 
-from daebench.harness.references.side_runs import RunSummary, SideRuns
+from daebench.harness.references.side_runs import RunSummary, SideRuns, lanes
 
 
 def _summary(k: int) -> RunSummary:
@@ -32,10 +33,25 @@ def _in_a_daemon(conn) -> None:
 
 
 def test_check_runs_are_forked_where_children_are_allowed():
-    with SideRuns(JOBS) as side:
+    with SideRuns(JOBS, workers=2) as side:
         res = side.results()
     assert {k: v.history["x"].tolist() for k, v in res.items()} == {"loose": [2, 4], "perturbed": [3, 9]}
-    assert all(v.message != f"pid {os.getpid()}" for v in res.values())   # each ran in its own process
+    pids = {v.message for v in res.values()}
+    assert len(pids) == 2 and f"pid {os.getpid()}" not in pids   # each in a worker of its own
+
+
+def test_one_worker_shares_the_runs_with_the_caller():
+    """Five check runs, one worker (two cores): the worker makes three, the caller two after its
+    reference run — one child's copy-on-write faults instead of five."""
+    assert lanes(list("abcde"), 1) == {"a": 1, "b": 0, "c": 1, "d": 0, "e": 1}
+    assert lanes(list("abcde"), 2) == {"a": 1, "b": 2, "c": 0, "d": 1, "e": 2}
+    jobs = {k: (lambda k=k: _summary(k)) for k in range(1, 6)}
+    with SideRuns(jobs, workers=1) as side:
+        res = side.results()
+    assert [v.history["x"].tolist() for v in res.values()] == [[k, k * k] for k in range(1, 6)]
+    where = [v.message for v in res.values()]
+    assert where[1] == where[3] == f"pid {os.getpid()}"
+    assert where[0] == where[2] == where[4] != where[1]
 
 
 def test_check_runs_in_a_sweeps_daemonic_worker_run_there_with_the_same_results():

@@ -204,9 +204,8 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     observable over time, ``trust_t`` and ``trust_impacts`` (sidecar ``accuracy``). A
     reference by the ODE solver is also checked by IDA CHECK_FACTOR looser (another method
     family; sidecar ``agreement``). All runs write REF_OVERSAMPLE× denser output than the
-    scene's. With ``parallel`` the check runs run in forked processes beside the reference
-    run (:mod:`daebench.harness.references.side_runs`: same numbers, about the time of the two longer
-    runs on two cores). ``progress(label, t_end)`` is a context manager factory whose value
+    scene's. With ``parallel`` the check runs are shared between the caller and forked workers
+    beside the reference run (:mod:`daebench.harness.references.side_runs`: same numbers). ``progress(label, t_end)`` is a context manager factory whose value
     receives the simulated time of the reference run
     (:class:`daebench.harness.running.progress.RunProgress`).
 

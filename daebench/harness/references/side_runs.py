@@ -1,13 +1,17 @@
 """A reference's check runs beside its main run, in forked worker processes.
 
-A reference (:mod:`daebench.harness.references.reference`) is computed three times: the reference
-run, a looser check run and a run from a perturbed start. The three are independent, so
-the two check runs are forked from the calling process once the reference run there has
-taken its first steps (:meth:`SideRuns.start` from its progress callback: its kernels are
-compiled by then and the children inherit them, so a cold cache is compiled once, not
-three times); on two cores the whole takes about the time of the two longer runs instead
-of the sum of the three. The runs are the same function calls on the same inputs as in
-one process, so their histories are the same to the last digit.
+A reference (:mod:`daebench.harness.references.reference`) is computed several times: the
+reference run, a looser check run, a run from a perturbed start and the conditioning runs.
+They are independent, so the check runs are shared between the calling process, which
+makes them after its reference run, and at most ``workers`` forked processes (default: one
+per core but the caller's), each making its share one after the other; the workers are
+forked once the reference run has taken its first steps (:meth:`SideRuns.start` from its
+progress callback: its kernels are compiled by then and the children inherit them, so a
+cold cache is compiled once). Few workers, not one per run: each forked child pays
+copy-on-write faults on the caller's memory it touches (hertz-chain's reference with its
+five check runs in five children: 793 000 minor faults, 8.6 s of system time in them).
+The runs are the same function calls on the same inputs as in one process, so their
+histories are the same to the last digit.
 
 Where ``fork`` does not exist (Windows), in a daemonic process (a sweep's worker may not
 have children) or with ``parallel=False``, the check runs are made one after the other in
@@ -46,29 +50,41 @@ class RunSummary:
         return cls(res.status, res.message, res.history, [float(i.t) for i in res.impacts])
 
 
-def _child(conn: Any, fn: Callable[[], RunSummary], parent_pid: int) -> None:
+def _child(conn: Any, fns: list[Callable[[], RunSummary]], parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the caller's business
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     die_with_parent(parent_pid)
-    try:
-        msg: tuple = ("ok", fn())
-    except BaseException as exc:  # any failure is the caller's to report
-        msg = ("raised", exc, f"{type(exc).__name__}: {exc}")
-    try:
-        conn.send(msg)
-    except Exception:  # an exception that cannot be pickled: its text
-        conn.send(("raised", None, msg[2] if msg[0] == "raised" else "the result could not be sent"))
-    conn.close()
+    for fn in fns:
+        try:
+            msg: tuple = ("ok", fn())
+        except BaseException as exc:  # any failure is the caller's to report
+            msg = ("raised", exc, f"{type(exc).__name__}: {exc}")
+        try:
+            conn.send(msg)
+        except Exception:  # an exception that cannot be pickled: its text
+            conn.send(("raised", None, msg[2] if msg[0] == "raised" else "the result could not be sent"))
+
+
+def lanes(names: list[str], workers: int) -> dict[str, int]:
+    """Which lane makes each run: 1 … ``workers`` a forked worker, 0 the caller (after its
+    reference run, which counts as one run of its lane), dealt in turn from lane 1."""
+    order = list(range(1, workers + 1)) + [0]
+    return {name: order[i % len(order)] for i, name in enumerate(names)}
 
 
 class SideRuns:
-    """``jobs`` ({name: function returning a RunSummary}) in forked processes, started by
-    :meth:`start` (or by :meth:`results`, which waits for them). A context manager:
-    leaving it kills what still runs."""
+    """``jobs`` ({name: function returning a RunSummary}) shared between the caller and at
+    most ``workers`` forked processes (:func:`lanes`), started by :meth:`start` (or by
+    :meth:`results`, which waits for them). A context manager: leaving it kills what still runs."""
 
-    def __init__(self, jobs: dict[str, Callable[[], RunSummary]], parallel: bool = True) -> None:
+    def __init__(self, jobs: dict[str, Callable[[], RunSummary]], parallel: bool = True,
+                 workers: int | None = None) -> None:
         self.jobs = dict(jobs)
-        self.procs: dict[str, tuple[Any, Any]] = {}
+        self.workers = max(1, (os.cpu_count() or 2) - 1) if workers is None else int(workers)
+        if self.workers < 1:
+            raise ValueError(f"workers = {workers!r}: at least one forked worker (or parallel=False)")
+        self.procs: dict[int, tuple[Any, Any]] = {}   # lane → (process, its pipe)
+        self.lane: dict[str, int] = {}
         # a daemonic process (a sweep's worker) may not have children: there the check runs
         # are made one after the other, as where fork does not exist
         self.parallel = bool(parallel and "fork" in mp.get_all_start_methods()
@@ -89,13 +105,15 @@ class SideRuns:
                 f.flush()
             except (OSError, ValueError, AttributeError):
                 pass
-        for name, fn in self.jobs.items():
+        self.lane = lanes(list(self.jobs), self.workers)
+        for k in sorted(set(self.lane.values()) - {0}):
+            fns = [fn for name, fn in self.jobs.items() if self.lane[name] == k]
             parent, child = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_child, args=(child, fn, os.getpid()), daemon=True,
-                               name=f"daebench-reference-{name}")
+            proc = ctx.Process(target=_child, args=(child, fns, os.getpid()), daemon=True,
+                               name=f"daebench-reference-check-{k}")
             proc.start()
             child.close()
-            self.procs[name] = (proc, parent)
+            self.procs[k] = (proc, parent)
 
     def results(self) -> dict[str, RunSummary]:
         """{name: RunSummary}, in the order of ``jobs``.
@@ -110,17 +128,16 @@ class SideRuns:
         self.start()
         out = {}
         for name, fn in self.jobs.items():
-            if name not in self.procs:
+            if not self.lane.get(name):
                 out[name] = fn()
                 continue
-            proc, conn = self.procs[name]
+            proc, conn = self.procs[self.lane[name]]
             try:
-                msg = conn.recv()
+                msg = conn.recv()   # a worker sends its runs' results in the order of jobs
             except (EOFError, OSError):
                 proc.join()
                 raise RuntimeError(f"the reference's {name} run ended without a result (its process "
                                    f"{describe_exit(proc.exitcode)})") from None
-            proc.join()
             if msg[0] == "raised":
                 raise msg[1] if isinstance(msg[1], BaseException) else RuntimeError(
                     f"the reference's {name} run raised {msg[2]}")
