@@ -36,3 +36,22 @@ def test_a_side_run_whose_process_dies_is_reported():
     with refside.SideRuns({"perturbed": lambda: os._exit(3)}) as runs:
         with pytest.raises(RuntimeError, match="perturbed run ended without a result .*exited with code 3"):
             runs.results()
+
+
+def test_every_run_the_caller_makes_shows_its_progress(tmp_path, monkeypatch):
+    """The reference run and each check run made in the calling process report progress under
+    their own label (one after the other here: all of them)."""
+    from contextlib import contextmanager
+
+    shown = []
+
+    @contextmanager
+    def progress(label, t_end):
+        shown.append(label)
+        yield lambda t: None
+
+    monkeypatch.setenv("DAEBENCH_RESULTS", str(tmp_path))
+    references.compute_reference(load_scene("pendulum", ["t_end=0.3"]), parallel=False, progress=progress)
+    assert shown[0].startswith("reference of pendulum: ida rtol")
+    assert [s.split(" run of ")[0] for s in shown[1:]] == ["check", "perturbed-start", "conditioning 1e-08",
+                                                         "conditioning 1e-06", "conditioning 0.0001"]

@@ -20,6 +20,7 @@ after the same checks (:mod:`daebench.harness.references.shipped`).
 
 from __future__ import annotations
 
+import os
 from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, Callable
@@ -227,32 +228,37 @@ def compute_reference(scene: Scene, tightest_rtol: float | None = None, rtol: fl
     r, a = reference_tolerances(tightest_rtol, rtol, atol)
     solver = getattr(system, "reference_solver", REF_INTEGRATOR)
 
+    caller = os.getpid()   # a check run shows its progress where the caller makes it, not in a worker
+
     def run(rt: float, at: float, label: str | None, method: str = solver, start: Any = None,
             tick: Callable[[float], Any] | None = None) -> tuple[Any, Any]:
         integ = (make_integrator(REF_INTEGRATOR, {"rtol": rt, "atol": at}) if method == REF_INTEGRATOR
                  else IndexOneODE(rtol=rt, atol=at, method=method))
-        with progress(label, scene.t_end) if progress is not None and label else nullcontext() as bar:
+        shown = progress is not None and label and os.getpid() == caller
+        with progress(label, scene.t_end) if shown else nullcontext() as bar:
             cb = bar if tick is None else (lambda t: (tick(t), bar(t) if bar is not None else None))
             if start is None:
                 return integ, run_scene(dense_scene, integ, write=False, force=True, progress=cb)[1]
             system = accuracy.with_start(build_system(dense_scene), *start)
             return integ, simulate(system, integ, scene.t_end, dense_scene["output.dt"], progress=cb)
 
-    def side(rt: float, at: float, method: str = solver, start: Any = None) -> Callable[[], side_runs.RunSummary]:
-        return lambda: side_runs.RunSummary.of(run(rt, at, None, method, start)[1])
+    def side(what: str, rt: float, at: float, method: str = solver, start: Any = None
+             ) -> Callable[[], side_runs.RunSummary]:
+        label = f"{what} run of {scene.name}: {method} rtol {rt:g}"
+        return lambda: side_runs.RunSummary.of(run(rt, at, label, method, start)[1])
 
     jobs: dict[str, Callable[[], side_runs.RunSummary]] = {}
     if check:
         # the independent check: IDA CHECK_FACTOR looser (for an ODE reference, also its loose run);
         # the perturbed start; beside the reference run once it has stepped (refside: forked processes)
-        jobs["check"] = side(r * CHECK_FACTOR, a * CHECK_FACTOR, REF_INTEGRATOR)
+        jobs["check"] = side("check", r * CHECK_FACTOR, a * CHECK_FACTOR, REF_INTEGRATOR)
         if solver != REF_INTEGRATOR:
-            jobs["loose"] = side(r * accuracy.LOOSE_FACTOR, a * accuracy.LOOSE_FACTOR)
-        jobs["perturbed"] = side(r, a, start=accuracy.perturbed_start(build_system(scene), r))
+            jobs["loose"] = side("loose", r * accuracy.LOOSE_FACTOR, a * accuracy.LOOSE_FACTOR)
+        jobs["perturbed"] = side("perturbed-start", r, a, start=accuracy.perturbed_start(build_system(scene), r))
         for d in accuracy.CONDITIONING_PERTURBATIONS:  # the problem's own amplification of a start error
             tol = accuracy.conditioning_tolerance(d, r)
-            jobs[f"conditioning {d:g}"] = side(tol, a * tol / r, start=accuracy.perturbed_start(build_system(scene),
-                                                                                              d, 1.0))
+            name = f"conditioning {d:g}"
+            jobs[name] = side(name, tol, a * tol / r, start=accuracy.perturbed_start(build_system(scene), d, 1.0))
     with side_runs.SideRuns(jobs, parallel=parallel) as runs:
         integ, res = run(r, a, f"reference of {scene.name}: {solver} rtol {r:g}", tick=runs.start)
         if res.status != "completed":
