@@ -1,4 +1,5 @@
-"""Files read as other codes write them, bounded before anything is allocated, and every
+"""Files read as other codes write them (daebench.harness.scoring.external.loading, through
+daebench.api.external and daebench.cli.external), bounded before anything is allocated, and every
 refusal a message that names the problem and the fix (exit 2, nothing written)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""An external trajectory is judged by the rules a daebench run is held to — penetration,
+"""An external trajectory is judged (daebench.harness.scoring.external.judge) by the rules a daebench run is held to — penetration,
 divergence with the case's own energy scale, no energy made at an impact, values beyond the
 case, a trajectory that does not move — and a file that breaks one is never "completed".
 

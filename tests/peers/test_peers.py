@@ -1,5 +1,7 @@
-"""Peer codes run on daebench's cases (daebench.peers): the refusals, and the real peers'
-runs held to independent truth — the ball's closed forms (impact times, jumps, positions),
+"""Peer codes run on daebench's cases (daebench.peers, through daebench.api.peers): the refusals, and
+the real peers' runs — Exudyn (daebench.peers.exudyn) and Siconos (daebench.peers.workers.siconos_worker,
+the slider-crank in compiled plugins: daebench.peers.workers.siconos_slidercrank,
+daebench.peers.workers.siconos_plugins, with daebench.peers.workers.common) — held to independent truth — the ball's closed forms (impact times, jumps, positions),
 orders measured from step sweeps, the pendulum's exact solution. A test whose peer is not
 installed is skipped with the reason."""
 

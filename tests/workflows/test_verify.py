@@ -1,4 +1,5 @@
-"""`daebench verify`: what an integrator declares, measured on cases with exact solutions.
+"""`daebench verify` (daebench.workflows.verify, through daebench.api.verify and daebench.cli.verify):
+what an integrator declares, measured on cases with exact solutions.
 Every built-in passes; a plugin that claims the wrong order, does not advance or returns a
 wrong shape fails the named property, with the numbers."""
 
