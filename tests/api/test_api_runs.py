@@ -1,4 +1,4 @@
-"""daebench.api.runs: a run through the API's front door — the pendulum under hht against its
+"""daebench.api.runs: a run through the API's front door (then daebench.workflows.run) — the pendulum under hht against its
 exact solution (Jacobi elliptic functions, daebench.models.pendulum.exact_theta), second order
 from two steps, nothing written unless asked, settings given as a string refused."""
 

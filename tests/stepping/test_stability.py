@@ -1,5 +1,6 @@
 """The stability map: the methods' computed stability functions against closed forms, and
-the measured largest stable step against the linear prediction on beam-impact."""
+the measured largest stable step against the linear prediction on beam-impact, and the
+report the command writes (daebench.workflows.stability_report: table, figure)."""
 
 from __future__ import annotations
 
