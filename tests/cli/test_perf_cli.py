@@ -1,5 +1,9 @@
-"""Smoke test of `daebench perf` with tiny settings (the figures themselves come from a
-full `daebench perf` run on a quiet machine, never from timed tests)."""
+"""Smoke test of `daebench perf` (daebench.cli.perf, daebench.studies.perf.suite with the quick
+daebench.studies.perf.settings) with tiny settings: the sections' records — the step rates, the
+model-kernel floor (daebench.studies.perf.model_floor), the adaptive step bound
+(daebench.studies.perf.adaptive_steps), the peer comparison (daebench.studies.perf.peers) — and the
+report (daebench.studies.perf.report). The figures themselves come from a full `daebench perf`
+run on a quiet machine, never from timed tests."""
 
 import json
 
