@@ -1,5 +1,6 @@
 """Sweeps lose nothing: Ctrl-C keeps finished rows and resume completes the table with
-bit-identical rows; a crashing plugin costs only its own row; a damaged reference is
+bit-identical rows; a crashing plugin costs only its own row (its run in a forked child,
+daebench.harness.running.isolated); a damaged reference is
 caught in every mode; concurrent sweeps keep every row; the run cap works under Dask."""
 
 from __future__ import annotations
