@@ -11,7 +11,7 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -28,6 +28,15 @@ from daebench.stepping.watch import GAP_BAND, near
 #: the revision of the contact law the driver applies (impacts, closing and opening): a
 #: reference computed under another one is recomputed (daebench.harness.references.reference)
 CONTACT_LAW_REVISION = 2  # 2: complementarity at velocity and acceleration level
+#: a continuous law's: 3, a contact touching at the start closes at g = 0 (ContactState.start)
+CONTINUOUS_LAW_REVISION = 3
+
+
+def contact_law_revision(system: Any) -> int:
+    """The revision of the contact law a run of ``system`` is decided by (the constants above)."""
+    law = getattr(system, "contact_law", None)
+    continuous = law is not None and law.continuous and system.n_contacts > 0
+    return CONTINUOUS_LAW_REVISION if continuous else CONTACT_LAW_REVISION
 EVENT_TOL = 1e-13        # event times located to this (seconds)
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
 ZENO_FLIGHT = 1e-9       # s: floor of the Zeno rule's time (ContactState.step: the step in force)

@@ -29,7 +29,7 @@ import pandas as pd
 
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene
-from daebench.driver.contact_state import CONTACT_LAW_REVISION
+from daebench.driver.contact_state import contact_law_revision
 from daebench.driver.simulate import simulate
 from daebench.harness.files import atomic_write, write_error
 from daebench.harness.references import accuracy, capturing, modelprobe, packed, side_runs
@@ -302,7 +302,7 @@ def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: di
     """Write the reference's history and sidecar atomically (module docstring), with the
     model probe (:mod:`daebench.harness.references.modelprobe`)."""
     impacts = [float(i.t) for i in res.impacts]
-    path = reference_path(scene)
+    path, system = reference_path(scene), build_system(scene)
     hist = res.history
     kept = (f"the reference was computed ({res.wall_s:.3g} s) but is not cached; the runs scored against it "
             f"need it cached")
@@ -320,8 +320,8 @@ def _store(scene: Scene, dense_scene: Scene, integ: Any, res: Any, agreement: di
             "counters": res.counters, "impacts": impacts,
             "impulses": [float(i.impulse) for i in res.impacts],   # the impulse measure's truth
             "output_dt": dense_scene["output.dt"], "agreement": agreement,
-            "accuracy": acc_meta, "contact_law_revision": CONTACT_LAW_REVISION,
-            "energy_residual_max": res.energy_residual, "model_probe": modelprobe.record(build_system(scene)),
+            "accuracy": acc_meta, "contact_law_revision": contact_law_revision(system),
+            "energy_residual_max": res.energy_residual, "model_probe": modelprobe.record(system),
             **extra, "sha256": sha256(path), "rows": len(hist),
             "columns": list(hist.columns), "t_span": [float(hist["t"].iloc[0]), float(hist["t"].iloc[-1])]}
     meta = {**meta, "provenance": provenance.collect([scene])}

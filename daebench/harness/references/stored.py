@@ -19,7 +19,7 @@ import pandas as pd
 
 from daebench.core.params import ParamError
 from daebench.core.scene import Scene, cases_dir
-from daebench.driver.contact_state import CONTACT_LAW_REVISION
+from daebench.driver.contact_state import contact_law_revision
 from daebench.harness.files import DamagedFile, read_json, results_dir
 from daebench.harness.references import accuracy, capturing, modelprobe
 from daebench.models import build_system
@@ -280,12 +280,12 @@ def validate(scene: Scene, path: Path) -> Reference:
         raise damaged(f"sidecar settings lack {key}") from None
     if not 0 < tol < 1:
         raise damaged(f"{key} {tol!r} in the sidecar")
-    rev = meta.get("contact_law_revision", 1)
-    if rev != CONTACT_LAW_REVISION:
-        raise damaged(f"computed under the driver's contact law revision {rev!r}, today's is {CONTACT_LAW_REVISION} "
-                      f"(its impacts and releases were decided otherwise)")
+    rev, system = meta.get("contact_law_revision", 1), build_system(scene)
+    if rev != contact_law_revision(system):
+        raise damaged(f"computed under the driver's contact law revision {rev!r}, today's is "
+                      f"{contact_law_revision(system)} (its impacts and releases were decided otherwise)")
     probe = meta.get("model_probe")
-    diff = [] if probe is None else modelprobe.differences(probe, modelprobe.probe(build_system(scene))) \
+    diff = [] if probe is None else modelprobe.differences(probe, modelprobe.probe(system)) \
         if isinstance(probe, dict) else ["the model probe is not a mapping"]
     if diff:
         raise damaged(f"computed with another model '{scene.model}' than today's: {'; '.join(diff[:3])}"
