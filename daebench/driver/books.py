@@ -130,12 +130,13 @@ class Books:
             return
         work = self._output_work(problem, len(outputs)) if work is None else work
         cs, sys_ = self.contacts, self.system
-        t = np.array([to for to, _ in outputs])
-        Q, V = np.array([s.q for _, s in outputs]), np.array([s.v for _, s in outputs])
-        batch = getattr(sys_, "output_rows", None)
-        cols = None if len(outputs) < 2 or (problem.m and cs.active) else \
-            batch(t, Q, V) if batch is not None else _model_rows(sys_, outputs)
-        if cols is None:   # one row, constraint residuals per row, or columns that differ between rows
+        cols = None
+        if len(outputs) > 1 and not (problem.m and cs.active):   # (constraint residuals: per row)
+            t = np.array([to for to, _ in outputs])
+            Q, V = np.array([s.q for _, s in outputs]), np.array([s.v for _, s in outputs])
+            batch = getattr(sys_, "output_rows", None)
+            cols = batch(t, Q, V) if batch is not None else _model_rows(sys_, outputs)
+        if cols is None:   # one row, constraint residuals per row, or names that differ between rows
             for i, (to, s) in enumerate(outputs):
                 self._row(to, s, _work_row(work, i), problem)
             return

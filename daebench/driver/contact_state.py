@@ -31,12 +31,6 @@ CONTACT_LAW_REVISION = 2  # 2: complementarity at velocity and acceleration leve
 #: a continuous law's: 3, a contact touching at the start closes at g = 0 (ContactState.start)
 CONTINUOUS_LAW_REVISION = 3
 
-
-def contact_law_revision(system: Any) -> int:
-    """The revision of the contact law a run of ``system`` is decided by (the constants above)."""
-    law = getattr(system, "contact_law", None)
-    continuous = law is not None and law.continuous and system.n_contacts > 0
-    return CONTINUOUS_LAW_REVISION if continuous else CONTACT_LAW_REVISION
 EVENT_TOL = 1e-13        # event times located to this (seconds)
 REBOUND_MIN = 1e-9       # a rebound slower than this (m/s) is treated as plastic (ends Zeno chatter)
 ZENO_FLIGHT = 1e-9       # s: floor of the Zeno rule's time (ContactState.step: the step in force)
@@ -44,6 +38,13 @@ REIMPACT_MIN_DT = 1e-10  # a second impact of a contact within this time closes 
 PROJECTION_ITERS = 3     # Newton iterations of the position projection onto C(q) = 0
 MAX_HALVINGS = 10        # an approach not resolved at 2⁻¹⁰ of the contact step closes at that step's end
 FLIGHT_SAMPLES = 40      # a rebound's return is searched down to 2⁻⁴⁰ of a step (≈ 1e-16 s at h = 1e-4)
+
+
+def contact_law_revision(system: Any) -> int:
+    """The revision of the contact law a run of ``system`` is decided by (the constants above)."""
+    law = getattr(system, "contact_law", None)
+    continuous = law is not None and law.continuous and system.n_contacts > 0
+    return CONTINUOUS_LAW_REVISION if continuous else CONTACT_LAW_REVISION
 
 
 class EventKind(enum.Enum):

@@ -425,15 +425,10 @@ class IDA(Integrator):
     def dense(self, t: float) -> State:
         """State at t within the last step from IDA's own interpolating polynomial
         (the BDF predictor polynomial of the current order; q, v, v̇ and λ)."""
-        s0, s1 = self.prev, self.state
-        t = float(t)
-        if s0 is None or t >= s1.t - _native.DENSE_EDGE * (s1.t - s0.t):
-            return s1.copy() if s0 is None else (s1.copy() if t >= s1.t else hermite_state(s0, s1, t))
-        if t < s0.t or s1.t > self._ida_t:
-            return hermite_state(s0, s1, t)
-        # 'normal' mode with t behind IDA's time only interpolates (IDAGetSolution);
-        # it never takes a step.
-        res = self._solver.step(t, method="normal")
+        s0, s1, t = self.prev, self.state, float(t)
+        if s0 is None or not self._polynomial_serves(np.array([t]))[0]:
+            return s1.copy() if s0 is None or t >= s1.t else hermite_state(s0, s1, t)
+        res = self._solver.step(t, method="normal")   # behind IDA's time: IDAGetSolution, never a step
         if not res.success:
             return hermite_state(s0, s1, t)
         return self._unpack(t, np.asarray(res.y).ravel(), np.asarray(res.yp).ravel())
@@ -441,9 +436,15 @@ class IDA(Integrator):
     def dense_many(self, ts: Sequence[float]) -> list[State]:
         """:meth:`dense` at each of the times ``ts``: those IDA's polynomial serves in one
         compiled call (native backend), the rest one by one."""
-        s0, s1, ts = self.prev, self.state, np.asarray(ts, dtype=float)
-        if s0 is None or s1.t > self._ida_t or not isinstance(self._solver, _native.NativeIDA):
+        ts = np.asarray(ts, dtype=float)
+        if self.prev is None or not isinstance(self._solver, _native.NativeIDA):
             return [self.dense(t) for t in ts]
-        inner = np.flatnonzero((ts >= s0.t) & (ts < s1.t - _native.DENSE_EDGE * (s1.t - s0.t)))
+        inner = np.flatnonzero(self._polynomial_serves(ts))
         got, N = dict(zip(inner.tolist(), self._solver.interpolate(ts[inner]))), self._solver.size  # (rows IDA gave)
         return [self._unpack(t, got[i][:N], got[i][N:]) if i in got else self.dense(t) for i, t in enumerate(ts)]
+
+    def _polynomial_serves(self, ts: np.ndarray) -> np.ndarray:
+        """Which times IDA's polynomial serves: within the last step (from its start to
+        DENSE_EDGE before its end, the end state there), IDA not past it (else Hermite)."""
+        s0, s1 = self.prev, self.state
+        return (ts >= s0.t) & (ts < s1.t - _native.DENSE_EDGE * (s1.t - s0.t)) & (s1.t <= self._ida_t)
