@@ -5,8 +5,10 @@ model added to a warm cache should compile its own kernels once and nothing else
 integrators then run it. This study measures that, in fresh processes sharing one new
 kernel cache (``NUMBA_CACHE_DIR``):
 
-1. ``warm-up``: the *first* cases (comma-separated; by default one without and one with
-   contacts, so that every code path the new model takes is compiled) run with every
+1. ``warm-up``: the *first* cases (comma-separated; by default pendulum and ball: the two
+   mass layouts — dense, and ball's constant diagonal — each a numba type of its own, and
+   one case without and one with contacts, so that every code path the new model takes is
+   compiled; from ball alone, falling-rod's dense mass compiles the hht loop again) run with every
    integrator of the list (compiles the loops, the phase functions and those models'
    kernels — the cold cost), and the shared default kernels are compiled
    (:func:`daebench.core.handles.compile_shared_defaults`: library code that the first model
