@@ -38,8 +38,10 @@ if _os.environ.get("DAEBENCH_COMPILED", "1").strip().lower() in ("0", "false", "
     _numba.config.DISABLE_JIT = True
 
 from daebench.core import numba_cache as _nc  # noqa: E402
+from daebench.core import stack_chunks as _sc  # noqa: E402
 
 _nc.install()
+_sc.install()   # numba's compiler on CPython 3.11/3.12: no map and unmap per frame-stack chunk crossed
 
 _API = ("run", "bench", "reference", "compare", "survey", "effects", "report", "stability", "load_scene", "cases",
         "integrator_info", "integrator_infos", "RunOutput", "IntegratorInfo", "ParamError", "score", "export_case",
