@@ -5,9 +5,10 @@ operating system (``munmap``) as soon as its first frame returns; a call depth t
 back and forth across a chunk's edge maps and unmaps a chunk at every crossing
 (CPython issue gh-142183, fixed in 3.13 and 3.14 by keeping one chunk, not in 3.11 or
 3.12). numba's compiler is deep Python recursion and crosses such an edge hundreds of
-thousands of times: a cold ``daebench run beam-impact --integrator hht`` took 1.15 million
-page faults and 7.9 s of system time of its 48 s CPU (``perf record -e page-faults``: 86 %
-in ``_PyThreadState_BumpFramePointerSlow``).
+thousands of times: a cold ``daebench run beam-impact --integrator hht`` took 1.29 – 1.33
+million page faults and 7.6 – 8.2 s of system time of its 43.5 – 46.3 s CPU (``perf record -e
+page-faults``: 86 % in ``_PyThreadState_BumpFramePointerSlow``); with the chunks kept, 0.17
+million and 1.3 s of 36.7 – 39.2 s (docs/performance.md).
 
 While numba compiles (its ``numba:compile`` event, outermost), the interpreter's arena
 allocator (``PyObject_SetArenaAllocator``, which serves those chunks and pymalloc's
@@ -20,7 +21,8 @@ Both allocators map and unmap the same way, so a block allocated under one may b
 under the other. The allocator runs with the GIL held, as CPython calls it.
 
 Off with ``DAEBENCH_STACK_CHUNKS=0``, and where it does not apply: another interpreter
-than CPython, ``DAEBENCH_COMPILED=0`` (nothing compiles).
+than CPython, a 32-bit build (the two functions take every argument as 64 bits),
+``DAEBENCH_COMPILED=0`` (nothing compiles).
 """
 
 from __future__ import annotations
@@ -150,10 +152,10 @@ class ChunkKeeper:
 
 
 def applies() -> bool:
-    """Whether the chunks are kept (CPython, compiling on, not switched off)."""
+    """Whether the chunks are kept (64-bit CPython, compiling on, not switched off)."""
     from numba.core import config
 
-    return (sys.implementation.name == "cpython" and not config.DISABLE_JIT
+    return (sys.implementation.name == "cpython" and ctypes.sizeof(ctypes.c_void_p) == 8 and not config.DISABLE_JIT
             and os.environ.get("DAEBENCH_STACK_CHUNKS", "1").strip().lower() not in ("0", "false", "no", "off"))
 
 
