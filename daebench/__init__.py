@@ -32,7 +32,9 @@ _os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 # Before any kernel module is decorated: DAEBENCH_COMPILED=0 runs every numba function as
 # plain Python (the same source, interpreted), and daebench's compiled functions share one
 # cache stamp (daebench.core.numba_cache).
-if _os.environ.get("DAEBENCH_COMPILED", "1").strip().lower() in ("0", "false", "no", "off"):
+from daebench.core.switches import switched_off as _switched_off  # noqa: E402
+
+if _switched_off("DAEBENCH_COMPILED"):
     import numba as _numba
 
     _numba.config.DISABLE_JIT = True

@@ -28,9 +28,12 @@ than CPython, a 32-bit build (the two functions take every argument as 64 bits),
 from __future__ import annotations
 
 import ctypes
-import os
 import sys
 from typing import Any
+
+from numba.core import config, event
+
+from daebench.core.switches import switched_off
 
 #: CPython's DATA_STACK_CHUNK_SIZE (Python/pystate.c): the size of an ordinary chunk
 CHUNK = 16 * 1024
@@ -101,7 +104,7 @@ def _build(prev: _Arena) -> tuple[_Arena, Any, Any]:
     return wrapper, store, prev_free
 
 
-class ChunkKeeper:
+class ChunkKeeper(event.Listener):
     """Wraps the arena allocator from the outermost compile's start to its end."""
 
     def __init__(self) -> None:
@@ -153,10 +156,8 @@ class ChunkKeeper:
 
 def applies() -> bool:
     """Whether the chunks are kept (64-bit CPython, compiling on, not switched off)."""
-    from numba.core import config
-
     return (sys.implementation.name == "cpython" and ctypes.sizeof(ctypes.c_void_p) == 8 and not config.DISABLE_JIT
-            and os.environ.get("DAEBENCH_STACK_CHUNKS", "1").strip().lower() not in ("0", "false", "no", "off"))
+            and not switched_off("DAEBENCH_STACK_CHUNKS"))
 
 
 KEEPER: ChunkKeeper | None = None
@@ -167,13 +168,8 @@ def install() -> None:
     global KEEPER
     if KEEPER is not None or not applies():
         return
-    from numba.core import event
-
-    class Listener(ChunkKeeper, event.Listener):
-        pass
-
     api = ctypes.pythonapi
     api.PyObject_GetArenaAllocator.argtypes = [ctypes.POINTER(_Arena)]
     api.PyObject_SetArenaAllocator.argtypes = [ctypes.POINTER(_Arena)]
-    KEEPER = Listener()
+    KEEPER = ChunkKeeper()
     event.register("numba:compile", KEEPER)
